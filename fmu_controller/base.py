@@ -1,0 +1,78 @@
+"""The contract every controller core honours, and the port convention every controller FMU shares.
+
+A controller FMU reads the plant's measurement and the reference at a communication point t and
+outputs the torque to hold over [t, t + T) (direct feedthrough: ``tau`` depends on the inputs at
+the same instant). Learning, if any, happens in ``advance`` during ``doStep(t, T)``.
+
+Cores are plain numpy/float code with no FMI import: the FMU wrapper (``fmu_controller.slave``)
+and the pure closed loop (``orchestration.pure_loop``) call the same methods.
+"""
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+from typing import Any, ClassVar, Sequence
+
+from fmu_plant.dynamics import ARM_PARAMETER_SPECS, ArmParameters
+from fmu_plant.parameters import ParameterSpec, check_all
+
+# Port names: inputs are named exactly like the outputs that feed them.
+MEASUREMENT_PORTS = ("phi1", "phi2", "dphi1", "dphi2")
+REFERENCE_PORTS = ("phi1_d", "phi2_d", "dphi1_d", "dphi2_d", "ddphi1_d", "ddphi2_d")
+TORQUE_PORTS = ("tau1", "tau2")
+INPUT_UNITS = {
+    "phi1": "rad", "phi2": "rad", "dphi1": "rad/s", "dphi2": "rad/s",
+    "phi1_d": "rad", "phi2_d": "rad", "dphi1_d": "rad/s", "dphi2_d": "rad/s",
+    "ddphi1_d": "rad/s2", "ddphi2_d": "rad/s2",
+}
+
+# The nominal model a model-based controller uses: the plant's physical constants (not l1, l2).
+MODEL_PARAMETER_SPECS: tuple[ParameterSpec, ...] = tuple(
+    s for s in ARM_PARAMETER_SPECS if s.name in ("p1", "p2", "p3", "f1", "f2", "b1", "b2")
+)
+
+
+@dataclass(frozen=True)
+class OutputSpec:
+    """An extra (diagnostic) output of a controller: name, unit, description."""
+
+    name: str
+    unit: str
+    description: str
+
+
+class ControllerCore(ABC):
+    """Base of every controller core.
+
+    Subclasses declare ``PARAMETER_SPECS`` (their own tuning, validated on construction) and
+    ``EXTRA_OUTPUTS`` (diagnostics after tau1, tau2), and implement ``evaluate``.
+    """
+
+    PARAMETER_SPECS: ClassVar[tuple[ParameterSpec, ...]] = ()
+    EXTRA_OUTPUTS: ClassVar[tuple[OutputSpec, ...]] = ()
+
+    def __init__(self, model: ArmParameters | None = None, **params: float):
+        self.model = model if model is not None else ArmParameters()
+        self.params = check_all(self.PARAMETER_SPECS, params)
+        # tau1, tau2, then EXTRA_OUTPUTS in order; written by evaluate()
+        self.outputs: list[float] = [0.0] * (2 + len(self.EXTRA_OUTPUTS))
+
+    @classmethod
+    def output_names(cls) -> tuple[str, ...]:
+        return TORQUE_PORTS + tuple(o.name for o in cls.EXTRA_OUTPUTS)
+
+    @abstractmethod
+    def evaluate(self, t: float, y: Sequence[float], r: Sequence[float]) -> None:
+        """Compute ``self.outputs`` for measurement y (MEASUREMENT_PORTS order) and reference r
+        (REFERENCE_PORTS order) at time t. Must not change the learning state: calling it twice
+        with the same arguments gives the same outputs."""
+
+    def advance(self, t: float, dt: float) -> None:
+        """Update the internal (learning) state over [t, t + dt) from the last ``evaluate``."""
+
+    def get_state(self) -> dict[str, Any]:
+        """Everything ``advance`` changes, as JSON-serialisable values."""
+        return {}
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        """Restore what ``get_state`` returned."""

@@ -1,0 +1,182 @@
+"""Closed-form maths of the SOTC paper: saturated cost, quadratic critic basis, probing signal.
+
+Reference: N. D. Dien, N. T. Luy, L. K. Lai, T. T. Hai, "Optimal tracking control for robot
+manipulators with input constraint based reinforcement learning", J. Computer Science and
+Cybernetics, 2023 (``shared/reference/sotc-paper.md``). Equation numbers below are the paper's.
+
+Everything is plain float code on 4-vectors ``z = (z_phi1, z_phi2, z_v1, z_v2)``: for vectors this
+small, ``math`` on floats is several times faster than numpy, and the controller calls these
+functions 10,000 times per simulated run. Array versions for tests are thin wrappers.
+
+Symbols: ``s`` is the saturation level of the optimal input (sigma in the chosen reading, see
+``docs/paper-notes.md``), ``x`` the *pre-saturation argument* of the control law (28), i.e.
+``mu = -s tanh(x)``.
+"""
+from __future__ import annotations
+
+import math
+from typing import Sequence
+
+import numpy as np
+
+LN2 = math.log(2.0)
+
+# (i, j) of z_i z_j for each of the 10 basis terms of section 4, in the paper's order:
+# zeta(z) = [zp1^2, zp1 zp2, zp1 zv1, zp1 zv2, zp2^2, zp2 zv1, zp2 zv2, zv1^2, zv1 zv2, zv2^2]
+BASIS_PAIRS: tuple[tuple[int, int], ...] = (
+    (0, 0), (0, 1), (0, 2), (0, 3), (1, 1), (1, 2), (1, 3), (2, 2), (2, 3), (3, 3),
+)
+N_BASIS = len(BASIS_PAIRS)
+
+
+# --- saturated cost, eqs. (13)-(17) ---------------------------------------------------------------
+
+
+def log_cosh(x: float) -> float:
+    """ln cosh x without overflow: |x| + ln(1 + e^{-2|x|}) - ln 2 (finite for every finite x)."""
+    a = abs(x)
+    return a + math.log1p(math.exp(-2.0 * a)) - LN2
+
+
+def omega_term_of_arg(x: float, s: float, r: float) -> float:
+    """One component of Omega, eq. (17), written in the pre-saturation argument x of mu = -s tanh x.
+
+    With mu = -s tanh x, atanh(mu/s) = -x and ln(1 - mu^2/s^2) = ln(1 - tanh^2 x) = -2 ln cosh x, so
+        2 s atanh(mu/s) r mu + s^2 r ln(1 - mu^2/s^2) = 2 s^2 r (x tanh x - ln cosh x)   eq. (17)
+    which stays finite (and >= 0) even where tanh x rounds to +-1.
+    """
+    return 2.0 * s * s * r * (x * math.tanh(x) - log_cosh(x))
+
+
+def omega_of_arg(x: Sequence[float], s: float, r: Sequence[float]) -> float:
+    """Omega(mu) of eq. (17) for mu = -s tanh(x) (componentwise), R = diag(r)."""
+    return sum(omega_term_of_arg(xi, s, ri) for xi, ri in zip(x, r))
+
+
+def omega_of_mu(mu: Sequence[float], s: float, r: Sequence[float]) -> float:
+    """Omega(mu) of eq. (17) from mu itself; requires |mu_i| < s (else +inf, the cost's barrier).
+
+        Omega(mu) = sum_i 2 s r_i mu_i atanh(mu_i / s) + s^2 r_i ln(1 - mu_i^2 / s^2)      eq. (17)
+    """
+    total = 0.0
+    for m, ri in zip(mu, r):
+        q = m / s
+        if not abs(q) < 1.0:
+            return math.inf
+        total += 2.0 * s * ri * m * math.atanh(q) + s * s * ri * math.log1p(-q * q)
+    return total
+
+
+def omega_integrand(u: float, s: float, r: float) -> float:
+    """Integrand of eq. (13) for one component: 2 s r atanh(u / s). (For quadrature in tests.)"""
+    return 2.0 * s * r * math.atanh(u / s)
+
+
+# --- critic basis of section 4, eq. (27) ----------------------------------------------------------
+
+
+def basis(z: Sequence[float]) -> list[float]:
+    """zeta(z): the 10 quadratic terms of section 4 (Kronecker-product basis, zeta(0) = 0)."""
+    a, b, c, d = z
+    return [a * a, a * b, a * c, a * d, b * b, b * c, b * d, c * c, c * d, d * d]
+
+
+def basis_jacobian(z: Sequence[float]) -> np.ndarray:
+    """d zeta / d z as a 10 x 4 array (row k = gradient of zeta_k). The controller uses the
+    contracted forms below instead; this is for tests and offline analysis."""
+    a, b, c, d = z
+    return np.array([
+        [2 * a, 0, 0, 0],
+        [b, a, 0, 0],
+        [c, 0, a, 0],
+        [d, 0, 0, a],
+        [0, 2 * b, 0, 0],
+        [0, c, b, 0],
+        [0, d, 0, b],
+        [0, 0, 2 * c, 0],
+        [0, 0, d, c],
+        [0, 0, 0, 2 * d],
+    ], dtype=float)
+
+
+def basis_directional(z: Sequence[float], v: Sequence[float]) -> list[float]:
+    """(d zeta / d z) v: the 10-vector eta = grad(zeta) zdot of eqs. (29)-(31) when v = zdot, and
+    the stabilising direction grad(zeta) G z of eq. (31) when v = G z."""
+    a, b, c, d = z
+    p, q, u, w = v
+    return [
+        2.0 * a * p,
+        a * q + b * p,
+        a * u + c * p,
+        a * w + d * p,
+        2.0 * b * q,
+        b * u + c * q,
+        b * w + d * q,
+        2.0 * c * u,
+        c * w + d * u,
+        2.0 * d * w,
+    ]
+
+
+def value_gradient(z: Sequence[float], W: Sequence[float]) -> tuple[float, float, float, float]:
+    """grad J_hat(z) = (d zeta / d z)^T W for the critic J_hat = W^T zeta(z) of eq. (27)."""
+    a, b, c, d = z
+    w1, w2, w3, w4, w5, w6, w7, w8, w9, w10 = W
+    return (
+        2.0 * a * w1 + b * w2 + c * w3 + d * w4,
+        a * w2 + 2.0 * b * w5 + c * w6 + d * w7,
+        a * w3 + b * w6 + 2.0 * c * w8 + d * w9,
+        a * w4 + b * w7 + c * w9 + 2.0 * d * w10,
+    )
+
+
+def value_hessian(W: Sequence[float]) -> tuple[tuple[float, ...], ...]:
+    """d^2 J_hat / d z^2 = 2 S(W) (constant for the quadratic basis), as a 4x4 tuple of rows."""
+    w1, w2, w3, w4, w5, w6, w7, w8, w9, w10 = W
+    return (
+        (2.0 * w1, w2, w3, w4),
+        (w2, 2.0 * w5, w6, w7),
+        (w3, w6, 2.0 * w8, w9),
+        (w4, w7, w9, 2.0 * w10),
+    )
+
+
+def weights_to_matrix(W: Sequence[float]) -> np.ndarray:
+    """The symmetric S with W^T zeta(z) = z^T S z (so a critic is a valid value only if S >= 0)."""
+    S = np.zeros((4, 4))
+    for w, (i, j) in zip(W, BASIS_PAIRS):
+        if i == j:
+            S[i, i] = w
+        else:
+            S[i, j] = S[j, i] = 0.5 * w
+    return S
+
+
+def matrix_to_weights(S: np.ndarray) -> np.ndarray:
+    """Inverse of ``weights_to_matrix`` for a symmetric S (e.g. an LQR Riccati solution)."""
+    S = 0.5 * (np.asarray(S, dtype=float) + np.asarray(S, dtype=float).T)
+    return np.array([S[i, i] if i == j else 2.0 * S[i, j] for i, j in BASIS_PAIRS])
+
+
+# --- probing signal of section 4 ------------------------------------------------------------------
+
+
+def probing_signal(t: float, amplitude: float = 0.5) -> float:
+    """The PE noise of section 4 (the paper's factor 0.5 is ``amplitude``):
+
+    PE = 0.5 (sin^2 t cos t + sin^2(2t) cos(0.1t) + sin^2(1.2t) cos(0.5t) + sin^5 t
+              + sin^2(1.12t) + cos(2.4t) sin^3(2.4t))
+    """
+    s1 = math.sin(t)
+    s2 = math.sin(2.0 * t)
+    s12 = math.sin(1.2 * t)
+    s112 = math.sin(1.12 * t)
+    s24 = math.sin(2.4 * t)
+    return amplitude * (
+        s1 * s1 * math.cos(t)
+        + s2 * s2 * math.cos(0.1 * t)
+        + s12 * s12 * math.cos(0.5 * t)
+        + s1 ** 5
+        + s112 * s112
+        + math.cos(2.4 * t) * s24 ** 3
+    )

@@ -1,0 +1,77 @@
+"""ArmPlant: FMI 2.0 co-simulation FMU of the two-link arm, eq. (1)/(46) of the SOTC paper.
+
+A thin adapter over ``fmu_plant.dynamics``: inputs are held constant over each communication step
+(zero-order hold) and the state is advanced with fixed-step RK4 (``substeps`` per step).
+Outputs at a communication point are the state there, so no output depends directly on an input.
+"""
+from __future__ import annotations
+
+import math
+
+from fmu_plant.dynamics import ARM_PARAMETER_SPECS, ArmParameters, rk4_step
+from fmu_plant.kinematics import elbow_position, forward_kinematics
+from fmu_plant.parameters import ParameterSpec, any_real
+from fmu_plant.slave_base import DescribedSlave as Fmi2Slave  # the name pythonfmu's binary looks for
+
+INITIAL_STATE_SPECS = (
+    any_real("phi1_0", 0.5, "rad", "Initial angle of joint 1 (paper: 0.5)"),
+    any_real("phi2_0", -0.5, "rad", "Initial angle of joint 2, relative to link 1 (paper: -0.5)"),
+    any_real("dphi1_0", 0.0, "rad/s", "Initial velocity of joint 1"),
+    any_real("dphi2_0", 0.0, "rad/s", "Initial velocity of joint 2"),
+)
+DEFAULT_SUBSTEPS = 4
+INPUTS = ("tau1", "tau2", "d1", "d2")
+
+
+class ArmPlant(Fmi2Slave):
+    description = "Two-link robot arm with Coulomb-like friction (Dien et al. 2023, eq. (1)/(46))"
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        specs: tuple[ParameterSpec, ...] = ARM_PARAMETER_SPECS + INITIAL_STATE_SPECS
+        self._specs = specs
+        for spec in specs:
+            self.declare_parameter(spec)
+        self.declare_integer_parameter("substeps", DEFAULT_SUBSTEPS, 1, 1000, "RK4 substeps per communication step")
+        self.declare_input("tau1", "N.m", "Joint 1 actuator torque, held over the step")
+        self.declare_input("tau2", "N.m", "Joint 2 actuator torque, held over the step")
+        self.declare_input("d1", "N.m", "Disturbance torque on joint 1 (added to tau1)")
+        self.declare_input("d2", "N.m", "Disturbance torque on joint 2 (added to tau2)")
+        self.declare_output("phi1", "rad", "Joint 1 angle")
+        self.declare_output("phi2", "rad", "Joint 2 angle (relative to link 1)")
+        self.declare_output("dphi1", "rad/s", "Joint 1 velocity")
+        self.declare_output("dphi2", "rad/s", "Joint 2 velocity")
+        self.declare_output("ee_x", "m", "End-effector X, eq. (49)")
+        self.declare_output("ee_y", "m", "End-effector Y, eq. (49)")
+        self.declare_output("elbow_x", "m", "Elbow X")
+        self.declare_output("elbow_y", "m", "Elbow Y")
+        self._arm = ArmParameters()
+
+    def initialize(self) -> None:
+        values = self.parameter_values(self._specs)
+        self._arm = ArmParameters.from_mapping({s.name: values[s.name] for s in ARM_PARAMETER_SPECS})
+        for spec in INITIAL_STATE_SPECS:
+            spec.check(values[spec.name])
+        if not 1 <= int(self.substeps) <= 1000:
+            raise ValueError(f"parameter 'substeps': {self.substeps} is outside the valid range [1, 1000]")
+        self._set_state(self.phi1_0, self.phi2_0, self.dphi1_0, self.dphi2_0)
+
+    def _set_state(self, q1: float, q2: float, w1: float, w2: float) -> None:
+        self.phi1, self.phi2, self.dphi1, self.dphi2 = q1, q2, w1, w2
+        self.ee_x, self.ee_y = forward_kinematics(q1, q2, self._arm.l1, self._arm.l2)
+        self.elbow_x, self.elbow_y = elbow_position(q1, self._arm.l1)
+
+    def step(self, current_time: float, step_size: float) -> bool:
+        reason = self.first_nonfinite(INPUTS)
+        if reason:
+            return self.discard(reason)
+        new = rk4_step((self.phi1, self.phi2, self.dphi1, self.dphi2),
+                       self.tau1 + self.d1, self.tau2 + self.d2, step_size, int(self.substeps), self._arm)
+        if not all(math.isfinite(x) for x in new):
+            return self.discard(f"integration diverged over [{current_time}, {current_time + step_size}]")
+        self._set_state(*new)
+        return True
+
+    def restore_internal_state(self, state) -> None:
+        if self._initialized:
+            self._arm = ArmParameters.from_mapping(self.parameter_values(ARM_PARAMETER_SPECS))

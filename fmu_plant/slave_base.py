@@ -1,0 +1,244 @@
+"""FMI 2.0 plumbing shared by every sotc-cosim FMU: variable declaration with units, ranges and
+truthful dependencies, a modelDescription that passes ``fmpy validate``, whole-state get/set,
+and the error conventions.
+
+pythonfmu 0.7 facts this module is built around (measured, see docs/interop.md):
+- its modelDescription lacks UnitDefinitions, units and ModelStructure/InitialUnknowns:
+  ``to_xml`` below adds them;
+- a Python exception in any callback becomes ``fmi2Fatal``; ``do_step`` returning False becomes
+  ``fmi2Discard``. So invalid parameters are refused at ``exitInitializationMode`` by logging the
+  reason with status Error and raising (the host sees a non-OK status and the message), and bad
+  inputs or step sizes make ``do_step`` log the reason and return False, leaving the state as it was;
+- the exported binary finds the model class with the regex ``class X(Fmi2Slave):``, so each FMU
+  script imports its base class under the name ``Fmi2Slave``.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Callable, ClassVar, Sequence
+from xml.etree.ElementTree import Element, SubElement
+
+from pythonfmu import DefaultExperiment, Fmi2Causality, Fmi2Slave, Fmi2Variability, Integer, Real
+from pythonfmu.enums import Fmi2Initial, Fmi2Status
+
+from fmu_plant.parameters import ParameterError, ParameterSpec
+
+# SI base-unit exponents of every unit the FMUs use (FMI 2.0 UnitDefinitions/BaseUnit attributes).
+UNIT_BASES: dict[str, dict[str, int]] = {
+    "1": {},
+    "s": {"s": 1},
+    "m": {"m": 1},
+    "rad": {"rad": 1},
+    "rad/s": {"rad": 1, "s": -1},
+    "rad/s2": {"rad": 1, "s": -2},
+    "m/s": {"m": 1, "s": -1},
+    "m/s2": {"m": 1, "s": -2},
+    "N.m": {"kg": 1, "m": 2, "s": -2},
+    "kg.m2": {"kg": 1, "m": 2},
+    "N.m.s/rad": {"kg": 1, "m": 2, "s": -1, "rad": -1},
+    "N.m/rad": {"kg": 1, "m": 2, "s": -2, "rad": -1},
+    "1/s": {"s": -1},
+    "1/s2": {"s": -2},
+}
+
+STEP_SIZE = 0.01  # the paper's sampling period T, also each FMU's DefaultExperiment stepSize
+
+
+@dataclass
+class _Meta:
+    unit: str | None
+    low: float | None
+    high: float | None
+    depends_on: tuple[str, ...] | None  # outputs only: the inputs they depend on at the same instant
+
+
+def _xml_number(x: float) -> str:
+    return repr(float(x))
+
+
+class DescribedSlave(Fmi2Slave):
+    """Base class of every sotc-cosim FMU (pythonfmu ``Fmi2Slave`` with complete metadata).
+
+    Subclasses call ``declare_*`` in ``__init__`` and implement ``initialize`` (validate parameters,
+    set the initial outputs), ``step`` (one communication step) and the internal-state pair
+    ``internal_state``/``restore_internal_state``.
+    """
+
+    author = "sotc-cosim developers"
+    license = "MIT"
+    version = "0.1.0"
+    default_experiment = DefaultExperiment(start_time=0.0, stop_time=100.0, step_size=STEP_SIZE)
+    # value of each FMI capability flag written to the CoSimulation element
+    CAPABILITIES: ClassVar[dict[str, str]] = {
+        "canHandleVariableCommunicationStepSize": "true",
+        "canGetAndSetFMUstate": "true",
+        "canSerializeFMUstate": "true",
+        "canBeInstantiatedOnlyOncePerProcess": "false",
+    }
+
+    def __init__(self, **kwargs: Any):
+        super().__init__(**kwargs)
+        self._meta: dict[str, _Meta] = {}
+        self._initialized = False
+        self._time = 0.0
+
+    # --- declaration -------------------------------------------------------------------------
+
+    def declare_parameter(self, spec: ParameterSpec) -> None:
+        """A fixed parameter whose value is checked against ``spec`` at initialization."""
+        setattr(self, spec.name, spec.default)
+        self._register(
+            Real(spec.name, causality=Fmi2Causality.parameter, variability=Fmi2Variability.fixed,
+                 initial=Fmi2Initial.exact, description=f"{spec.description}; valid range {spec.range_text()}"),
+            _Meta(spec.unit, None if math.isinf(spec.low) else spec.low,
+                  None if math.isinf(spec.high) else spec.high, None),
+        )
+
+    def declare_integer_parameter(self, name: str, default: int, low: int, high: int, description: str) -> None:
+        setattr(self, name, default)
+        self._register(
+            Integer(name, causality=Fmi2Causality.parameter, variability=Fmi2Variability.fixed,
+                    initial=Fmi2Initial.exact, description=f"{description}; valid range [{low}, {high}]"),
+            _Meta(None, low, high, None),
+        )
+
+    def declare_input(self, name: str, unit: str, description: str, start: float = 0.0) -> None:
+        setattr(self, name, start)
+        self._register(
+            Real(name, causality=Fmi2Causality.input, variability=Fmi2Variability.continuous,
+                 description=description),
+            _Meta(unit, None, None, None),
+        )
+
+    def declare_output(
+        self, name: str, unit: str, description: str, depends_on: Sequence[str] = (),
+        getter: Callable[[], float] | None = None,
+    ) -> None:
+        """An output; ``depends_on`` lists the inputs it depends on directly (empty: none)."""
+        if getter is None:
+            setattr(self, name, 0.0)
+        self._register(
+            Real(name, causality=Fmi2Causality.output, variability=Fmi2Variability.continuous,
+                 description=description, getter=getter),
+            _Meta(unit, None, None, tuple(depends_on)),
+        )
+
+    def _register(self, var: Real | Integer, meta: _Meta) -> None:
+        if meta.unit is not None and meta.unit not in UNIT_BASES:
+            raise ValueError(f"unit {meta.unit!r} of {var.name} is missing from UNIT_BASES")
+        self.register_variable(var)
+        self._meta[var.name] = meta
+
+    def parameter_values(self, specs: Sequence[ParameterSpec]) -> dict[str, float]:
+        return {s.name: getattr(self, s.name) for s in specs}
+
+    # --- modelDescription --------------------------------------------------------------------
+
+    def to_xml(self, model_options: dict[str, str] = dict()) -> Element:  # noqa: B006 (pythonfmu's signature)
+        root = super().to_xml(model_options)
+        cosim = root.find("CoSimulation")
+        for flag, value in self.CAPABILITIES.items():
+            cosim.set(flag, value)
+
+        index_of = {v.name: i + 1 for i, v in enumerate(self.vars.values())}
+        for element in root.find("ModelVariables"):
+            meta = self._meta[element.get("name")]
+            typed = element[0]
+            if meta.unit is not None:
+                typed.set("unit", meta.unit)
+            if meta.low is not None:
+                typed.set("min", _xml_number(meta.low) if typed.tag == "Real" else str(int(meta.low)))
+            if meta.high is not None:
+                typed.set("max", _xml_number(meta.high) if typed.tag == "Real" else str(int(meta.high)))
+
+        units = sorted({m.unit for m in self._meta.values() if m.unit is not None})
+        unit_defs = Element("UnitDefinitions")
+        for unit in units:
+            u = SubElement(unit_defs, "Unit", name=unit)
+            SubElement(u, "BaseUnit", {k: str(v) for k, v in UNIT_BASES[unit].items()})
+        root.insert(list(root).index(cosim) + 1, unit_defs)
+
+        structure = root.find("ModelStructure")
+        for child in list(structure):
+            structure.remove(child)
+        outputs = SubElement(structure, "Outputs")
+        initial = SubElement(structure, "InitialUnknowns")
+        for v in self.vars.values():
+            if v.causality != Fmi2Causality.output:
+                continue
+            deps = " ".join(str(index_of[n]) for n in self._meta[v.name].depends_on)
+            SubElement(outputs, "Unknown", index=str(index_of[v.name]), dependencies=deps)
+            # at initialization an output may also depend on parameters: leave dependencies open
+            SubElement(initial, "Unknown", index=str(index_of[v.name]))
+        return root
+
+    # --- lifecycle ----------------------------------------------------------------------------
+
+    def setup_experiment(self, start_time: float, stop_time: float | None = None, tolerance: float | None = None):
+        self._time = float(start_time)
+
+    def exit_initialization_mode(self) -> None:
+        try:
+            self.initialize()
+        except (ParameterError, ValueError) as exc:
+            self.log(f"{self.instance_name}: initialization refused: {exc}", Fmi2Status.error)
+            raise
+        self._initialized = True
+
+    def do_step(self, current_time: float, step_size: float) -> bool:
+        if not (math.isfinite(step_size) and step_size > 0.0):
+            return self.discard(f"communication step size must be finite and > 0, got {step_size!r}")
+        if not math.isclose(current_time, self._time, rel_tol=1e-12, abs_tol=1e-9):
+            return self.discard(
+                f"doStep starts at t = {current_time!r} but the FMU is at t = {self._time!r}; "
+                "rewind with fmi2SetFMUstate instead of jumping in time"
+            )
+        if not self._initialized:
+            return self.discard("doStep called before exitInitializationMode")
+        ok = self.step(current_time, step_size)
+        if ok:
+            self._time = current_time + step_size
+        return ok
+
+    def discard(self, reason: str) -> bool:
+        """Log why a step is refused; returning False makes pythonfmu answer fmi2Discard."""
+        self.log(f"{self.instance_name}: {reason}", Fmi2Status.error)
+        return False
+
+    def first_nonfinite(self, names: Sequence[str]) -> str | None:
+        for name in names:
+            value = getattr(self, name)
+            if not math.isfinite(value):
+                return f"input '{name}' is {value!r}; the step is refused and the state is kept"
+        return None
+
+    # --- whole-state snapshot (fmi2GetFMUstate / fmi2SetFMUstate / serialization) -------------
+
+    def _get_fmu_state(self) -> dict[str, Any]:
+        state = super()._get_fmu_state()
+        state["__internal__"] = {"time": self._time, "initialized": self._initialized, **self.internal_state()}
+        return state
+
+    def _set_fmu_state(self, state: dict[str, Any]) -> None:
+        state = dict(state)
+        internal = dict(state.pop("__internal__", {}))
+        super()._set_fmu_state(state)
+        self._time = float(internal.pop("time", self._time))
+        self._initialized = bool(internal.pop("initialized", self._initialized))
+        self.restore_internal_state(internal)
+
+    # --- to implement ---------------------------------------------------------------------------
+
+    def initialize(self) -> None:
+        """Validate parameters (raise ParameterError naming the parameter) and set initial outputs."""
+
+    def step(self, current_time: float, step_size: float) -> bool:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def internal_state(self) -> dict[str, Any]:
+        """State not held in registered variables, JSON-serialisable."""
+        return {}
+
+    def restore_internal_state(self, state: dict[str, Any]) -> None:
+        """Inverse of ``internal_state``."""

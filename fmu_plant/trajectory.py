@@ -1,0 +1,73 @@
+"""The paper's desired end-effector path, eq. (47), and its joint-space image through eq. (48).
+
+    X_d = cx + r sin(w t + phase),   Y_d = cy + r cos(w t + phase)           eq. (47)
+
+Defaults: centre (1, 1) m, radius 0.5 m, rate w = 0.5 rad/s, phase pi/2. Joint velocities and
+accelerations come from the exact chain rule (``kinematics.joint_rates``), not finite differences.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+
+from fmu_plant.kinematics import inverse_kinematics, joint_rates
+from fmu_plant.parameters import ParameterError, ParameterSpec, any_real, check_all, positive
+
+TRAJECTORY_PARAMETER_SPECS: tuple[ParameterSpec, ...] = (
+    any_real("center_x", 1.0, "m", "X of the circle centre, eq. (47)"),
+    any_real("center_y", 1.0, "m", "Y of the circle centre, eq. (47)"),
+    positive("radius", 0.5, "m", "Circle radius, eq. (47)", high=100.0),
+    any_real("rate", 0.5, "rad/s", "Angular rate w of the path parameter, eq. (47)"),
+    any_real("phase", math.pi / 2, "rad", "Phase of the path parameter, eq. (47)"),
+    positive("l1", 1.0, "m", "Link 1 length used by the inverse kinematics (48)", high=100.0),
+    positive("l2", 1.0, "m", "Link 2 length used by the inverse kinematics (48)", high=100.0),
+)
+
+# Names of the eight reference signals, in the order ``CircleTrajectory.sample`` returns them.
+REFERENCE_SIGNALS = ("phi1_d", "phi2_d", "dphi1_d", "dphi2_d", "ddphi1_d", "ddphi2_d", "x_d", "y_d")
+
+
+@dataclass(frozen=True)
+class CircleTrajectory:
+    center_x: float = 1.0
+    center_y: float = 1.0
+    radius: float = 0.5
+    rate: float = 0.5
+    phase: float = math.pi / 2
+    l1: float = 1.0
+    l2: float = 1.0
+
+    def __post_init__(self) -> None:
+        checked = check_all(TRAJECTORY_PARAMETER_SPECS, {f.name: getattr(self, f.name) for f in fields(self)})
+        for name, value in checked.items():
+            object.__setattr__(self, name, value)
+        # the whole circle must stay inside the reachable annulus and off the singular boundary
+        d = math.hypot(self.center_x, self.center_y)
+        reach_out, reach_in = self.l1 + self.l2, abs(self.l1 - self.l2)
+        if d + self.radius >= reach_out or d - self.radius <= reach_in:
+            raise ParameterError(
+                "radius",
+                f"the circle spans distances [{d - self.radius:g}, {d + self.radius:g}] m from the base; "
+                f"it must lie strictly inside ({reach_in:g}, {reach_out:g}) m to be tracked without singularity",
+            )
+
+    def path(self, t: float) -> tuple[float, float, float, float, float, float]:
+        """(X, Y, dX, dY, ddX, ddY) of eq. (47) at time t."""
+        a = self.rate * t + self.phase
+        s, c = math.sin(a), math.cos(a)
+        r, w = self.radius, self.rate
+        return (
+            self.center_x + r * s,
+            self.center_y + r * c,
+            r * w * c,
+            -r * w * s,
+            -r * w * w * s,
+            -r * w * w * c,
+        )
+
+    def sample(self, t: float) -> tuple[float, ...]:
+        """The eight ``REFERENCE_SIGNALS`` at time t: joint references (48) and their derivatives."""
+        x, y, dx, dy, ddx, ddy = self.path(t)
+        phi1, phi2 = inverse_kinematics(x, y, self.l1, self.l2)
+        dq1, dq2, ddq1, ddq2 = joint_rates(phi1, phi2, dx, dy, ddx, ddy, self.l1, self.l2)
+        return phi1, phi2, dq1, dq2, ddq1, ddq2, x, y

@@ -1,0 +1,1 @@
+"""The co-simulation master of sotc-cosim: scenarios, FMU builds, the fmpy loop, summaries."""

@@ -1,0 +1,136 @@
+"""Build the FMUs from the installed sources, always in a child process.
+
+pythonfmu's builder imports the model script to write the modelDescription; if that happened in
+the process that later simulates, the simulation would silently run the already-imported source
+tree instead of the FMU. So ``build_fmus`` runs ``python -m orchestration.build`` as a subprocess.
+
+Each FMU is staged from clean copies of the packages it needs (``*.py`` only, no caches), and a
+``<Model>.sources.sha256`` file beside it records the sources it was built from, so ``ensure_built``
+rebuilds exactly the FMUs whose sources changed.
+"""
+from __future__ import annotations
+
+import argparse
+import hashlib
+import shutil
+import subprocess
+import sys
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+DEFAULT_FMU_DIR = Path("build") / "fmus"
+PACKAGE_ROOT = Path(__file__).resolve().parent.parent  # folder holding fmu_plant/, fmu_controller/
+
+
+@dataclass(frozen=True)
+class FmuSource:
+    model: str  # modelIdentifier == FMU file stem
+    script: str  # path relative to PACKAGE_ROOT; its stem is the FMU's Python module name
+    packages: tuple[str, ...]  # packages bundled under resources/
+
+
+FMU_SOURCES: dict[str, FmuSource] = {
+    s.model: s
+    for s in (
+        FmuSource("ArmPlant", "fmu_plant/arm_plant_fmu.py", ("fmu_plant",)),
+        FmuSource("ReferenceTrajectory", "fmu_plant/reference_trajectory_fmu.py", ("fmu_plant",)),
+        FmuSource("CtController", "fmu_controller/ct_controller_fmu.py", ("fmu_plant", "fmu_controller")),
+    )
+}
+
+
+class BuildError(RuntimeError):
+    pass
+
+
+def _source_files(source: FmuSource) -> list[Path]:
+    files = [PACKAGE_ROOT / source.script]
+    for pkg in source.packages:
+        files += sorted((PACKAGE_ROOT / pkg).glob("*.py"))
+    return sorted(set(files))
+
+
+def source_digest(source: FmuSource) -> str:
+    h = hashlib.sha256()
+    for f in _source_files(source):
+        h.update(f.relative_to(PACKAGE_ROOT).as_posix().encode())
+        h.update(f.read_bytes())
+    return h.hexdigest()
+
+
+def fmu_path(model: str, out_dir: Path) -> Path:
+    return Path(out_dir) / f"{model}.fmu"
+
+
+def is_current(model: str, out_dir: Path) -> bool:
+    stamp = Path(out_dir) / f"{model}.sources.sha256"
+    return (
+        fmu_path(model, out_dir).is_file()
+        and stamp.is_file()
+        and stamp.read_text().strip() == source_digest(FMU_SOURCES[model])
+    )
+
+
+def _build_one(source: FmuSource, out_dir: Path) -> Path:
+    """Runs in the child process only."""
+    from pythonfmu import FmuBuilder
+
+    with tempfile.TemporaryDirectory(prefix="sotc_stage_") as tmp:
+        stage = Path(tmp)
+        # other FMUs' scripts stay out: each FMU carries the cores and its own script only
+        skip = shutil.ignore_patterns("__pycache__", "*.pyc", "*_fmu.py")
+        for pkg in source.packages:
+            shutil.copytree(PACKAGE_ROOT / pkg, stage / pkg, ignore=skip)
+        script = stage / source.script
+        shutil.copy2(PACKAGE_ROOT / source.script, script)
+        project = [stage / pkg for pkg in source.packages]
+        sys.path.insert(0, str(stage))
+        try:
+            built = FmuBuilder.build_FMU(script, dest=out_dir, project_files=project)
+        finally:
+            sys.path.remove(str(stage))
+            # forget the staged modules: the next FMU stages (and imports) its own copy
+            for name in list(sys.modules):
+                if name.split(".")[0] in source.packages or name == script.stem:
+                    del sys.modules[name]
+    (out_dir / f"{source.model}.sources.sha256").write_text(source_digest(source) + "\n")
+    return Path(built)
+
+
+def build_fmus(models: list[str] | None = None, out_dir: Path = DEFAULT_FMU_DIR) -> list[Path]:
+    """Build the named FMUs (all by default) into ``out_dir`` in a child process."""
+    models = list(FMU_SOURCES) if not models else models
+    unknown = [m for m in models if m not in FMU_SOURCES]
+    if unknown:
+        raise BuildError(f"unknown FMU {unknown}; known: {', '.join(FMU_SOURCES)}")
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    cmd = [sys.executable, "-m", "orchestration.build", "--out", str(out_dir.resolve()), *models]
+    proc = subprocess.run(cmd, capture_output=True, text=True, cwd=str(PACKAGE_ROOT))
+    if proc.returncode != 0:
+        raise BuildError(f"building {models} failed:\n{proc.stdout}\n{proc.stderr}")
+    return [fmu_path(m, out_dir) for m in models]
+
+
+def ensure_built(models: list[str], out_dir: Path = DEFAULT_FMU_DIR) -> dict[str, Path]:
+    """Build the FMUs that are missing or older than their sources; return model -> path."""
+    stale = [m for m in dict.fromkeys(models) if m not in FMU_SOURCES or not is_current(m, out_dir)]
+    if stale:
+        build_fmus(stale, out_dir)
+    return {m: fmu_path(m, out_dir) for m in models}
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description="Build sotc-cosim FMUs (child-process entry point)")
+    parser.add_argument("--out", type=Path, default=DEFAULT_FMU_DIR)
+    parser.add_argument("models", nargs="*")
+    args = parser.parse_args(argv)
+    args.out.mkdir(parents=True, exist_ok=True)
+    for model in args.models or list(FMU_SOURCES):
+        print(_build_one(FMU_SOURCES[model], args.out))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,252 @@
+"""The fixed-step co-simulation master: loads FMUs with fmpy, connects them, steps them, records.
+
+Call order at each communication point t_k = k T (k = 0 .. N, computed as k * T, never summed):
+
+1. for each instance in feedthrough order: read all its outputs, then set the inputs they feed;
+2. record every output of every instance at t_k;
+3. (k < N) ``doStep(t_k, T)`` on every instance.
+
+"Feedthrough order" is a topological order of the instances over connections whose target has
+outputs that depend directly on its inputs (declared in modelDescription ``ModelStructure/Outputs``
+``dependencies``). The plant and the reference declare none, so they are read first; a controller
+declares that its torque depends on its inputs, so it is read after its inputs were set from the
+plant and reference at t_k. The torque read at t_k is therefore computed from the measurement at
+t_k, and the plant's doStep holds it over [t_k, t_k + T): the paper's sampled, zero-order-hold loop.
+An algebraic loop (a cycle of feedthrough) is refused before the run starts.
+"""
+from __future__ import annotations
+
+import ctypes
+import shutil
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from fmpy import extract, read_model_description
+from fmpy.fmi1 import FMICallException
+from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, fmi2Real, fmi2ValueReference
+from fmpy.logging import addLoggerProxy
+
+from orchestration.scenario import Scenario, ScenarioError
+
+STATUS_LABELS = ("OK", "WARNING", "DISCARD", "ERROR", "FATAL", "PENDING")
+
+
+@dataclass
+class LogRecord:
+    instance: str
+    status: str
+    message: str
+
+
+@dataclass
+class RunResult:
+    """Everything a run produced. ``outputs[instance][variable]`` has one value per stored sample."""
+
+    scenario: Scenario
+    time: np.ndarray
+    outputs: dict[str, dict[str, np.ndarray]]
+    wall_time_s: float
+    failed: bool = False
+    error: str | None = None
+    logs: list[LogRecord] = field(default_factory=list)
+
+    @property
+    def samples(self) -> int:
+        return len(self.time)
+
+
+class _Loaded:
+    """One FMU instance with its value references and preallocated ctypes buffers."""
+
+    def __init__(self, name: str, fmu_file: Path, workdir: Path, callbacks):
+        self.name = name
+        self.md = read_model_description(str(fmu_file))
+        if self.md.coSimulation is None:
+            raise ScenarioError(f"{fmu_file} does not support co-simulation")
+        self.unzipdir = extract(str(fmu_file), unzipdir=str(workdir / name))
+        self.vars = {v.name: v for v in self.md.modelVariables}
+        self.output_names = [v.name for v in self.md.modelVariables if v.causality == "output" and v.type == "Real"]
+        self.inputs = {v.name for v in self.md.modelVariables if v.causality == "input"}
+        self.feedthrough = any(u.dependencies for u in self.md.outputs)
+        self.out_vr = (fmi2ValueReference * len(self.output_names))(*(self.vars[n].valueReference for n in self.output_names))
+        self.out_buf = (fmi2Real * len(self.output_names))()
+        self.out_view = np.ctypeslib.as_array(self.out_buf)
+        self.fmu = FMU2Slave(
+            guid=self.md.guid, unzipDirectory=self.unzipdir,
+            modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=name,
+        )
+        self.fmu.instantiate(callbacks=callbacks, loggingOn=True)
+        self.instantiated = True
+        self.initialized = False
+
+    def read_outputs(self) -> None:
+        self.fmu.fmi2GetReal(self.fmu.component, self.out_vr, len(self.output_names), self.out_buf)
+
+    def set_parameters(self, values: dict[str, float]) -> None:
+        for pname, value in values.items():
+            var = self.vars.get(pname)
+            if var is None or var.causality != "parameter":
+                params = sorted(v.name for v in self.md.modelVariables if v.causality == "parameter")
+                raise ScenarioError(f"{self.name}: '{pname}' is not a parameter of {self.md.modelName}; known: {', '.join(params)}")
+            if var.type == "Real":
+                self.fmu.setReal([var.valueReference], [float(value)])
+            elif var.type == "Integer":
+                if float(value) != int(value):
+                    raise ScenarioError(f"{self.name}.{pname} must be a whole number, got {value!r}")
+                self.fmu.setInteger([var.valueReference], [int(value)])
+            else:
+                raise ScenarioError(f"{self.name}.{pname}: parameters of type {var.type} are not supported")
+
+
+class _Link:
+    """All connections from one source instance to one target instance, set with one fmi2SetReal."""
+
+    def __init__(self, source: _Loaded, target: _Loaded, pairs: list[tuple[str, str]]):
+        self.source, self.target = source, target
+        self.src_index = np.array([source.output_names.index(o) for o, _ in pairs], dtype=np.intp)
+        self.n = len(pairs)
+        self.vr = (fmi2ValueReference * self.n)(*(target.vars[i].valueReference for _, i in pairs))
+        self.buf = (fmi2Real * self.n)()
+        self.view = np.ctypeslib.as_array(self.buf)
+
+    def push(self) -> None:
+        self.view[:] = self.source.out_view[self.src_index]
+        self.target.fmu.fmi2SetReal(self.target.fmu.component, self.vr, self.n, self.buf)
+
+
+def _resolve_links(scenario: Scenario, loaded: dict[str, _Loaded]) -> list[_Link]:
+    pairs: dict[tuple[str, str], list[tuple[str, str]]] = {}
+    fed: dict[tuple[str, str], str] = {}
+
+    def add(src: str, out: str, dst: str, inp: str) -> None:
+        if out not in loaded[src].output_names:
+            raise ScenarioError(f"connection {src}.{out} -> {dst}.{inp}: {src} has no Real output '{out}'")
+        if inp not in loaded[dst].inputs:
+            raise ScenarioError(f"connection {src}.{out} -> {dst}.{inp}: {dst} has no input '{inp}'")
+        if (dst, inp) in fed:
+            raise ScenarioError(f"input {dst}.{inp} is fed twice: from {fed[(dst, inp)]} and {src}.{out}")
+        fed[(dst, inp)] = f"{src}.{out}"
+        pairs.setdefault((src, dst), []).append((out, inp))
+
+    for src, dst in scenario.by_name:
+        matched = [n for n in loaded[src].output_names if n in loaded[dst].inputs]
+        if not matched:
+            raise ScenarioError(f"[[connect]] {src} -> {dst}: no output of {src} matches an input of {dst}")
+        for name in matched:
+            add(src, name, dst, name)
+    for c in scenario.links:
+        add(c.source, c.output, c.target, c.input)
+    return [_Link(loaded[s], loaded[d], p) for (s, d), p in pairs.items()]
+
+
+def _feedthrough_order(loaded: dict[str, _Loaded], links: list[_Link]) -> list[str]:
+    """Instances ordered so that each feedthrough instance comes after every instance feeding it."""
+    deps = {name: set() for name in loaded}
+    for link in links:
+        if link.target.feedthrough:
+            deps[link.target.name].add(link.source.name)
+    order: list[str] = []
+    while deps:
+        ready = sorted(n for n, d in deps.items() if not d - set(order))
+        if not ready:
+            raise ScenarioError(f"algebraic loop between feedthrough instances: {sorted(deps)}")
+        for n in ready:
+            order.append(n)
+            del deps[n]
+    return order
+
+
+def run(scenario: Scenario, fmu_paths: dict[str, Path]) -> RunResult:
+    """Run ``scenario`` with the FMUs at ``fmu_paths`` (model identifier -> .fmu file).
+
+    A failing FMI call ends the run early; the result then has ``failed=True``, the error, the
+    FMUs' log messages and every sample recorded up to the failure. Instances are always freed.
+    """
+    logs: list[LogRecord] = []
+
+    def on_log(env, instance, status, category, message):
+        logs.append(LogRecord(instance.decode(errors="replace") if instance else "",
+                              STATUS_LABELS[status] if 0 <= status < 6 else str(status),
+                              message.decode(errors="replace") if message else ""))
+
+    callbacks = fmi2CallbackFunctions()
+    callbacks.logger = fmi2CallbackLoggerTYPE(on_log)
+    addLoggerProxy(ctypes.byref(callbacks))
+
+    n_steps = scenario.steps
+    T = scenario.step_size
+    times = np.arange(n_steps + 1, dtype=float) * T
+    workdir = Path(tempfile.mkdtemp(prefix="sotc_run_"))
+    loaded: dict[str, _Loaded] = {}
+    records: dict[str, np.ndarray] = {}
+    k = -1
+    error: str | None = None
+    started = time.perf_counter()
+    try:
+        for inst in scenario.instances.values():
+            if inst.fmu not in fmu_paths:
+                raise ScenarioError(f"instance '{inst.name}': no built FMU for model '{inst.fmu}'")
+            loaded[inst.name] = _Loaded(inst.name, fmu_paths[inst.fmu], workdir, callbacks)
+        links = _resolve_links(scenario, loaded)
+        order = _feedthrough_order(loaded, links)
+        pushes = {name: [l for l in links if l.source.name == name] for name in order}
+        for inst in scenario.instances.values():
+            ld = loaded[inst.name]
+            ld.set_parameters(inst.parameters)
+            ld.fmu.setupExperiment(startTime=0.0, stopTime=scenario.stop_time)
+            ld.fmu.enterInitializationMode()
+            ld.fmu.exitInitializationMode()
+            ld.initialized = True
+            records[inst.name] = np.empty((n_steps + 1, len(ld.output_names)))
+        for k in range(n_steps + 1):
+            for name in order:
+                ld = loaded[name]
+                ld.read_outputs()
+                records[name][k] = ld.out_view
+                for link in pushes[name]:
+                    link.push()
+            if k == n_steps:
+                break
+            t = times[k]
+            for ld in loaded.values():
+                ld.fmu.doStep(currentCommunicationPoint=t, communicationStepSize=T)
+        k += 1  # samples completed
+    except (FMICallException, ScenarioError, OSError) as exc:
+        if isinstance(exc, ScenarioError):
+            raise  # the scenario itself is wrong: nothing ran
+        error = _describe_failure(exc, k, times, logs)
+    finally:
+        wall = time.perf_counter() - started
+        _free(loaded)
+        shutil.rmtree(workdir, ignore_errors=True)
+    completed = max(k, 0)
+    outputs = {
+        name: {v: records[name][:completed, i].copy() for i, v in enumerate(loaded[name].output_names)}
+        for name in records
+    }
+    return RunResult(scenario, times[:completed], outputs, wall, failed=error is not None, error=error, logs=logs)
+
+
+def _describe_failure(exc: Exception, k: int, times: np.ndarray, logs: list[LogRecord]) -> str:
+    where = f"at t = {times[k]:.2f} s (sample {k})" if 0 <= k < len(times) else "during set-up"
+    reasons = "; ".join(f"{r.instance}: {r.message}" for r in logs if r.status in ("DISCARD", "ERROR", "FATAL"))
+    return f"{exc} {where}" + (f" -- {reasons}" if reasons else "")
+
+
+def _free(loaded: dict[str, _Loaded]) -> None:
+    for ld in loaded.values():
+        if not ld.instantiated:
+            continue
+        try:
+            if ld.initialized:
+                ld.fmu.terminate()
+        except FMICallException:
+            pass
+        try:
+            ld.fmu.freeInstance()
+        except FMICallException:
+            pass
+        ld.instantiated = False

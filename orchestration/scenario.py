@@ -1,0 +1,178 @@
+"""Scenario files: which FMUs, their parameters, how outputs connect to inputs, and for how long.
+
+A scenario is TOML (``orchestration/scenarios/<name>.toml``, shipped as package data, or any path):
+
+    name = "paper-ct"
+    extends = "paper"                 # optional: start from another scenario, then override
+    description = "..."
+    stop_time = 100.0                 # s
+    step_size = 0.01                  # s, the communication step T
+    [instances.controller]
+    fmu = "CtController"              # model identifier of a built FMU
+    parameters = { kp = 100.0 }
+    [[connect]]                       # every output of `from` feeds the same-named input of `to`
+    from = "plant"
+    to = "controller"
+    [[connection]]                    # or one explicit link
+    from = "reference.x_d"
+    to = "other.x_in"
+
+Instances named ``plant``, ``reference`` and ``controller`` are what the summary metrics read.
+"""
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+
+class ScenarioError(ValueError):
+    """A scenario that cannot be run as written; the message says where and why."""
+
+
+@dataclass(frozen=True)
+class Instance:
+    name: str
+    fmu: str
+    parameters: dict[str, float] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Connection:
+    source: str  # instance
+    output: str
+    target: str  # instance
+    input: str
+
+
+@dataclass(frozen=True)
+class Scenario:
+    name: str
+    description: str
+    stop_time: float
+    step_size: float
+    instances: dict[str, Instance]
+    by_name: tuple[tuple[str, str], ...]  # (from instance, to instance): connect same-named ports
+    links: tuple[Connection, ...]  # explicit connections
+
+    @property
+    def steps(self) -> int:
+        return int(round(self.stop_time / self.step_size))
+
+    def with_stop_time(self, stop_time: float) -> "Scenario":
+        return _validated({**self.__dict__, "stop_time": stop_time})
+
+    def controller_fmu(self) -> str | None:
+        inst = self.instances.get("controller")
+        return inst.fmu if inst else None
+
+
+def available_scenarios() -> list[str]:
+    folder = resources.files("orchestration") / "scenarios"
+    return sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".toml"))
+
+
+def _read_raw(name_or_path: str, seen: tuple[str, ...] = ()) -> dict[str, Any]:
+    path = Path(name_or_path)
+    if path.suffix == ".toml" and path.is_file():
+        text, label = path.read_text(), str(path)
+    else:
+        resource = resources.files("orchestration") / "scenarios" / f"{name_or_path}.toml"
+        if not resource.is_file():
+            raise ScenarioError(
+                f"no scenario '{name_or_path}': give a .toml path or one of {', '.join(available_scenarios())}"
+            )
+        text, label = resource.read_text(), name_or_path
+    if label in seen:
+        raise ScenarioError(f"scenario '{label}' extends itself through {' -> '.join(seen)}")
+    try:
+        raw = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(f"scenario '{label}' is not valid TOML: {exc}") from None
+    parent = raw.pop("extends", None)
+    if parent is None:
+        return raw
+    return _merge(_read_raw(parent, seen + (label,)), raw)
+
+
+def _merge(base: dict[str, Any], override: dict[str, Any]) -> dict[str, Any]:
+    """Deep-merge tables; an instance whose ``fmu`` changes starts from empty parameters."""
+    out = dict(base)
+    for key, value in override.items():
+        if key == "instances":
+            merged = dict(base.get("instances", {}))
+            for inst, spec in value.items():
+                old = merged.get(inst, {})
+                if "fmu" in spec and spec["fmu"] != old.get("fmu"):
+                    old = {}
+                merged[inst] = {**old, **spec, "parameters": {**old.get("parameters", {}), **spec.get("parameters", {})}}
+            out["instances"] = merged
+        else:
+            out[key] = value
+    return out
+
+
+def load_scenario(name_or_path: str) -> Scenario:
+    raw = _read_raw(name_or_path)
+    raw.setdefault("name", Path(name_or_path).stem)
+    return _validated(_from_raw(raw))
+
+
+def _from_raw(raw: dict[str, Any]) -> dict[str, Any]:
+    known = {"name", "description", "stop_time", "step_size", "instances", "connect", "connection"}
+    unknown = set(raw) - known
+    if unknown:
+        raise ScenarioError(f"scenario '{raw['name']}': unknown keys {sorted(unknown)}; known: {sorted(known)}")
+    instances = {}
+    for name, spec in raw.get("instances", {}).items():
+        if "fmu" not in spec:
+            raise ScenarioError(f"scenario '{raw['name']}': instance '{name}' needs an 'fmu' key")
+        params = spec.get("parameters", {})
+        instances[name] = Instance(name, spec["fmu"], dict(params))
+    links = []
+    for item in raw.get("connection", []):
+        try:
+            src, out = item["from"].split(".", 1)
+            dst, inp = item["to"].split(".", 1)
+        except (KeyError, ValueError):
+            raise ScenarioError(f"scenario '{raw['name']}': a [[connection]] needs from = 'inst.output', to = 'inst.input'") from None
+        links.append(Connection(src, out, dst, inp))
+    by_name = tuple((c["from"], c["to"]) for c in raw.get("connect", []))
+    return {
+        "name": raw["name"],
+        "description": raw.get("description", ""),
+        "stop_time": raw.get("stop_time", 100.0),
+        "step_size": raw.get("step_size", 0.01),
+        "instances": instances,
+        "by_name": by_name,
+        "links": tuple(links),
+    }
+
+
+def _validated(fields: dict[str, Any]) -> Scenario:
+    name = fields["name"]
+    for key in ("stop_time", "step_size"):
+        value = fields[key]
+        if not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
+            raise ScenarioError(f"scenario '{name}': {key} must be a finite number > 0, got {value!r}")
+    steps = fields["stop_time"] / fields["step_size"]
+    if abs(steps - round(steps)) > 1e-9 * max(1.0, steps):
+        raise ScenarioError(
+            f"scenario '{name}': stop_time {fields['stop_time']} is not a whole number of steps of {fields['step_size']}"
+        )
+    for src, dst in fields["by_name"]:
+        for inst in (src, dst):
+            if inst not in fields["instances"]:
+                raise ScenarioError(f"scenario '{name}': [[connect]] names unknown instance '{inst}'")
+    for link in fields["links"]:
+        for inst in (link.source, link.target):
+            if inst not in fields["instances"]:
+                raise ScenarioError(f"scenario '{name}': [[connection]] names unknown instance '{inst}'")
+    for inst in fields["instances"].values():
+        for pname, value in inst.parameters.items():
+            if not isinstance(value, (int, float)) or isinstance(value, bool):
+                raise ScenarioError(f"scenario '{name}': {inst.name}.{pname} must be a number, got {value!r}")
+    return Scenario(**{**fields, "stop_time": float(fields["stop_time"]), "step_size": float(fields["step_size"])})
