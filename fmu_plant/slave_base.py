@@ -9,20 +9,27 @@ pythonfmu 0.7 facts this module is built around (measured, see docs/interop.md):
   ``fmi2Discard``. So invalid parameters are refused at ``exitInitializationMode`` by logging the
   reason with status Error and raising (the host sees a non-OK status and the message), and bad
   inputs or step sizes make ``do_step`` log the reason and return False, leaving the state as it was;
+- on a Python exception the binary releases its references to the model class, the instance and
+  its log queue once, and releases them again when the instance is freed: two releases for one
+  reference, which crashes the host process later (seen as a segfault at interpreter exit). Every
+  callback here that may raise therefore goes through ``_guarded``, which takes one extra
+  reference to each of the three before the exception leaves Python;
 - the exported binary finds the model class with the regex ``class X(Fmi2Slave):``, so each FMU
   script imports its base class under the name ``Fmi2Slave``.
 """
 from __future__ import annotations
 
+import ctypes
 import math
+from contextlib import contextmanager
 from dataclasses import dataclass
-from typing import Any, Callable, ClassVar, Sequence
+from typing import Any, Callable, ClassVar, Iterator, Sequence
 from xml.etree.ElementTree import Element, SubElement
 
 from pythonfmu import DefaultExperiment, Fmi2Causality, Fmi2Slave, Fmi2Variability, Integer, Real
 from pythonfmu.enums import Fmi2Initial, Fmi2Status
 
-from fmu_plant.parameters import ParameterError, ParameterSpec
+from fmu_plant.parameters import ParameterSpec
 
 # SI base-unit exponents of every unit the FMUs use (FMI 2.0 UnitDefinitions/BaseUnit attributes).
 UNIT_BASES: dict[str, dict[str, int]] = {
@@ -173,20 +180,71 @@ class DescribedSlave(Fmi2Slave):
             SubElement(initial, "Unknown", index=str(index_of[v.name]))
         return root
 
+    # --- exceptions that leave Python -----------------------------------------------------------
+
+    @contextmanager
+    def _guarded(self, call: str) -> Iterator[None]:
+        """Log any exception of ``call`` with status Error and balance pythonfmu's extra releases."""
+        try:
+            yield
+        except Exception as exc:
+            self.log(f"{self.instance_name}: {call} failed: {exc}", Fmi2Status.error)
+            for obj in (self, type(self), self.log_queue):
+                ctypes.pythonapi.Py_IncRef(ctypes.py_object(obj))
+            raise
+
+    def set_real(self, vrs, values):
+        with self._guarded("fmi2SetReal"):
+            super().set_real(vrs, values)
+
+    def get_real(self, vrs):
+        with self._guarded("fmi2GetReal"):
+            return super().get_real(vrs)
+
+    def set_integer(self, vrs, values):
+        with self._guarded("fmi2SetInteger"):
+            super().set_integer(vrs, values)
+
+    def get_integer(self, vrs):
+        with self._guarded("fmi2GetInteger"):
+            return super().get_integer(vrs)
+
+    def set_boolean(self, vrs, values):
+        with self._guarded("fmi2SetBoolean"):
+            super().set_boolean(vrs, values)
+
+    def get_boolean(self, vrs):
+        with self._guarded("fmi2GetBoolean"):
+            return super().get_boolean(vrs)
+
+    def set_string(self, vrs, values):
+        with self._guarded("fmi2SetString"):
+            super().set_string(vrs, values)
+
+    def get_string(self, vrs):
+        with self._guarded("fmi2GetString"):
+            return super().get_string(vrs)
+
     # --- lifecycle ----------------------------------------------------------------------------
 
     def setup_experiment(self, start_time: float, stop_time: float | None = None, tolerance: float | None = None):
         self._time = float(start_time)
 
     def exit_initialization_mode(self) -> None:
-        try:
+        with self._guarded("fmi2ExitInitializationMode (initialization refused)"):
             self.initialize()
-        except (ParameterError, ValueError) as exc:
-            self.log(f"{self.instance_name}: initialization refused: {exc}", Fmi2Status.error)
-            raise
         self._initialized = True
 
+    def terminate(self) -> None:
+        self._initialized = False
+
     def do_step(self, current_time: float, step_size: float) -> bool:
+        try:
+            return self._do_step(current_time, step_size)
+        except Exception as exc:  # a bug must not take the host down: refuse the step instead
+            return self.discard(f"doStep failed: {type(exc).__name__}: {exc}")
+
+    def _do_step(self, current_time: float, step_size: float) -> bool:
         if not (math.isfinite(step_size) and step_size > 0.0):
             return self.discard(f"communication step size must be finite and > 0, got {step_size!r}")
         if not math.isclose(current_time, self._time, rel_tol=1e-12, abs_tol=1e-9):
@@ -216,17 +274,30 @@ class DescribedSlave(Fmi2Slave):
     # --- whole-state snapshot (fmi2GetFMUstate / fmi2SetFMUstate / serialization) -------------
 
     def _get_fmu_state(self) -> dict[str, Any]:
-        state = super()._get_fmu_state()
-        state["__internal__"] = {"time": self._time, "initialized": self._initialized, **self.internal_state()}
-        return state
+        with self._guarded("fmi2GetFMUstate"):
+            state = super()._get_fmu_state()
+            state["__internal__"] = {"time": self._time, "initialized": self._initialized, **self.internal_state()}
+            return state
 
     def _set_fmu_state(self, state: dict[str, Any]) -> None:
-        state = dict(state)
-        internal = dict(state.pop("__internal__", {}))
-        super()._set_fmu_state(state)
-        self._time = float(internal.pop("time", self._time))
-        self._initialized = bool(internal.pop("initialized", self._initialized))
-        self.restore_internal_state(internal)
+        with self._guarded("fmi2SetFMUstate"):
+            if not isinstance(state, dict) or "__internal__" not in state:
+                raise ValueError("not an FMU state of this model (corrupt or foreign serialized state)")
+            state = dict(state)
+            internal = dict(state.pop("__internal__"))
+            super()._set_fmu_state(state)
+            self._time = float(internal.pop("time", self._time))
+            self._initialized = bool(internal.pop("initialized", self._initialized))
+            self.restore_internal_state(internal)
+
+    @staticmethod
+    def _fmu_state_from_bytes(state: bytes) -> dict[str, Any]:
+        # called on the class, where no instance can balance an exception: never raise here,
+        # hand a marker to _set_fmu_state, which refuses it
+        try:
+            return Fmi2Slave._fmu_state_from_bytes(state)
+        except Exception:
+            return {"__corrupt__": True}
 
     # --- to implement ---------------------------------------------------------------------------
 

@@ -1,0 +1,83 @@
+"""Saturated computed-torque baseline (CtCore).
+
+The classical computed-torque (inverse-dynamics) law on the nominal model of eq. (1) of the SOTC
+paper (``shared/reference/sotc-paper.md``), followed by the paper's torque constraint:
+
+    e = phi - phi_d,   e_dot = dphi - dphi_d                                         (CT-1)
+    v = ddphi_d - Kd e_dot - Kp e                                                    (CT-2)
+    tau_raw = D(phi) v + H(phi, dphi) dphi + G(dphi)                                 (CT-3)
+    tau = tau_raw                          if ||tau_raw|| <= tau_max                 (CT-4)
+        = tau_raw * tau_max / ||tau_raw||  otherwise
+
+With the model exact and (CT-4) inactive, substituting (CT-3) into eq. (1) gives
+D (ddphi - v) = 0, i.e. the decoupled linear error dynamics e_ddot + Kd e_dot + Kp e = 0 per joint.
+
+Saturation acts on the Euclidean norm, as the paper's constraint ||tau|| <= rho (section 2.1,
+rho = 4 N.m in section 4): the whole vector is scaled down, which keeps its direction. Clipping each
+joint to +-tau_max instead would allow ||tau|| up to sqrt(2) tau_max and so violate the paper's
+bound.
+
+Default gains: kp = 25 1/s^2, kd = 10 1/s, i.e. a critically damped double pole at -5 rad/s per
+joint (kd = 2 sqrt(kp)). kd T = 0.1 at T = 0.01 s, far from the sampling limit kd T ~ 2, and the
+PD share of the torque at the tracking errors reached after the transient (1e-3 rad) is small
+against the friction compensation (~2.6 N.m), so the bound is active only during the initial
+transient. Measured on the paper's scenario (docs/baselines.md).
+"""
+from __future__ import annotations
+
+import math
+from typing import Sequence
+
+from fmu_controller.base import ControllerCore, OutputSpec
+from fmu_plant.dynamics import bias_torque, inertia_entries
+from fmu_plant.parameters import ParameterSpec, positive
+
+# the paper's torque bound rho, section 4
+DEFAULT_TAU_MAX = 4.0
+
+
+def saturate_norm(tau1: float, tau2: float, tau_max: float) -> tuple[float, float, float, bool]:
+    """Scale (tau1, tau2) down to Euclidean norm ``tau_max`` if it is larger, eq. (CT-4).
+
+    Returns (tau1, tau2, raw_norm, saturated).
+    """
+    norm = math.hypot(tau1, tau2)
+    if norm > tau_max:
+        k = tau_max / norm
+        return tau1 * k, tau2 * k, norm, True
+    return tau1, tau2, norm, False
+
+
+def computed_torque(
+    phi2: float, dphi1: float, dphi2: float, v1: float, v2: float, model
+) -> tuple[float, float]:
+    """D(phi) v + H(phi, dphi) dphi + G(dphi), eq. (CT-3)."""
+    d11, d12, d22 = inertia_entries(phi2, model)
+    c1, c2 = bias_torque(phi2, dphi1, dphi2, model)
+    return d11 * v1 + d12 * v2 + c1, d12 * v1 + d22 * v2 + c2
+
+
+class CtCore(ControllerCore):
+    """Computed torque with PD error feedback, saturated on the torque norm, eqs. (CT-1)..(CT-4)."""
+
+    PARAMETER_SPECS: tuple[ParameterSpec, ...] = (
+        positive("kp", 25.0, "1/s2", "Position gain Kp of the error dynamics e_ddot + Kd e_dot + Kp e = 0, eq. (CT-2)", high=1e6),
+        positive("kd", 10.0, "1/s", "Velocity gain Kd of the error dynamics, eq. (CT-2); 2 sqrt(kp) is critical damping", high=1e4),
+        positive("tau_max", DEFAULT_TAU_MAX, "N.m", "Bound on the torque norm ||tau|| (the paper's rho), eq. (CT-4)", high=1e6),
+    )
+    EXTRA_OUTPUTS = (
+        OutputSpec("tau_norm_raw", "N.m", "||tau|| before saturation, eq. (CT-3)"),
+        OutputSpec("saturated", "1", "1 when the norm bound (CT-4) scaled the torque down, else 0"),
+        OutputSpec("v1", "rad/s2", "Commanded acceleration of joint 1, eq. (CT-2)"),
+        OutputSpec("v2", "rad/s2", "Commanded acceleration of joint 2, eq. (CT-2)"),
+    )
+
+    def evaluate(self, t: float, y: Sequence[float], r: Sequence[float]) -> None:
+        phi1, phi2, dphi1, dphi2 = (float(v) for v in y)
+        q1d, q2d, dq1d, dq2d, ddq1d, ddq2d = (float(v) for v in r[:6])
+        kp, kd = self.params["kp"], self.params["kd"]
+        v1 = ddq1d - kd * (dphi1 - dq1d) - kp * (phi1 - q1d)
+        v2 = ddq2d - kd * (dphi2 - dq2d) - kp * (phi2 - q2d)
+        raw1, raw2 = computed_torque(phi2, dphi1, dphi2, v1, v2, self.model)
+        tau1, tau2, norm, sat = saturate_norm(raw1, raw2, self.params["tau_max"])
+        self.outputs = [tau1, tau2, norm, 1.0 if sat else 0.0, v1, v2]

@@ -1,0 +1,141 @@
+"""Closed-loop performance metrics, pure numpy (no FMI, no rerun).
+
+``tracking_metrics`` turns one run -- time, tracking error, commanded torque, optionally the SOTC
+cost integrand -- into a flat dict of JSON-friendly values (floats, ints, None, lists of two
+floats). Names are stable; each is documented in ``tracking_metrics``.
+
+Conventions: ``e = phi - phi_d`` in rad, ``tau`` the torque the controller commands (held over the
+sample in a sampled loop) in N.m, integrals by the trapezoid rule over the samples given, "per
+joint" values are lists [joint 1, joint 2]. NaN never appears: an undefined value is None.
+"""
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+# tolerance of "at the limit": ||tau|| >= limit - LIMIT_TOLERANCE counts (a norm scaled to the
+# limit lands on it up to rounding)
+LIMIT_TOLERANCE = 1e-9
+SETTLE_BAND = 0.01  # rad
+
+
+def _trapezoid(y: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Trapezoid integral along axis 0 (numpy's name changed between versions; do it by hand)."""
+    if len(t) < 2:
+        return np.zeros(y.shape[1:]) if y.ndim > 1 else np.float64(0.0)
+    dt = np.diff(t)
+    mid = 0.5 * (y[1:] + y[:-1])
+    return np.tensordot(dt, mid, axes=(0, 0))
+
+
+def _per_joint(x: np.ndarray) -> list[float]:
+    return [float(v) for v in x]
+
+
+def _max_abs_after(t: np.ndarray, e: np.ndarray, t0: float) -> list[float] | None:
+    mask = t >= t0 - 1e-12
+    if not mask.any():
+        return None
+    return _per_joint(np.max(np.abs(e[mask]), axis=0))
+
+
+def settle_time(t: np.ndarray, err: np.ndarray, band: float = SETTLE_BAND) -> float | None:
+    """First sample time after which |err| < band holds at every later sample; None if the last
+    sample is outside the band (the signal never enters and stays)."""
+    outside = np.flatnonzero(np.abs(err) >= band)
+    if len(outside) == 0:
+        return float(t[0])
+    last = outside[-1]
+    if last == len(t) - 1:
+        return None
+    return float(t[last + 1])
+
+
+def tracking_metrics(
+    t: np.ndarray,
+    e: np.ndarray,
+    tau: np.ndarray,
+    torque_limit: float = 4.0,
+    cost_rate: np.ndarray | None = None,
+    stop_time: float | None = None,
+) -> dict[str, Any]:
+    """Metrics of one closed-loop run.
+
+    Arguments: ``t`` (n,) sample times in s, increasing; ``e`` (n, 2) tracking error phi - phi_d
+    in rad; ``tau`` (n, 2) commanded torque in N.m; ``torque_limit`` the bound on ||tau|| in N.m
+    (the paper's rho = 4); ``cost_rate`` (n,) optional SOTC cost integrand z'Theta z + Omega(mu)
+    per sample (eq. (12)); ``stop_time`` the run's stop time (default t[-1]), used for
+    ``max_abs_error_last_half``.
+
+    Returned keys (per-joint values are [joint 1, joint 2]):
+
+    - ``n_samples``: n.  ``duration``: t[-1] - t[0] in s.
+    - ``mse``: mean of e_i^2 over all n samples, eq. (50) of the paper (rad^2).
+    - ``rmse``: sqrt(mse) (rad).
+    - ``iae``: integral of |e_i| dt, trapezoid (rad.s).
+    - ``max_abs_error``: max |e_i| over all samples (rad).
+    - ``max_abs_error_after_20s``, ``max_abs_error_after_50s``: max |e_i| over samples with
+      t >= 20 s / t >= 50 s (rad); None if no sample is that late.
+    - ``max_abs_error_last_half``: max |e_i| over t >= stop_time / 2 (rad).
+    - ``settle_time_10mrad``: first time after which |e_i| < 0.01 rad at every later sample (s);
+      None if joint i is outside the band at the last sample.
+    - ``max_abs_tau``: max |tau_i| (N.m).  ``max_tau_norm``: max ||tau|| (N.m).
+    - ``samples_at_limit``: number of samples with ||tau|| >= torque_limit - 1e-9.
+    - ``fraction_at_limit``: samples_at_limit / n.
+    - ``samples_over_limit``: number of samples with ||tau|| > torque_limit + 1e-9 (a violation
+      of the bound, as opposed to riding on it).
+    - ``control_energy``: integral of tau' tau dt, trapezoid (N^2.m^2.s).
+    - ``tau_total_variation_rate``: sum_k |tau_i[k+1] - tau_i[k]| / duration, per joint (N.m/s).
+    - ``cost_integral``: integral of cost_rate dt, trapezoid, or None without cost_rate.
+    - ``torque_limit``: the limit used.
+    """
+    t = np.asarray(t, dtype=float).reshape(-1)
+    e = np.asarray(e, dtype=float).reshape(len(t), 2)
+    tau = np.asarray(tau, dtype=float).reshape(len(t), 2)
+    n = len(t)
+    if n == 0:
+        raise ValueError("tracking_metrics needs at least one sample")
+    if n > 1 and np.any(np.diff(t) <= 0.0):
+        raise ValueError("t must be strictly increasing")
+    duration = float(t[-1] - t[0])
+    stop = float(t[-1]) if stop_time is None else float(stop_time)
+
+    mse = np.mean(e**2, axis=0)
+    tau_norm = np.hypot(tau[:, 0], tau[:, 1])
+    tv = np.sum(np.abs(np.diff(tau, axis=0)), axis=0)
+
+    out: dict[str, Any] = {
+        "n_samples": int(n),
+        "duration": duration,
+        "mse": _per_joint(mse),
+        "rmse": _per_joint(np.sqrt(mse)),
+        "iae": _per_joint(_trapezoid(np.abs(e), t)),
+        "max_abs_error": _per_joint(np.max(np.abs(e), axis=0)),
+        "max_abs_error_after_20s": _max_abs_after(t, e, 20.0),
+        "max_abs_error_after_50s": _max_abs_after(t, e, 50.0),
+        "max_abs_error_last_half": _max_abs_after(t, e, stop / 2.0),
+        "settle_time_10mrad": [settle_time(t, e[:, 0]), settle_time(t, e[:, 1])],
+        "max_abs_tau": _per_joint(np.max(np.abs(tau), axis=0)),
+        "max_tau_norm": float(np.max(tau_norm)),
+        "samples_at_limit": int(np.sum(tau_norm >= torque_limit - LIMIT_TOLERANCE)),
+        "fraction_at_limit": float(np.sum(tau_norm >= torque_limit - LIMIT_TOLERANCE) / n),
+        "samples_over_limit": int(np.sum(tau_norm > torque_limit + LIMIT_TOLERANCE)),
+        "control_energy": float(_trapezoid(tau_norm**2, t)),
+        "tau_total_variation_rate": _per_joint(tv / duration) if duration > 0.0 else [0.0, 0.0],
+        "cost_integral": None,
+        "torque_limit": float(torque_limit),
+    }
+    if cost_rate is not None:
+        c = np.asarray(cost_rate, dtype=float).reshape(-1)
+        if len(c) != n:
+            raise ValueError(f"cost_rate has {len(c)} samples, t has {n}")
+        out["cost_integral"] = float(_trapezoid(c, t))
+    # floats must be finite for JSON; a diverged run reports None rather than NaN/inf
+    for key, value in out.items():
+        if isinstance(value, float) and not math.isfinite(value):
+            out[key] = None
+        elif isinstance(value, list):
+            out[key] = [None if isinstance(v, float) and not math.isfinite(v) else v for v in value]
+    return out

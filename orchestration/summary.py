@@ -1,0 +1,81 @@
+"""The run summary: what ``sotc-cosim run --summary`` writes and the metrics table it prints."""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from orchestration.master import RunResult
+from orchestration.metrics import tracking_metrics
+
+PAPER_TORQUE_LIMIT = 4.0  # rho, N.m (section 4)
+
+
+def _column(result: RunResult, instance: str, name: str) -> np.ndarray | None:
+    return result.outputs.get(instance, {}).get(name)
+
+
+def torque_limit(result: RunResult) -> float:
+    params = result.scenario.instances["controller"].parameters if "controller" in result.scenario.instances else {}
+    for key in ("rho", "tau_max"):
+        if key in params:
+            return float(params[key])
+    return PAPER_TORQUE_LIMIT
+
+
+def error_and_torque(result: RunResult) -> tuple[np.ndarray, np.ndarray]:
+    """e = phi - phi_d (n, 2) and the commanded torque (n, 2) of a closed-loop run."""
+    e = np.column_stack([result.outputs["plant"][f"phi{i}"] - result.outputs["reference"][f"phi{i}_d"] for i in (1, 2)])
+    tau = np.column_stack([result.outputs["controller"][f"tau{i}"] for i in (1, 2)])
+    return e, tau
+
+
+def summarize(result: RunResult) -> dict[str, Any]:
+    sc = result.scenario
+    summary: dict[str, Any] = {
+        "scenario": sc.name,
+        "controller": sc.controller_fmu(),
+        "step_size": sc.step_size,
+        "stop_time": sc.stop_time,
+        "steps": max(result.samples - 1, 0),
+        "samples": result.samples,
+        "status": "failed" if result.failed else "ok",
+        "error": result.error,
+        "wall_time_s": result.wall_time_s,
+    }
+    if result.samples == 0 or not {"plant", "reference", "controller"} <= set(result.outputs):
+        return summary
+    e, tau = error_and_torque(result)
+    cost = _column(result, "controller", "cost_rate")
+    metrics = tracking_metrics(result.time, e, tau, torque_limit(result), cost_rate=cost, stop_time=sc.stop_time)
+    metrics["max_norm_tau"] = metrics.pop("max_tau_norm")
+    summary.update(metrics)
+    weights = [_column(result, "controller", f"W{i}") for i in range(1, 11)]
+    if all(w is not None for w in weights):
+        summary["final_weights"] = [float(w[-1]) for w in weights]
+        eig = _column(result, "controller", "cl_stack_min_eig")
+        summary["cl_stack_min_eig"] = None if eig is None else float(eig[-1])
+    return summary
+
+
+def write_summary(summary: dict[str, Any], path: Path) -> None:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(summary, indent=2, allow_nan=False) + "\n")
+
+
+def format_table(summaries: list[dict[str, Any]]) -> str:
+    """A short fixed-width table: one row per run."""
+    head = f"{'scenario':<16} {'controller':<16} {'status':<7} {'MSE 1':>10} {'MSE 2':>10} {'max|e| 2nd half':>18} {'max||tau||':>10} {'wall s':>7}"
+    rows = [head, "-" * len(head)]
+    for s in summaries:
+        mse = s.get("mse") or [math.nan, math.nan]
+        tail = s.get("max_abs_error_last_half") or [math.nan, math.nan]
+        rows.append(
+            f"{s['scenario']:<16} {str(s['controller']):<16} {s['status']:<7} {mse[0]:>10.5f} {mse[1]:>10.5f} "
+            f"{max(tail):>18.2e} {s.get('max_norm_tau', math.nan):>10.4f} {s['wall_time_s']:>7.2f}"
+        )
+    return "\n".join(rows)
