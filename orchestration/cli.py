@@ -46,6 +46,14 @@ def _cmd_run(args: argparse.Namespace) -> int:
     return 1 if any(s["status"] != "ok" for s in summaries) else 0
 
 
+def _cmd_bench(args: argparse.Namespace) -> int:
+    from orchestration.bench import BENCHMARKS
+
+    for name in args.names or list(BENCHMARKS):
+        print(BENCHMARKS[name]())
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="sotc-cosim", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
@@ -63,6 +71,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--summary", type=Path, help="write the run's summary as JSON to this path")
     p.add_argument("--fmu-dir", type=Path, default=DEFAULT_FMU_DIR, help="where FMUs are built and found")
     p.set_defaults(func=_cmd_run)
+
+    p = sub.add_parser("bench", help="measurements behind design choices (prints ratios measured side by side)")
+    p.add_argument("names", nargs="*", metavar="NAME", help="benchmarks to run (default all)")
+    p.set_defaults(func=_cmd_bench)
 
     p = sub.add_parser("scenarios", help="list the scenarios that ship with the package")
     p.set_defaults(func=_cmd_scenarios)

@@ -4,31 +4,14 @@ import math
 import numpy as np
 import pytest
 from fmpy.fmi1 import FMICallException
-from scipy.integrate import solve_ivp
 
-from fmu_plant.dynamics import ArmParameters, forward_dynamics
+from fmu_plant.dynamics import ArmParameters
 from fmu_plant.kinematics import forward_kinematics
 from fmu_plant.parameters import ParameterError
 from fmu_driver import DrivenFmu
+from orchestration.bench import dop853_zoh, excitation_torque as torque_profile
 
 T = 0.01
-
-
-def torque_profile(t: float) -> tuple[float, float]:
-    """A 10 s excitation that swings both joints through large angles and reverses them."""
-    return 3.0 * math.sin(1.1 * t) + 1.0 * math.cos(3.7 * t), 1.5 * math.cos(0.9 * t) - 0.7 * math.sin(5.3 * t)
-
-
-def dop853_zoh(phi0, tau_at, steps, params=ArmParameters()):
-    """The core integrated by DOP853 (rtol 1e-10), restarted each step with the torque held."""
-    x = np.array(phi0, dtype=float)
-    out = [x.copy()]
-    for k in range(steps):
-        t1, t2 = tau_at(k * T)
-        rhs = lambda t, s: [s[2], s[3], *forward_dynamics(s[1], s[2], s[3], t1, t2, params)]
-        x = solve_ivp(rhs, (k * T, (k + 1) * T), x, method="DOP853", rtol=1e-10, atol=1e-12).y[:, -1]
-        out.append(x.copy())
-    return np.array(out)
 
 
 def test_plant_fmu_matches_dop853_over_10_s(fmu_paths, tmp_path):
