@@ -44,7 +44,11 @@ def saturate_norm(tau1: float, tau2: float, tau_max: float) -> tuple[float, floa
     norm = math.hypot(tau1, tau2)
     if norm > tau_max:
         k = tau_max / norm
-        return tau1 * k, tau2 * k, norm, True
+        s1, s2 = tau1 * k, tau2 * k
+        while math.hypot(s1, s2) > tau_max:  # rounding can land one ulp above the bound
+            k = math.nextafter(k, 0.0)
+            s1, s2 = tau1 * k, tau2 * k
+        return s1, s2, norm, True
     return tau1, tau2, norm, False
 
 

@@ -14,6 +14,12 @@ pythonfmu 0.7 facts this module is built around (measured, see docs/interop.md):
   reference, which crashes the host process later (seen as a segfault at interpreter exit). Every
   callback here that may raise therefore goes through ``_guarded``, which takes one extra
   reference to each of the three before the exception leaves Python;
+- each ``fmi2Instantiate`` re-executes the FMU script in its module's namespace and then releases
+  one reference to the module's ``__dict__`` that it never took (it treats the borrowed result of
+  ``PyModule_GetDict`` as owned). A script whose module holds no other reference to its dict
+  (a class without methods) loses the dict at the first instantiation and the host crashes.
+  ``__init_subclass__`` takes one reference each time a model class statement runs: once at
+  import, and once in every re-execution, just before the binary's extra release;
 - the exported binary finds the model class with the regex ``class X(Fmi2Slave):``, so each FMU
   script imports its base class under the name ``Fmi2Slave``.
 """
@@ -21,6 +27,7 @@ from __future__ import annotations
 
 import ctypes
 import math
+import sys
 from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any, Callable, ClassVar, Iterator, Sequence
@@ -83,6 +90,12 @@ class DescribedSlave(Fmi2Slave):
         "canSerializeFMUstate": "true",
         "canBeInstantiatedOnlyOncePerProcess": "false",
     }
+
+    def __init_subclass__(cls, **kwargs: Any):
+        super().__init_subclass__(**kwargs)
+        module = sys.modules.get(cls.__module__)
+        if module is not None:  # balance the binary's release of the script module's dict
+            ctypes.pythonapi.Py_IncRef(ctypes.py_object(module.__dict__))
 
     def __init__(self, **kwargs: Any):
         super().__init__(**kwargs)
