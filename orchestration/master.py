@@ -22,6 +22,7 @@ import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Protocol
 
 import numpy as np
 from fmpy import extract, read_model_description
@@ -56,6 +57,21 @@ class RunResult:
     @property
     def samples(self) -> int:
         return len(self.time)
+
+
+class RunObserver(Protocol):
+    """Receives a run while it happens (e.g. the Rerun recorder), in blocks of samples.
+
+    ``start`` gets each instance's output names; ``block`` gets the sample times and, per
+    instance, an array (m, n_outputs) of the samples since the previous block (views: copy what
+    must outlive the call); ``finish`` gets the complete result, also after a failure.
+    """
+
+    def start(self, scenario: Scenario, columns: dict[str, list[str]]) -> None: ...
+
+    def block(self, time: np.ndarray, rows: dict[str, np.ndarray]) -> None: ...
+
+    def finish(self, result: "RunResult") -> None: ...
 
 
 class _Loaded:
@@ -159,11 +175,17 @@ def _feedthrough_order(loaded: dict[str, _Loaded], links: list[_Link]) -> list[s
     return order
 
 
-def run(scenario: Scenario, fmu_paths: dict[str, Path]) -> RunResult:
+def run(
+    scenario: Scenario,
+    fmu_paths: dict[str, Path],
+    observer: RunObserver | None = None,
+    block_size: int = 1000,
+) -> RunResult:
     """Run ``scenario`` with the FMUs at ``fmu_paths`` (model identifier -> .fmu file).
 
     A failing FMI call ends the run early; the result then has ``failed=True``, the error, the
     FMUs' log messages and every sample recorded up to the failure. Instances are always freed.
+    ``observer`` (optional) is handed the samples every ``block_size`` samples and at the end.
     """
     logs: list[LogRecord] = []
 
@@ -183,6 +205,8 @@ def run(scenario: Scenario, fmu_paths: dict[str, Path]) -> RunResult:
     loaded: dict[str, _Loaded] = {}
     records: dict[str, np.ndarray] = {}
     k = -1
+    recorded = 0  # samples t_0 .. t_{recorded-1} hold every output of every instance
+    flushed = 0
     error: str | None = None
     started = time.perf_counter()
     try:
@@ -201,6 +225,8 @@ def run(scenario: Scenario, fmu_paths: dict[str, Path]) -> RunResult:
             ld.fmu.exitInitializationMode()
             ld.initialized = True
             records[inst.name] = np.empty((n_steps + 1, len(ld.output_names)))
+        if observer is not None:
+            observer.start(scenario, {name: list(ld.output_names) for name, ld in loaded.items()})
         for k in range(n_steps + 1):
             for name in order:
                 ld = loaded[name]
@@ -208,12 +234,15 @@ def run(scenario: Scenario, fmu_paths: dict[str, Path]) -> RunResult:
                 records[name][k] = ld.out_view
                 for link in pushes[name]:
                     link.push()
+            recorded = k + 1
+            if observer is not None and k + 1 - flushed >= block_size:
+                observer.block(times[flushed:k + 1], {n: r[flushed:k + 1] for n, r in records.items()})
+                flushed = k + 1
             if k == n_steps:
                 break
             t = times[k]
             for ld in loaded.values():
                 ld.fmu.doStep(currentCommunicationPoint=t, communicationStepSize=T)
-        k += 1  # samples completed
     except (FMICallException, ScenarioError, OSError) as exc:
         if isinstance(exc, ScenarioError):
             raise  # the scenario itself is wrong: nothing ran
@@ -222,12 +251,17 @@ def run(scenario: Scenario, fmu_paths: dict[str, Path]) -> RunResult:
         wall = time.perf_counter() - started
         _free(loaded)
         shutil.rmtree(workdir, ignore_errors=True)
-    completed = max(k, 0)
+    completed = recorded
     outputs = {
         name: {v: records[name][:completed, i].copy() for i, v in enumerate(loaded[name].output_names)}
         for name in records
     }
-    return RunResult(scenario, times[:completed], outputs, wall, failed=error is not None, error=error, logs=logs)
+    result = RunResult(scenario, times[:completed], outputs, wall, failed=error is not None, error=error, logs=logs)
+    if observer is not None:
+        if completed > flushed:
+            observer.block(times[flushed:completed], {n: r[flushed:completed] for n, r in records.items()})
+        observer.finish(result)
+    return result
 
 
 def _describe_failure(exc: Exception, k: int, times: np.ndarray, logs: list[LogRecord]) -> str:
