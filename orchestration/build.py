@@ -36,6 +36,9 @@ FMU_SOURCES: dict[str, FmuSource] = {
         FmuSource("ArmPlant", "fmu_plant/arm_plant_fmu.py", ("fmu_plant",)),
         FmuSource("ReferenceTrajectory", "fmu_plant/reference_trajectory_fmu.py", ("fmu_plant",)),
         FmuSource("CtController", "fmu_controller/ct_controller_fmu.py", ("fmu_plant", "fmu_controller")),
+        FmuSource("SotcController", "fmu_controller/sotc_controller_fmu.py", ("fmu_plant", "fmu_controller")),
+        FmuSource("OtcController", "fmu_controller/otc_controller_fmu.py", ("fmu_plant", "fmu_controller")),
+        FmuSource("LqrController", "fmu_controller/lqr_controller_fmu.py", ("fmu_plant", "fmu_controller")),
     )
 }
 
