@@ -46,6 +46,28 @@ def _cmd_run(args: argparse.Namespace) -> int:
     return 1 if any(s["status"] != "ok" for s in summaries) else 0
 
 
+def _cmd_reproduce(args: argparse.Namespace) -> int:
+    from orchestration.master import run
+    from orchestration.reproduce import REPRODUCE_SCENARIOS, compact_table, write_table
+    from orchestration.summary import summarize
+
+    scenarios = [load_scenario(name) for name in REPRODUCE_SCENARIOS]
+    if args.stop_time is not None:
+        scenarios = [s.with_stop_time(args.stop_time) for s in scenarios]
+    paths = ensure_built(sorted({i.fmu for s in scenarios for i in s.instances.values()}), args.fmu_dir)
+    summaries = []
+    for scenario in scenarios:
+        result = run(scenario, paths)
+        if result.failed:
+            print(f"{scenario.name}: FAILED: {result.error}", file=sys.stderr)
+        summaries.append(summarize(result))
+    md, cs, text = write_table(summaries, args.out)
+    print(text)
+    print(compact_table(summaries))
+    print(f"wrote {md} and {cs}")
+    return 1 if any(s["status"] != "ok" for s in summaries) else 0
+
+
 def _cmd_bench(args: argparse.Namespace) -> int:
     from orchestration.bench import BENCHMARKS
 
@@ -71,6 +93,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--summary", type=Path, help="write the run's summary as JSON to this path")
     p.add_argument("--fmu-dir", type=Path, default=DEFAULT_FMU_DIR, help="where FMUs are built and found")
     p.set_defaults(func=_cmd_run)
+
+    p = sub.add_parser("reproduce", help="run the paper's section 4 experiment and write Table 1 extended")
+    p.add_argument("--out", type=Path, default=Path("recordings"), help="where table1.md/.csv go (default recordings/)")
+    p.add_argument("--stop-time", type=float, help="override every scenario's stop time, s (default: the paper's 100 s)")
+    p.add_argument("--fmu-dir", type=Path, default=DEFAULT_FMU_DIR, help="where FMUs are built and found")
+    p.set_defaults(func=_cmd_reproduce)
 
     p = sub.add_parser("bench", help="measurements behind design choices (prints ratios measured side by side)")
     p.add_argument("names", nargs="*", metavar="NAME", help="benchmarks to run (default all)")

@@ -1,0 +1,41 @@
+"""`sotc-cosim reproduce`: Table 1 extended, every number from this invocation's runs."""
+import csv
+
+import orchestration.summary as summary_module
+from orchestration.cli import main
+from orchestration.reproduce import COLUMNS, PAPER_TABLE1, REPRODUCE_SCENARIOS
+
+
+def _read(path):
+    with open(path, newline="") as f:
+        rows = list(csv.reader(f))
+    return rows[0], rows[1:]
+
+
+def test_reproduce_writes_the_table_from_its_own_runs(fmu_dir, tmp_path, monkeypatch, capsys):
+    captured = []
+    real = summary_module.summarize
+
+    def spy(result):
+        s = real(result)
+        captured.append(s)
+        return s
+
+    monkeypatch.setattr(summary_module, "summarize", spy)
+    monkeypatch.chdir(tmp_path)
+    code = main(["reproduce", "--stop-time", "3", "--fmu-dir", str(fmu_dir), "--out", str(tmp_path / "out")])
+    printed = capsys.readouterr().out
+    assert code == 0
+    header, rows = _read(tmp_path / "out" / "table1.csv")
+    assert (tmp_path / "out" / "table1.md").read_text().count("\n| ") == len(rows) + 1
+    assert header[:4] == ["source", "scenario", "controller", "status"] and len(header) == 4 + len(COLUMNS)
+    paper_rows = [r for r in rows if r[0] == "paper Table 1"]
+    ours = [r for r in rows if r[0] == "this run"]
+    assert [(r[2], float(r[4]), float(r[5])) for r in paper_rows] == [(k, *v) for k, v in PAPER_TABLE1.items()]
+    assert [r[1] for r in ours] == list(REPRODUCE_SCENARIOS)
+    assert [s["scenario"] for s in captured] == list(REPRODUCE_SCENARIOS)
+    for row, s in zip(ours, captured):
+        assert s["stop_time"] == 3.0 and s["samples"] == 301
+        assert row[4:] == [get(s) for _, _, get in COLUMNS]
+        assert float(row[4]) == float(format(s["mse"][0], ".5f"))
+    assert "paper-otc" in printed and "wrote" in printed
