@@ -29,7 +29,7 @@ import math
 from typing import Sequence
 
 from fmu_controller.base import ControllerCore, OutputSpec
-from fmu_plant.dynamics import bias_torque, inertia_entries
+from fmu_plant.dynamics import inverse_dynamics
 from fmu_plant.parameters import ParameterSpec, positive
 
 # the paper's torque bound rho, section 4
@@ -52,22 +52,13 @@ def saturate_norm(tau1: float, tau2: float, tau_max: float) -> tuple[float, floa
     return tau1, tau2, norm, False
 
 
-def computed_torque(
-    phi2: float, dphi1: float, dphi2: float, v1: float, v2: float, model
-) -> tuple[float, float]:
-    """D(phi) v + H(phi, dphi) dphi + G(dphi), eq. (CT-3)."""
-    d11, d12, d22 = inertia_entries(phi2, model)
-    c1, c2 = bias_torque(phi2, dphi1, dphi2, model)
-    return d11 * v1 + d12 * v2 + c1, d12 * v1 + d22 * v2 + c2
-
-
 class CtCore(ControllerCore):
     """Computed torque with PD error feedback, saturated on the torque norm, eqs. (CT-1)..(CT-4)."""
 
     PARAMETER_SPECS: tuple[ParameterSpec, ...] = (
         positive("kp", 25.0, "1/s2", "Position gain Kp of the error dynamics e_ddot + Kd e_dot + Kp e = 0, eq. (CT-2)", high=1e6),
         positive("kd", 10.0, "1/s", "Velocity gain Kd of the error dynamics, eq. (CT-2); 2 sqrt(kp) is critical damping", high=1e4),
-        positive("tau_max", DEFAULT_TAU_MAX, "N.m", "Bound on the torque norm ||tau|| (the paper's rho), eq. (CT-4)", high=1e6),
+        positive("tau_max", DEFAULT_TAU_MAX, "N.m", "Bound on the torque norm ||tau|| (the paper's rho), eq. (CT-4)"),
     )
     EXTRA_OUTPUTS = (
         OutputSpec("tau_norm_raw", "N.m", "||tau|| before saturation, eq. (CT-3)"),
@@ -82,6 +73,6 @@ class CtCore(ControllerCore):
         kp, kd = self.params["kp"], self.params["kd"]
         v1 = ddq1d - kd * (dphi1 - dq1d) - kp * (phi1 - q1d)
         v2 = ddq2d - kd * (dphi2 - dq2d) - kp * (phi2 - q2d)
-        raw1, raw2 = computed_torque(phi2, dphi1, dphi2, v1, v2, self.model)
+        raw1, raw2 = inverse_dynamics(phi2, dphi1, dphi2, v1, v2, self.model)  # eq. (CT-3)
         tau1, tau2, norm, sat = saturate_norm(raw1, raw2, self.params["tau_max"])
         self.outputs = [tau1, tau2, norm, 1.0 if sat else 0.0, v1, v2]

@@ -30,7 +30,8 @@ import numpy as np
 from scipy.linalg import solve_continuous_are
 
 from fmu_controller.base import ControllerCore, OutputSpec
-from fmu_controller.computed_torque import DEFAULT_TAU_MAX, computed_torque, saturate_norm
+from fmu_controller.computed_torque import DEFAULT_TAU_MAX, saturate_norm
+from fmu_plant.dynamics import inverse_dynamics
 from fmu_plant.parameters import ParameterSpec, positive
 
 
@@ -58,7 +59,7 @@ class LqrCore(ControllerCore):
     PARAMETER_SPECS: tuple[ParameterSpec, ...] = (
         positive("q", 1.0, "1", "State weight: Theta = q I4 on x = [e, e_dot], eq. (LQR-3); 1 is the SOTC's Theta = I4", high=1e8),
         positive("r", 1.0, "1", "Input weight: R = r I2 on the commanded acceleration v, eq. (LQR-3)", high=1e8),
-        positive("tau_max", DEFAULT_TAU_MAX, "N.m", "Bound on the torque norm ||tau|| (the paper's rho), eq. (CT-4)", high=1e6),
+        positive("tau_max", DEFAULT_TAU_MAX, "N.m", "Bound on the torque norm ||tau|| (the paper's rho), eq. (CT-4)"),
     )
     EXTRA_OUTPUTS = (
         OutputSpec("tau_norm_raw", "N.m", "||tau|| before saturation, eq. (LQR-1)"),
@@ -76,6 +77,6 @@ class LqrCore(ControllerCore):
         q1d, q2d, dq1d, dq2d, ddq1d, ddq2d = (float(v) for v in r[:6])
         x = np.array([phi1 - q1d, phi2 - q2d, dphi1 - dq1d, dphi2 - dq2d])
         v1, v2 = (-self.gain @ x).tolist()
-        raw1, raw2 = computed_torque(phi2, dphi1, dphi2, ddq1d + v1, ddq2d + v2, self.model)
+        raw1, raw2 = inverse_dynamics(phi2, dphi1, dphi2, ddq1d + v1, ddq2d + v2, self.model)
         tau1, tau2, norm, sat = saturate_norm(raw1, raw2, self.params["tau_max"])
         self.outputs = [tau1, tau2, norm, 1.0 if sat else 0.0, v1, v2]

@@ -47,9 +47,13 @@ its 0.5) is added to both torques for t < ``probe_duration``:
 
     tau = tau_a + u_hat + n(t)                                                        (OTC-10)
 
-Weights start at zero. ``advance`` integrates (OTC-8) exactly over the sample with the regressor
-held (the residual decays as exp(-alpha_c w'w/(w'w+1)^2 t)), and (OTC-9) by exponential Euler
-towards the updated critic.
+Initial weights (``init_weights``): 1 (default) sets Wc = Wa to the exact value function z'Pz of
+the linear problem (OTC-5)-(OTC-6) with D frozen at phi2 = ``init_phi2`` (the algebraic Riccati
+equation, ``frozen_riccati``): an admissible initial policy, as Vamvoudakis & Lewis 2010 require;
+0 starts from zero weights and relies on the stabilising term alone (measured to track poorly in
+this loop, docs/baselines.md). ``advance`` integrates (OTC-8) exactly over the sample with the
+regressor held (the residual decays as exp(-alpha_c w'w/(w'w+1)^2 t)), and (OTC-9) by exponential
+Euler towards the updated critic.
 """
 from __future__ import annotations
 
@@ -57,11 +61,12 @@ import math
 from typing import Any, Sequence
 
 import numpy as np
+from scipy.linalg import solve_continuous_are
 
 from fmu_controller.base import ControllerCore, OutputSpec
 from fmu_controller.computed_torque import DEFAULT_TAU_MAX
 from fmu_plant.dynamics import bias_torque, inertia_matrix
-from fmu_plant.parameters import ParameterError, ParameterSpec, nonnegative, positive
+from fmu_plant.parameters import ParameterError, ParameterSpec, any_real, nonnegative, positive
 
 N_WEIGHTS = 10
 # index pairs (i, j), i <= j, of the quadratic basis, in the SOTC's order (section 4):
@@ -108,13 +113,15 @@ class OtcCore(ControllerCore):
         positive("lambda1", 200.0, "1/s", "Lambda_11: virtual-control (filtered error) gain of joint 1, eqs. (OTC-2)-(OTC-4); paper section 4", high=1e5),
         positive("lambda2", 50.0, "1/s", "Lambda_22: virtual-control (filtered error) gain of joint 2, eqs. (OTC-2)-(OTC-4); paper section 4", high=1e5),
         positive("q", 1.0, "1", "State weight: Q = q I4 on z, eq. (OTC-6); paper Q = I4", high=1e8),
-        positive("r1", 20.0, "1/(N.m)2", "Input weight R_11 on u1, eq. (OTC-6); paper R = diag[20, 100]", high=1e8),
-        positive("r2", 100.0, "1/(N.m)2", "Input weight R_22 on u2, eq. (OTC-6); paper R = diag[20, 100]", high=1e8),
-        nonnegative("alpha_c", 50.0, "1/s", "Critic learning rate, eq. (OTC-8) (assumed; the SOTC's alpha_1)", high=1e5),
+        positive("r1", 20.0, "1", "Input weight R_11 on u1, eq. (OTC-6); paper R = diag[20, 100]", high=1e8),
+        positive("r2", 100.0, "1", "Input weight R_22 on u2, eq. (OTC-6); paper R = diag[20, 100]", high=1e8),
+        nonnegative("alpha_c", 0.5, "1/s", "Critic learning rate, eq. (OTC-8) (assumed; larger values drift, docs/baselines.md)", high=1e5),
         nonnegative("alpha_a", 5.0, "1/s", "Actor learning rate, eq. (OTC-9) (assumed)", high=1e5),
         nonnegative("alpha_s", 0.01, "1/s", "Stabilising-term gain, eq. (OTC-9) (assumed; the SOTC's alpha_2)", high=1e5),
         nonnegative("probe_amplitude", 0.5, "N.m", "Factor of the probing signal PE(t) added to the torques, eq. (OTC-10) (assumed; the SOTC's 0.5)", high=1e3),
         nonnegative("probe_duration", 0.4, "s", "Probing is applied for t < probe_duration, eq. (OTC-10) (assumed; the SOTC's 0.4 s)", high=1e6),
+        ParameterSpec("init_weights", 1.0, "1", "Initial weights: 0 = zeros (rely on the stabilising term), 1 = Riccati solution of (OTC-5)-(OTC-6) frozen at phi2 = init_phi2 (an admissible initial policy)", low=0.0, high=1.0),
+        any_real("init_phi2", -0.5, "rad", "Elbow angle at which D(phi) is frozen for init_weights = 1 (the paper's phi2(0))"),
         positive("tau_limit", DEFAULT_TAU_MAX, "N.m", "Torque-norm bound used only for the over_limit diagnostic (never applied)", high=1e6),
     )
     EXTRA_OUTPUTS = (
@@ -138,9 +145,26 @@ class OtcCore(ControllerCore):
         pr = self.params
         self.lam = np.array([pr["lambda1"], pr["lambda2"]])
         self.r_diag = np.array([pr["r1"], pr["r2"]])
-        self.wc = np.zeros(N_WEIGHTS)
-        self.wa = np.zeros(N_WEIGHTS)
+        mode = pr["init_weights"]
+        if mode not in (0.0, 1.0):
+            raise ParameterError("init_weights", f"{mode:g} is not 0 (zeros) or 1 (Riccati)")
+        if mode == 1.0:
+            self.wc = weights_from_quadratic(self.frozen_riccati(pr["init_phi2"]))
+        else:
+            self.wc = np.zeros(N_WEIGHTS)
+        self.wa = self.wc.copy()
         self._last: dict[str, Any] | None = None  # regressors of the last evaluate, for advance
+
+    def frozen_riccati(self, phi2: float) -> np.ndarray:
+        """P of the algebraic Riccati equation of (OTC-5)-(OTC-6) with D frozen at ``phi2``:
+        the exact value function z'Pz of the linear problem, a quadratic form the basis of
+        (OTC-7) represents exactly."""
+        f = np.zeros((4, 4))
+        f[:2, :2] = -np.diag(self.lam)
+        f[:2, 2:] = np.eye(2)
+        g = np.zeros((4, 2))
+        g[2:, :] = np.linalg.inv(inertia_matrix(phi2, self.model))
+        return solve_continuous_are(f, g, self.params["q"] * np.eye(4), np.diag(self.r_diag))
 
     # --- control law --------------------------------------------------------------------------
 

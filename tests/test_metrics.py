@@ -1,0 +1,130 @@
+"""Hand-computable cases for orchestration.metrics.tracking_metrics."""
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from orchestration.metrics import settle_time, tracking_metrics
+
+T = 0.01
+
+
+def _grid(stop: float) -> np.ndarray:
+    return np.arange(int(round(stop / T)) + 1) * T  # 0, 0.01, ..., stop
+
+
+def test_constant_error_gives_known_mse_rmse_iae():
+    t = _grid(10.0)
+    e = np.tile([0.1, -0.2], (len(t), 1))
+    tau = np.zeros((len(t), 2))
+    m = tracking_metrics(t, e, tau)
+    assert m["n_samples"] == 1001 and m["duration"] == pytest.approx(10.0)
+    assert m["mse"] == pytest.approx([0.01, 0.04])
+    assert m["rmse"] == pytest.approx([0.1, 0.2])
+    assert m["iae"] == pytest.approx([1.0, 2.0])
+    assert m["max_abs_error"] == pytest.approx([0.1, 0.2])
+    assert m["max_abs_error_after_20s"] is None and m["max_abs_error_after_50s"] is None
+    assert m["max_abs_error_last_half"] == pytest.approx([0.1, 0.2])
+    assert m["settle_time_10mrad"] == [None, None]  # never inside the band
+    assert m["control_energy"] == 0.0 and m["tau_total_variation_rate"] == [0.0, 0.0]
+    assert m["cost_integral"] is None
+
+
+def test_mse_counts_every_sample_from_t0():
+    """Eq. (50): mean over all n samples, the initial error included."""
+    t = _grid(1.0)  # 101 samples
+    e = np.zeros((len(t), 2))
+    e[0] = [1.0, 2.0]
+    m = tracking_metrics(t, e, np.zeros_like(e))
+    assert m["mse"] == pytest.approx([1.0 / 101, 4.0 / 101])
+    # trapezoid: the first interval carries half of |e(0)| * T
+    assert m["iae"] == pytest.approx([0.5 * T, 1.0 * T])
+
+
+def test_step_torque_gives_known_total_variation_and_energy():
+    t = _grid(10.0)
+    tau = np.zeros((len(t), 2))
+    tau[t >= 5.0 - 1e-9, 0] = 1.0  # one step of 1 N.m at t = 5 s
+    tau[:, 1] = 2.0  # constant
+    m = tracking_metrics(t, np.zeros_like(tau), tau, torque_limit=4.0)
+    assert m["tau_total_variation_rate"] == pytest.approx([0.1, 0.0])  # 1 N.m over 10 s
+    assert m["max_abs_tau"] == pytest.approx([1.0, 2.0])
+    assert m["max_tau_norm"] == pytest.approx(math.sqrt(5.0))
+    # int tau'tau: 4 over 10 s, plus 1 over the 5 s after the step (the step interval counts half)
+    assert m["control_energy"] == pytest.approx(40.0 + 5.0 + 0.5 * T)
+    assert m["samples_at_limit"] == 0 and m["samples_over_limit"] == 0
+
+
+def test_settle_time_enters_and_stays():
+    t = _grid(10.0)
+    e = np.zeros((len(t), 2))
+    e[:, 0] = 0.1 * np.exp(-t)  # |e| < 0.01 from t > ln 10 = 2.3026 s
+    e[:, 1] = 0.005
+    e[700, 1] = 0.02  # joint 2 leaves the band once, at t = 7 s
+    m = tracking_metrics(t, e, np.zeros_like(e))
+    assert m["settle_time_10mrad"][0] == pytest.approx(2.31)
+    assert m["settle_time_10mrad"][1] == pytest.approx(7.01)
+    assert settle_time(t, np.full(len(t), 0.001)) == 0.0  # always inside
+    last_out = np.zeros(len(t))
+    last_out[-1] = 1.0
+    assert settle_time(t, last_out) is None  # outside at the end: never settled
+
+
+def test_late_window_maxima():
+    t = _grid(100.0)
+    e = np.zeros((len(t), 2))
+    e[t < 20.0 - 1e-9] = [1.0, -1.0]
+    e[(t >= 20.0 - 1e-9) & (t < 50.0 - 1e-9)] = [0.1, -0.2]
+    e[t >= 50.0 - 1e-9] = [0.003, 0.004]
+    e[-1] = [0.003, -0.005]
+    m = tracking_metrics(t, e, np.zeros_like(e), stop_time=100.0)
+    assert m["max_abs_error"] == pytest.approx([1.0, 1.0])
+    assert m["max_abs_error_after_20s"] == pytest.approx([0.1, 0.2])
+    assert m["max_abs_error_after_50s"] == pytest.approx([0.003, 0.005])
+    assert m["max_abs_error_last_half"] == pytest.approx([0.003, 0.005])
+
+
+def test_samples_at_and_over_the_limit():
+    t = _grid(0.04)  # 5 samples
+    angle = 0.3
+    tau = np.array([
+        [3.0, 0.0],                                   # inside
+        [4.0 * math.cos(angle), 4.0 * math.sin(angle)],  # on the limit up to rounding
+        [4.0, 0.0],                                   # exactly on it
+        [4.5, 0.0],                                   # over it
+        [0.0, -3.999],                                # inside
+    ])
+    m = tracking_metrics(t, np.zeros_like(tau), tau, torque_limit=4.0)
+    assert m["samples_at_limit"] == 3
+    assert m["samples_over_limit"] == 1
+    assert m["fraction_at_limit"] == pytest.approx(3 / 5)
+    assert m["torque_limit"] == 4.0
+
+
+def test_cost_integral_and_json():
+    t = _grid(10.0)
+    e = np.zeros((len(t), 2))
+    m = tracking_metrics(t, e, e, cost_rate=np.full(len(t), 2.0))
+    assert m["cost_integral"] == pytest.approx(20.0)
+    text = json.dumps(m, allow_nan=False)
+    assert json.loads(text)["cost_integral"] == pytest.approx(20.0)
+    with pytest.raises(ValueError):
+        tracking_metrics(t, e, e, cost_rate=np.ones(3))
+
+
+def test_bad_time_axis_is_refused():
+    with pytest.raises(ValueError):
+        tracking_metrics(np.array([0.0, 0.0, 0.01]), np.zeros((3, 2)), np.zeros((3, 2)))
+    with pytest.raises(ValueError):
+        tracking_metrics(np.array([]), np.zeros((0, 2)), np.zeros((0, 2)))
+
+
+def test_non_finite_values_become_none():
+    t = _grid(0.02)
+    e = np.array([[0.0, 0.0], [np.inf, 0.0], [0.0, 0.0]])
+    m = tracking_metrics(t, e, np.zeros_like(e))
+    assert m["mse"][0] is None and m["mse"][1] == 0.0
+    json.dumps(m, allow_nan=False)
