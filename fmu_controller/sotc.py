@@ -2,20 +2,22 @@
 
 Reference: N. D. Dien, N. T. Luy, L. K. Lai, T. T. Hai, "Optimal tracking control for robot
 manipulators with input constraint based reinforcement learning", J. Computer Science and
-Cybernetics, 2023 (``shared/reference/sotc-paper.md``). Equation numbers are the paper's; where the
-paper is ambiguous the chosen reading, the alternatives and their measured effect are in
-``docs/paper-notes.md`` (each alternative stays selectable through a ``*_form`` parameter).
+Cybernetics, 2023 (``shared/reference/sotc-paper.md``). Equation numbers are the paper's. Where the
+paper is ambiguous, the chosen reading is the default and each alternative stays selectable
+through an integer ``*_form`` / ``cl_*`` / ``weight_integrator`` parameter; the reasons and the
+measured effect of each are in ``docs/paper-notes.md``.
 
-Structure of one sample (``evaluate`` at t_k, then ``advance(t_k, T)``):
+One sample (``evaluate`` at t_k, then ``advance(t_k, T)``):
 
-1. error z = [z_phi, z_v] of eqs. (6)/(7): z_phi = phi - phi_d; z_v = dphi - chi_vd with
-   chi_vd = chi_vd* + chi_vd^a (chi_vd* depends on z_v itself, solved by Newton, see below);
+1. error z = [z_phi, z_v], eqs. (6)/(7): z_phi = phi - phi_d and z_v = dphi - chi_vd with
+   chi_vd = chi_vd* + chi_vd^a. chi_vd* of (28) depends on z_v, so z_v is solved for (Newton);
 2. critic J_hat = W^T zeta(z), eq. (27), and the saturated law mu_hat = [chi_vd*, tau*], eq. (28);
-3. the modelled error rate zdot of eq. (6)/(7), eta = grad(zeta) zdot, the Bellman residual e1,
-   eq. (29), and the weight rate of the tuning law (30) or (31) with concurrent learning;
-4. feedforward inputs (4) with the bound (5); tau = tau* + tau^a (+ PE while probing), limited to
-   ||tau|| <= rho;
-5. ``advance``: one explicit Euler step of the tuning law, W <- W + T Wdot, and the CL stack update.
+3. the modelled error rate zdot of (6)/(7), eta = grad(zeta) zdot, the Bellman residual e1 of (29)
+   and the weight rate of the tuning law (30) or (31), with the concurrent-learning sum;
+4. feedforward inputs (4) with the bound (5); tau = tau* + tau^a + PE (while probing), then the
+   actuator limit ||tau|| <= rho;
+5. ``advance``: one linearly implicit Euler step of (30)/(31) over [t_k, t_k + T) and the CL
+   stack update (``sotc_stack``).
 """
 from __future__ import annotations
 
@@ -34,19 +36,23 @@ from fmu_controller.sotc_math import (
     value_gradient,
     value_hessian,
 )
+from fmu_controller.sotc_stack import REPLAYS as CL_REPLAYS
+from fmu_controller.sotc_stack import SELECTIONS as CL_SELECTIONS
+from fmu_controller.sotc_stack import CLStack
 from fmu_plant.dynamics import ArmParameters, bias_torque, forward_dynamics, inertia_entries
 from fmu_plant.parameters import ParameterError, ParameterSpec, any_real, nonnegative, positive
 
 TANH1 = math.tanh(1.0)
 
-# Reading switches (integer-coded parameters). Index 0 is always the chosen reading.
-CHI_A_FORMS = ("backstepping", "literal")  # chi_vd^a = dphi_d - L1 z_phi  |  dphi_d + L1 z_v (as printed)
-FV_ERROR_FORMS = ("zero", "drift")  # F_v(z_phi, z_v) in (4): 0  |  -D(z_phi)^-1 (H(z) z_v + G(z_v))
-LIMIT_FORMS = ("norm", "joint")  # bound (5) and the actuator limit act on ||.||_2 | on each joint
-SATURATION_FORMS = ("sigma", "rho")  # level s of (13)/(28): sigma (Remark 2) | rho (as printed)
-CHI_DOT_FORMS = ("chain", "feedforward")  # dchi_vd/dt: chain rule incl. chi_vd*  |  d(chi_vd^a)/dt only
-CL_SELECTIONS = ("fill", "maxeig", "fifo")  # CL stack: first P records | swap to raise lambda_min | newest P
+# Reading switches (integer-coded parameters); index 0 is the chosen reading, see docs/paper-notes.md.
+CHI_A_FORMS = ("backstepping", "literal")  # chi_vd^a = dphi_d - L1 z_phi | dphi_d + L1 z_v (as printed)
+FV_ERROR_FORMS = ("drift", "zero")  # F_v(z_phi, z_v) = -D(z_phi)^-1 (H(z) z_v + G(z_v)) (as printed) | 0
+BOUND_FORMS = ("accel", "norm", "joint")  # bound (5): D^-1-metric projection | radial | per joint
+ACTUATOR_FORMS = ("norm", "joint")  # limit rho: on ||tau||_2 (as printed) | on each |tau_i|
+SATURATION_FORMS = ("sigma", "rho")  # level of (13)/(28): sigma (Remark 2) | rho (as printed)
+CHI_DOT_FORMS = ("chain", "feedforward", "difference")  # dchi_vd/dt: chain rule | d(chi_vd^a)/dt | backward diff.
 PE_FORMS = ("torque", "critic")  # PE on the applied torque only | also inside the critic's mu_hat
+WEIGHT_INTEGRATORS = ("implicit", "euler")  # (30)/(31) over a step: linearly implicit | explicit Euler
 
 
 def _switch(name: str, choices: tuple[str, ...], description: str) -> ParameterSpec:
@@ -54,119 +60,189 @@ def _switch(name: str, choices: tuple[str, ...], description: str) -> ParameterS
     return ParameterSpec(name, 0.0, "1", f"{description} ({options})", low=0.0, high=float(len(choices) - 1))
 
 
+_L1 = "Lambda_1 = diag(lambda1_1, lambda1_2) of the feedforward (4); paper: 1"
+_L2 = "Lambda_2 = diag(lambda2_1, lambda2_2) of the feedforward (4); paper: 1"
+_THETA = "Theta = diag(theta_1..theta_4) of the cost (12), weight of {}; paper: 1"
+_R = "R = diag(r_1..r_4) of the input cost (13), weight of {}; paper: R = 1"
+
 SOTC_PARAMETER_SPECS: tuple[ParameterSpec, ...] = (
-    positive("lambda1_1", 1.0, "1/s", "Lambda_1 = diag(lambda1_1, lambda1_2) of the feedforward (4), section 4"),
-    positive("lambda1_2", 1.0, "1/s", "Lambda_1 = diag(lambda1_1, lambda1_2) of the feedforward (4), section 4"),
-    positive("lambda2_1", 1.0, "1/s", "Lambda_2 = diag(lambda2_1, lambda2_2) of the feedforward (4), section 4"),
-    positive("lambda2_2", 1.0, "1/s", "Lambda_2 = diag(lambda2_1, lambda2_2) of the feedforward (4), section 4"),
-    positive("theta_1", 1.0, "1", "Theta = diag(theta_1..theta_4) of the cost (12) (z_phi1 weight)"),
-    positive("theta_2", 1.0, "1", "Theta = diag(theta_1..theta_4) of the cost (12) (z_phi2 weight)"),
-    positive("theta_3", 1.0, "1", "Theta = diag(theta_1..theta_4) of the cost (12) (z_v1 weight)"),
-    positive("theta_4", 1.0, "1", "Theta = diag(theta_1..theta_4) of the cost (12) (z_v2 weight)"),
-    positive("r_1", 1.0, "1", "R = diag(r_1..r_4) of the input cost (13) (chi_vd*1 weight); paper: R = 1"),
-    positive("r_2", 1.0, "1", "R = diag(r_1..r_4) of the input cost (13) (chi_vd*2 weight); paper: R = 1"),
-    positive("r_3", 1.0, "1", "R = diag(r_1..r_4) of the input cost (13) (tau*1 weight); paper: R = 1"),
-    positive("r_4", 1.0, "1", "R = diag(r_1..r_4) of the input cost (13) (tau*2 weight); paper: R = 1"),
-    positive("alpha1", 50.0, "1/s", "Critic learning rate alpha_1 of the tuning laws (30)/(31)", high=1e6),
-    positive("alpha2", 0.01, "1/s", "Stabilising gain alpha_2 of the tuning law (31)", high=1e6),
-    positive("sigma", 0.6, "N.m", "Saturation level sigma of the optimal input, 0 < sigma < rho (Remark 2, (5))"),
-    positive("rho", 4.0, "N.m", "Torque limit rho: ||tau|| <= rho, eqs. (1), (5)"),
-    ParameterSpec("P", 20.0, "1", "Concurrent-learning stack size P (integer, P >= 10 = number of weights)",
+    positive("lambda1_1", 1.0, "1/s", _L1, high=1e6),
+    positive("lambda1_2", 1.0, "1/s", _L1, high=1e6),
+    positive("lambda2_1", 1.0, "1/s", _L2, high=1e6),
+    positive("lambda2_2", 1.0, "1/s", _L2, high=1e6),
+    positive("theta_1", 1.0, "1", _THETA.format("z_phi1"), high=1e6),
+    positive("theta_2", 1.0, "1", _THETA.format("z_phi2"), high=1e6),
+    positive("theta_3", 1.0, "1", _THETA.format("z_v1"), high=1e6),
+    positive("theta_4", 1.0, "1", _THETA.format("z_v2"), high=1e6),
+    positive("r_1", 1.0, "1", _R.format("chi_vd*1"), high=1e6),
+    positive("r_2", 1.0, "1", _R.format("chi_vd*2"), high=1e6),
+    positive("r_3", 1.0, "1", _R.format("tau*1"), high=1e6),
+    positive("r_4", 1.0, "1", _R.format("tau*2"), high=1e6),
+    positive("alpha1", 50.0, "1/s", "Critic learning rate alpha_1 of the tuning laws (30)/(31); paper: 50", high=1e6),
+    positive("alpha2", 0.01, "1/s", "Stabilising gain alpha_2 of the tuning law (31); paper: 0.01", high=1e6),
+    positive("sigma", 0.6, "N.m",
+             "Saturation level sigma of the optimal input, 0 < sigma < rho (Remark 2, eq. (5)); paper: 0.6", high=1e3),
+    positive("rho", 4.0, "N.m", "Torque limit rho, ||tau|| <= rho (eqs. (1), (5)); paper: 4", high=1e3),
+    ParameterSpec("P", 20.0, "1",
+                  "Size P of the concurrent-learning stack, an integer >= 10 = number of weights; paper: 20",
                   low=10.0, high=1000.0),
     *(any_real(f"W0_{k}", 0.0, "1", f"Initial critic weight W_{k}(0) of eq. (27); paper: 0")
       for k in range(1, N_BASIS + 1)),
-    nonnegative("pe_amplitude", 0.5, "N.m", "Gain of the section-4 probing signal (the paper's 0.5)", high=1e3),
-    nonnegative("pe_duration", 0.4, "s", "Probing (PE) is added while t < pe_duration; paper: 0.4 s with CL"),
-    ParameterSpec("cl_enabled", 1.0, "1", "Concurrent learning (experience replay) of (30)/(31): 1 = on, 0 = off",
+    nonnegative("pe_amplitude", 0.5, "N.m", "Gain of the section-4 probing signal PE (the paper's factor 0.5)",
+                high=1e3),
+    nonnegative("pe_duration", 0.4, "s",
+                "PE is added to both joint torques while t < pe_duration; paper: 0.4 s (80 s without CL)"),
+    ParameterSpec("cl_enabled", 1.0, "1", "Concurrent learning (experience replay) in (30)/(31): 1 = on, 0 = off",
                   low=0.0, high=1.0),
     positive("cl_record_interval", 0.02, "s",
-             "Time between CL stack records (0.02 s fills P = 20 over the 0.4 s of PE)", high=1e3),
+             "Time between CL stack records (0.02 s: P = 20 records during the 0.4 s of PE)", high=1e3),
     _switch("cl_selection", CL_SELECTIONS, "Which samples the CL stack keeps"),
+    _switch("cl_replay", CL_REPLAYS, "What the CL sum of (30)/(31) replays"),
+    _switch("weight_integrator", WEIGHT_INTEGRATORS, "How (30)/(31) is integrated over a step"),
     _switch("chi_a_form", CHI_A_FORMS, "Reading of chi_vd^a in (4)"),
     _switch("fv_error_form", FV_ERROR_FORMS, "Reading of F_v(z_phi, z_v) in (4)/(6)"),
-    _switch("limit_form", LIMIT_FORMS, "How the bound (5) and the torque limit rho act"),
-    _switch("saturation_form", SATURATION_FORMS, "Saturation level of (13)/(28)"),
+    _switch("bound_form", BOUND_FORMS, "How the bound (5) on tau^a is enforced (chi_vd^a: radial unless per joint)"),
+    _switch("actuator_form", ACTUATOR_FORMS, "How the torque limit rho on the output is enforced"),
+    _switch("saturation_form", SATURATION_FORMS, "Saturation level of (13) and (28)"),
     _switch("chi_dot_form", CHI_DOT_FORMS, "How dchi_vd/dt in tau^a of (4) is obtained"),
     _switch("pe_form", PE_FORMS, "Where the probing signal enters"),
 )
 
-_SWITCHES = {
+_SWITCHES: dict[str, tuple[str, ...]] = {
     "cl_enabled": ("off", "on"),
     "cl_selection": CL_SELECTIONS,
+    "cl_replay": CL_REPLAYS,
+    "weight_integrator": WEIGHT_INTEGRATORS,
     "chi_a_form": CHI_A_FORMS,
     "fv_error_form": FV_ERROR_FORMS,
-    "limit_form": LIMIT_FORMS,
+    "bound_form": BOUND_FORMS,
+    "actuator_form": ACTUATOR_FORMS,
     "saturation_form": SATURATION_FORMS,
     "chi_dot_form": CHI_DOT_FORMS,
     "pe_form": PE_FORMS,
 }
 
-# The three settings of section 4 (parameters that differ from the defaults = the `paper` setting).
+# The section-4 settings as parameter overrides of the defaults (the defaults are the `paper` setting).
 SCENARIO_SETTINGS: dict[str, dict[str, float]] = {
-    # CL on, PE for the first 0.4 s, P = 20 (Figure 2, Table 1)
-    "paper": {},
-    # PE only, on for 0 <= t <= 80 s, no CL (Figure 1)
-    "paper-pe-only": {"cl_enabled": 0.0, "pe_duration": 80.0},
-    # CL on with 20 s of PE: a richer stack, to compare the learned W with an LQR value
-    "paper-long-pe": {"pe_duration": 20.0},
+    "paper": {},  # CL on (P = 20), PE during the first 0.4 s: Figure 2, Table 1
+    "paper-pe-only": {"cl_enabled": 0.0, "pe_duration": 80.0},  # PE for 0-80 s, no CL: Figure 1
+    "paper-long-pe": {"pe_duration": 20.0},  # CL on, 20 s of PE: learned W vs an LQR value
 }
 
-_EXTRA = [
-    OutputSpec("tau_star1", "N.m", "Saturated optimal torque tau*_1 of (28) (joint 1)"),
-    OutputSpec("tau_star2", "N.m", "Saturated optimal torque tau*_2 of (28) (joint 2)"),
+_EXTRA: tuple[OutputSpec, ...] = (
+    OutputSpec("tau_star1", "N.m", "Saturated optimal torque tau*_1, eq. (28)"),
+    OutputSpec("tau_star2", "N.m", "Saturated optimal torque tau*_2, eq. (28)"),
     OutputSpec("tau_a1", "N.m", "Feedforward torque tau^a_1 of (4) after the bound (5)"),
     OutputSpec("tau_a2", "N.m", "Feedforward torque tau^a_2 of (4) after the bound (5)"),
-    OutputSpec("chi_vd_star1", "rad/s", "Saturated optimal virtual velocity chi_vd*_1 of (28)"),
-    OutputSpec("chi_vd_star2", "rad/s", "Saturated optimal virtual velocity chi_vd*_2 of (28)"),
+    OutputSpec("chi_vd_star1", "rad/s", "Saturated optimal virtual velocity chi_vd*_1, eq. (28)"),
+    OutputSpec("chi_vd_star2", "rad/s", "Saturated optimal virtual velocity chi_vd*_2, eq. (28)"),
     OutputSpec("chi_vd_a1", "rad/s", "Feedforward virtual velocity chi_vd^a_1 of (4) after the bound (5)"),
     OutputSpec("chi_vd_a2", "rad/s", "Feedforward virtual velocity chi_vd^a_2 of (4) after the bound (5)"),
-    OutputSpec("z1", "rad", "Error z_phi1 = phi1 - phi1_d of (6)"),
-    OutputSpec("z2", "rad", "Error z_phi2 = phi2 - phi2_d of (6)"),
-    OutputSpec("z3", "rad/s", "Error z_v1 = dphi1 - chi_vd1 of (6)"),
-    OutputSpec("z4", "rad/s", "Error z_v2 = dphi2 - chi_vd2 of (6)"),
-    *(OutputSpec(f"W{k}", "1", f"Critic weight W_{k} of (27) used at this sample") for k in range(1, N_BASIS + 1)),
+    OutputSpec("z1", "rad", "Error z_phi1 = phi1 - phi1_d, eq. (6)"),
+    OutputSpec("z2", "rad", "Error z_phi2 = phi2 - phi2_d, eq. (6)"),
+    OutputSpec("z3", "rad/s", "Error z_v1 = dphi1 - chi_vd1, eq. (6)"),
+    OutputSpec("z4", "rad/s", "Error z_v2 = dphi2 - chi_vd2, eq. (6)"),
+    *(OutputSpec(f"W{k}", "1", f"Critic weight W_{k} of eq. (27) used at this sample") for k in range(1, N_BASIS + 1)),
     OutputSpec("J_hat", "1", "Critic value J_hat(z) = W^T zeta(z), eq. (27)"),
-    OutputSpec("e1", "1", "Bellman residual e1 = W^T eta + z^T Theta z + Omega(mu_hat), eq. (29)"),
+    OutputSpec("e1", "1", "Bellman (HJB) residual e1 = W^T eta + z^T Theta z + Omega(mu_hat), eq. (29)"),
     OutputSpec("Omega", "1", "Saturated input cost Omega(mu_hat), eq. (17)"),
+    OutputSpec("cost_rate", "1/s", "Integrand of the cost (12): z^T Theta z + Omega(mu_hat)"),
     OutputSpec("tuning_law", "1", "Tuning law in force: 30 if z^T zdot < 0, else 31"),
     OutputSpec("cl_stack_size", "1", "Number of samples in the CL stack"),
-    OutputSpec("cl_stack_min_eig", "1", "Smallest eigenvalue of the CL matrix sum_i eta_i eta_i^T/(eta_i^T eta_i+1)^2"),
+    OutputSpec("cl_stack_min_eig", "1",
+               "lambda_min of the CL matrix sum_i eta_i eta_i^T / (eta_i^T eta_i + 1)^2 at this sample"),
     OutputSpec("pe_active", "1", "1 while the probing signal is added (t < pe_duration), else 0"),
     OutputSpec("pe", "N.m", "Probing signal added to both joint torques at this sample"),
-    OutputSpec("tau_a_bounded", "1", "1 if the bound (5) clipped tau^a at this sample, else 0"),
-    OutputSpec("chi_a_bounded", "1", "1 if the bound (5) clipped chi_vd^a at this sample, else 0"),
-    OutputSpec("tau_limited", "1", "1 if the actuator limit rho clipped tau at this sample, else 0"),
-    OutputSpec("tau_norm", "N.m", "Euclidean norm of the output torque"),
-    OutputSpec("dchi_vd1", "rad/s2", "dchi_vd1/dt used by tau^a of (4)"),
-    OutputSpec("dchi_vd2", "rad/s2", "dchi_vd2/dt used by tau^a of (4)"),
-    OutputSpec("Wdot_norm", "1/s", "Norm of the weight rate of (30)/(31) applied over the next step"),
-]
+    OutputSpec("tau_a_bounded", "1", "1 if the bound (5) changed tau^a at this sample, else 0"),
+    OutputSpec("chi_a_bounded", "1", "1 if the bound (5) changed chi_vd^a at this sample, else 0"),
+    OutputSpec("tau_limited", "1", "1 if the actuator limit rho changed tau at this sample, else 0"),
+    OutputSpec("tau_norm", "N.m", "Euclidean norm ||tau|| of the output torque"),
+    OutputSpec("tau_a_raw1", "N.m", "Feedforward torque tau^a_1 of (4) before the bound (5)"),
+    OutputSpec("tau_a_raw2", "N.m", "Feedforward torque tau^a_2 of (4) before the bound (5)"),
+    OutputSpec("dchi_vd1", "rad/s2", "dchi_vd1/dt used in tau^a of (4)"),
+    OutputSpec("dchi_vd2", "rad/s2", "dchi_vd2/dt used in tau^a of (4)"),
+    OutputSpec("Wdot_norm", "1/s", "Norm of the weight rate dW/dt of (30)/(31) at this sample"),
+)
 
 
-class SOTCController(ControllerCore):
+def _limit(v1: float, v2: float, bound: float, per_joint: bool) -> tuple[float, float, bool]:
+    """Bound a 2-vector: radially (Euclidean projection onto the disc) or each entry (the box)."""
+    if per_joint:
+        c1 = min(max(v1, -bound), bound)
+        c2 = min(max(v2, -bound), bound)
+        return c1, c2, (c1 != v1 or c2 != v2)
+    n = math.hypot(v1, v2)
+    if n > bound:
+        return (*_shrink_into(v1 * (bound / n), v2 * (bound / n), bound), True)
+    return v1, v2, False
+
+
+def _shrink_into(v1: float, v2: float, bound: float) -> tuple[float, float]:
+    """Remove the last-bit rounding that can leave a radially scaled vector a hair outside the disc,
+    so that ||tau|| <= rho holds exactly in floating point."""
+    k = 1.0
+    while math.hypot(v1 * k, v2 * k) > bound:
+        k = math.nextafter(k, 0.0)
+    return v1 * k, v2 * k
+
+
+def accel_projection(
+    t1: float, t2: float, bound: float, d11: float, d12: float, d22: float
+) -> tuple[float, float, bool]:
+    """The torque of the disc ||tau|| <= bound whose acceleration D^-1 tau is closest to D^-1 t:
+
+        argmin (tau - t)^T D^-2 (tau - t)  s.t.  ||tau|| <= bound,   tau = (D^-2 + l I)^-1 D^-2 t, l >= 0.
+
+    Used for the bound (5) on tau^a: when the feedforward cannot be delivered, deliver the torque that
+    keeps the error dynamics (6) closest to their design. In D's eigenbasis the KKT system is diagonal;
+    l is found by bisection (||tau(l)|| decreases with l)."""
+    n = math.hypot(t1, t2)
+    if n <= bound:
+        return t1, t2, False
+    half_tr, half_diff = 0.5 * (d11 + d22), 0.5 * (d11 - d22)
+    rad = math.hypot(half_diff, d12)
+    da, db = half_tr + rad, half_tr - rad  # eigenvalues of D (> 0)
+    ang = 0.5 * math.atan2(2.0 * d12, d11 - d22)
+    c, s = math.cos(ang), math.sin(ang)
+    qa, qb = c * t1 + s * t2, -s * t1 + c * t2
+    aa, ab = 1.0 / (da * da), 1.0 / (db * db)  # eigenvalues of D^-2
+    lo, hi = 0.0, max(aa, ab) * n / bound  # ||tau(hi)|| <= bound
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        fa, fb = aa / (aa + mid) * qa, ab / (ab + mid) * qb
+        if fa * fa + fb * fb > bound * bound:
+            lo = mid
+        else:
+            hi = mid
+        if hi - lo <= 1e-15 * hi:
+            break
+    fa, fb = aa / (aa + hi) * qa, ab / (ab + hi) * qb
+    return (*_shrink_into(c * fa - s * fb, s * fa + c * fb, bound), True)
+
+
+class SotcCore(ControllerCore):
     """SOTC core: feedforward (4)-(5), critic (27), saturated law (28), tuning (30)/(31) with CL.
 
-    Parameters: see ``SOTC_PARAMETER_SPECS`` (defaults = the paper's section 4). ``model`` is the
-    nominal arm model used by the feedforward (4) and by g_v = D^-1.
+    ``model`` is the nominal arm model (D, H, G of (46)) used by tau^a of (4) and by g_v = D^-1;
+    ``params`` are ``SOTC_PARAMETER_SPECS`` (defaults: section 4 of the paper, the ``paper`` setting).
     """
 
     PARAMETER_SPECS: ClassVar[tuple[ParameterSpec, ...]] = SOTC_PARAMETER_SPECS
-    EXTRA_OUTPUTS: ClassVar[tuple[OutputSpec, ...]] = tuple(_EXTRA)
+    EXTRA_OUTPUTS: ClassVar[tuple[OutputSpec, ...]] = _EXTRA
 
     def __init__(self, model: ArmParameters | None = None, **params: float):
         super().__init__(model, **params)
         p = self.params
         if not p["sigma"] < p["rho"]:
-            raise ParameterError("sigma", f"{p['sigma']:g} must be smaller than rho = {p['rho']:g} (0 < sigma < rho, eq. (5))")
-        for name, choices in _SWITCHES.items():
-            v = p[name]
-            if v != int(v):
-                opts = ", ".join(f"{i} = {c}" for i, c in enumerate(choices))
-                raise ParameterError(name, f"{v:g} must be an integer code: {opts}")
+            raise ParameterError(
+                "sigma", f"{p['sigma']:g} must be smaller than rho = {p['rho']:g} (0 < sigma < rho, eq. (5))")
         if p["P"] != int(p["P"]):
-            raise ParameterError("P", f"{p['P']:g} must be an integer >= 10 (the stack needs rank 10)")
-        if p["cl_selection"] == 1 and int(p["P"]) < N_BASIS:
-            raise ParameterError("P", "must be >= 10")
+            raise ParameterError(
+                "P", f"{p['P']:g} must be an integer in [10, 1000] (rank(eta_1..eta_P) = 10 needs P >= 10)")
+        for name, choices in _SWITCHES.items():
+            if p[name] != int(p[name]):
+                options = ", ".join(f"{i} = {c}" for i, c in enumerate(choices))
+                raise ParameterError(name, f"{p[name]:g} is not one of the codes {options}")
         self.P = int(p["P"])
         self.lam1 = (p["lambda1_1"], p["lambda1_2"])
         self.lam2 = (p["lambda2_1"], p["lambda2_2"])
@@ -174,101 +250,82 @@ class SOTCController(ControllerCore):
         self.r = (p["r_1"], p["r_2"], p["r_3"], p["r_4"])
         self.alpha1, self.alpha2 = p["alpha1"], p["alpha2"]
         self.rho, self.sigma = p["rho"], p["sigma"]
+        self.pe_amplitude, self.pe_duration = p["pe_amplitude"], p["pe_duration"]
         self.cl_enabled = p["cl_enabled"] == 1.0
-        self.cl_selection = CL_SELECTIONS[int(p["cl_selection"])]
-        self.chi_a_form = CHI_A_FORMS[int(p["chi_a_form"])]
-        self.fv_error_form = FV_ERROR_FORMS[int(p["fv_error_form"])]
-        self.limit_form = LIMIT_FORMS[int(p["limit_form"])]
-        self.chi_dot_form = CHI_DOT_FORMS[int(p["chi_dot_form"])]
-        self.pe_form = PE_FORMS[int(p["pe_form"])]
-        # level s of (13)/(28); Remark 2 asks ||tau*|| <= sigma so that tau* + tau^a respects rho
-        self.s = self.sigma if SATURATION_FORMS[int(p["saturation_form"])] == "sigma" else self.rho
+        self.cl_record_interval = p["cl_record_interval"]
+        forms = {name: choices[int(p[name])] for name, choices in _SWITCHES.items()}
+        self.forms = forms
+        self.backstepping = forms["chi_a_form"] == "backstepping"
+        self.fv_drift = forms["fv_error_form"] == "drift"
+        self.bound_form = forms["bound_form"]
+        self.actuator_per_joint = forms["actuator_form"] == "joint"
+        self.chi_dot_form = forms["chi_dot_form"]
+        self.pe_in_critic = forms["pe_form"] == "critic"
+        self.implicit = forms["weight_integrator"] == "implicit"
+        # saturation level s of (13) and (28): Remark 2 asks ||tau*|| <= sigma so that tau* + tau^a respects rho
+        self.s = self.sigma if forms["saturation_form"] == "sigma" else self.rho
         self.bound5 = self.rho - self.sigma * TANH1  # eq. (5)
+        self.stack = CLStack(self.P, forms["cl_selection"], forms["cl_replay"], self.s, self.r, self.theta,
+                             self.lam1, self.lam2, self.backstepping)
         self.reset()
 
-    # --- learning state ---------------------------------------------------------------------------
+    # --- learning state ----------------------------------------------------------------------------
 
     def reset(self) -> None:
-        """Back to t = 0: W = W(0), empty CL stack."""
-        p = self.params
-        self.W = [p[f"W0_{k}"] for k in range(1, N_BASIS + 1)]
-        self.stack_eta = np.zeros((self.P, N_BASIS))
-        self.stack_r = np.zeros(self.P)
-        self.stack_count = 0  # number of filled rows
-        self.stack_next = 0  # row the FIFO overwrites next
+        """Back to t = 0: W = W(0), empty CL stack, nothing pending."""
+        self.W = [self.params[f"W0_{k}"] for k in range(1, N_BASIS + 1)]
+        self.stack.clear()
         self.next_record_t = 0.0
-        self._refresh_stack()
+        self.prev_chi: list[float] | None = None  # (t, chi_vd1, chi_vd2) of the last step ("difference")
         self._pending: dict[str, Any] | None = None
-        self._last_inputs: tuple[float, list[float], list[float]] | None = None
-
-    def _refresh_stack(self) -> None:
-        """CL matrix M = sum_i xi_i eta_i^T and vector b = sum_i xi_i r_i, xi = eta/(eta^T eta+1)^2,
-        so the CL sum of (30)/(31) is M W + b. Always rebuilt from the stack (bit-reproducible)."""
-        E = self.stack_eta
-        scale = 1.0 / (1.0 + np.einsum("ij,ij->i", E, E)) ** 2
-        Xi = E * scale[:, None]
-        self.cl_M = Xi.T @ E
-        self.cl_b = Xi.T @ self.stack_r
-        self.cl_min_eig = float(np.linalg.eigvalsh(self.cl_M)[0]) if self.stack_count else 0.0
+        self._last_inputs: dict[str, Any] | None = None
 
     def get_state(self) -> dict[str, Any]:
-        state: dict[str, Any] = {
+        """Weights, CL stack, record clock, the previous chi_vd (``difference`` form) and the inputs of
+        the last evaluate (so that ``set_state`` restores the outputs and the pending step too)."""
+        return {
             "W": list(self.W),
-            "stack_eta": self.stack_eta.tolist(),
-            "stack_r": self.stack_r.tolist(),
-            "stack_count": self.stack_count,
-            "stack_next": self.stack_next,
+            "stack": self.stack.to_state(),
             "next_record_t": self.next_record_t,
+            "prev_chi": None if self.prev_chi is None else list(self.prev_chi),
+            "last_inputs": None if self._last_inputs is None else dict(self._last_inputs),
         }
-        if self._last_inputs is not None:
-            t, y, r = self._last_inputs
-            state["last_inputs"] = {"t": t, "y": list(y), "r": list(r)}
-        return state
 
     def set_state(self, state: dict[str, Any]) -> None:
         W = [float(w) for w in state["W"]]
-        eta = np.array(state["stack_eta"], dtype=float)
-        if len(W) != N_BASIS or eta.shape != (self.P, N_BASIS):
-            raise ValueError(f"state does not fit this controller (10 weights, {self.P} x 10 stack)")
+        if len(W) != N_BASIS:
+            raise ValueError(f"state has {len(W)} weights, the SOTC critic has {N_BASIS}")
+        self.stack.from_state(state["stack"])
         self.W = W
-        self.stack_eta = eta
-        self.stack_r = np.array(state["stack_r"], dtype=float)
-        self.stack_count = int(state["stack_count"])
-        self.stack_next = int(state["stack_next"])
         self.next_record_t = float(state["next_record_t"])
-        self._refresh_stack()
+        prev = state.get("prev_chi")
+        self.prev_chi = None if prev is None else [float(v) for v in prev]
         self._pending = None
         self._last_inputs = None
         last = state.get("last_inputs")
-        if last is not None:  # re-evaluate so that outputs and the pending step are restored exactly
+        if last is not None:
             self.evaluate(last["t"], last["y"], last["r"])
 
-    # --- one sample ---------------------------------------------------------------------------------
+    # --- one sample -----------------------------------------------------------------------------------
 
-    def _optimal_velocity(self, zp1, zp2, zv1, zv2, W):
-        """chi_vd* = first block of (28), g_phi = I: -s tanh(grad_phi J / (2 s r_i)); returns the
-        arguments, tanh values and the Hessian rows needed for Newton and the chain rule."""
-        s = self.s
-        g1, g2, _, _ = value_gradient((zp1, zp2, zv1, zv2), W)
-        x1 = g1 / (2.0 * s * self.r[0])
-        x2 = g2 / (2.0 * s * self.r[1])
-        return x1, x2, math.tanh(x1), math.tanh(x2)
+    def _solve_zv(self, zp1: float, zp2: float, c1: float, c2: float, a1: float, a2: float,
+                  W: Sequence[float]) -> tuple[float, float]:
+        """Solve a_i z_vi + chi_vd*_i(z_phi, z_v) = c_i for z_v by Newton's method.
 
-    def _solve_zv(self, zp1, zp2, c1, c2, a1, a2, W):
-        """Solve a_i z_vi + chi_vd*_i(z_phi, z_v) = c_i for z_v (Newton, 2x2).
-
-        z_v = dphi - chi_vd* - chi_vd^a and chi_vd* depends on z_v through grad J (the basis couples
-        z_phi and z_v), so z_v is defined implicitly; the paper is silent on this."""
+        z_v = dphi - chi_vd* - chi_vd^a, but chi_vd* = -s tanh(grad_phi J_hat(z) / (2 s r)) of (28)
+        depends on z_v (the basis has z_phi z_v terms), so z_v is defined implicitly; the paper is
+        silent on this. The map is a contraction for moderate W; Newton converges in 2-4 steps."""
         s, r = self.s, self.r
-        hs = value_hessian(W)
-        h13, h14, h23, h24 = hs[0][2], hs[0][3], hs[1][2], hs[1][3]
+        h = value_hessian(W)
+        h13, h14, h23, h24 = h[0][2], h[0][3], h[1][2], h[1][3]
         zv1, zv2 = c1 / a1, c2 / a2
         for _ in range(30):
-            x1, x2, t1, t2 = self._optimal_velocity(zp1, zp2, zv1, zv2, W)
+            g1, g2, _, _ = value_gradient((zp1, zp2, zv1, zv2), W)
+            t1 = math.tanh(g1 / (2.0 * s * r[0]))
+            t2 = math.tanh(g2 / (2.0 * s * r[1]))
             f1 = a1 * zv1 - s * t1 - c1
             f2 = a2 * zv2 - s * t2 - c2
-            # d(-s tanh x_i)/d z_vj = -(1 - t_i^2) H_{i, 2+j} / (2 r_i)
-            k1 = (1.0 - t1 * t1) / (2.0 * r[0])
+            k1 = (1.0 - t1 * t1) / (2.0 * r[0])  # d(-s tanh x_i)/dz_vj = -(1 - t_i^2) H_{i,2+j} / (2 r_i)
             k2 = (1.0 - t2 * t2) / (2.0 * r[1])
             j11, j12 = a1 - k1 * h13, -k1 * h14
             j21, j22 = -k2 * h23, a2 - k2 * h24
@@ -283,49 +340,34 @@ class SOTCController(ControllerCore):
                 break
         return zv1, zv2
 
-    def _limit(self, v1: float, v2: float, bound: float) -> tuple[float, float, bool]:
-        """Apply a bound to a 2-vector: on its Euclidean norm (radial scaling) or per joint."""
-        if self.limit_form == "norm":
-            n = math.hypot(v1, v2)
-            if n > bound:
-                k = bound / n
-                return v1 * k, v2 * k, True
-            return v1, v2, False
-        c1 = min(max(v1, -bound), bound)
-        c2 = min(max(v2, -bound), bound)
-        return c1, c2, (c1 != v1 or c2 != v2)
-
     def evaluate(self, t: float, y: Sequence[float], r: Sequence[float]) -> None:
-        m = self.model
-        W = self.W
-        s, rr = self.s, self.r
+        m, W, s, rr = self.model, self.W, self.s, self.r
         lam11, lam12 = self.lam1
         lam21, lam22 = self.lam2
-        phi1, phi2, dphi1, dphi2 = (float(v) for v in y)
+        phi1, phi2, dphi1, dphi2 = (float(v) for v in y[:4])
         phi1_d, phi2_d, dphi1_d, dphi2_d, ddphi1_d, ddphi2_d = (float(v) for v in r[:6])
+        per_joint = self.bound_form == "joint"
 
-        # tracking error, section 2.1
+        # tracking error z_phi = chi_phi - chi_phi_d (section 2.1) and its measured rate
         zp1, zp2 = phi1 - phi1_d, phi2 - phi2_d
-        dzp1, dzp2 = dphi1 - dphi1_d, dphi2 - dphi2_d  # measured dz_phi/dt
+        dzp1, dzp2 = dphi1 - dphi1_d, dphi2 - dphi2_d
 
-        # eq. (4), first line, and z_v = dphi - chi_vd* - chi_vd^a (solved jointly with (28))
-        if self.chi_a_form == "backstepping":
-            # chi_vd^a = dphi_d - Lambda1 z_phi: F_bar_phi = -Lambda1 z_phi in (6)
-            ca1, ca2, chi_a_bounded = self._limit(dphi1_d - lam11 * zp1, dphi2_d - lam12 * zp2, self.bound5)  # eq. (5)
+        # eq. (4), first line, with the bound (5); z_v = dphi - chi_vd* - chi_vd^a solved jointly with (28)
+        if self.backstepping:  # chi_vd^a = dphi_d - Lambda1 z_phi, so F_bar_phi = -Lambda1 z_phi in (6)
+            ca1, ca2, chi_a_bounded = _limit(dphi1_d - lam11 * zp1, dphi2_d - lam12 * zp2, self.bound5, per_joint)
             zv1, zv2 = self._solve_zv(zp1, zp2, dphi1 - ca1, dphi2 - ca2, 1.0, 1.0, W)
-        else:
-            # as printed: chi_vd^a = dphi_d + Lambda1 z_v, so (I + Lambda1) z_v = dphi - dphi_d - chi_vd*
+        else:  # as printed, chi_vd^a = dphi_d + Lambda1 z_v: (I + Lambda1) z_v = dphi - dphi_d - chi_vd*
             zv1, zv2 = self._solve_zv(zp1, zp2, dzp1, dzp2, 1.0 + lam11, 1.0 + lam12, W)
-            ca1, ca2, chi_a_bounded = self._limit(dphi1_d + lam11 * zv1, dphi2_d + lam12 * zv2, self.bound5)  # eq. (5)
+            ca1, ca2, chi_a_bounded = _limit(dphi1_d + lam11 * zv1, dphi2_d + lam12 * zv2, self.bound5, per_joint)
         z = (zp1, zp2, zv1, zv2)
 
-        # g_v = D^-1(phi) of eq. (2) from the nominal model
+        # g_phi = I, g_v = D^-1(phi) of eq. (2), nominal model
         d11, d12, d22 = inertia_entries(phi2, m)
         det = d11 * d22 - d12 * d12
         i11, i12, i22 = d22 / det, -d12 / det, d11 / det
 
-        # eq. (28): mu_hat = -s tanh(R^-1 g^T grad J / (2 s)), g = diag(I, D^-1)
-        gJ1, gJ2, gJ3, gJ4 = value_gradient(z, W)  # eq. (27): grad J_hat = grad(zeta)^T W
+        # eq. (28): mu_hat = -s tanh(R^-1 g^T grad(zeta)^T W / (2 s)), g = diag(I, D^-1) (x = the tanh argument)
+        gJ1, gJ2, gJ3, gJ4 = value_gradient(z, W)  # grad J_hat of eq. (27)
         x1 = gJ1 / (2.0 * s * rr[0])
         x2 = gJ2 / (2.0 * s * rr[1])
         x3 = (i11 * gJ3 + i12 * gJ4) / (2.0 * s * rr[2])
@@ -334,19 +376,16 @@ class SOTCController(ControllerCore):
         cs1, cs2 = -s * t1, -s * t2  # chi_vd*
         ts1, ts2 = -s * t3, -s * t4  # tau*
 
-        # probing signal (section 4), added to the applied torque of both joints while t < pe_duration
-        pe_active = t < self.params["pe_duration"]
-        pe = probing_signal(t, self.params["pe_amplitude"]) if pe_active else 0.0
-        tc1, tc2 = (ts1 + pe, ts2 + pe) if self.pe_form == "critic" else (ts1, ts2)
+        # probing signal of section 4, added to both joint torques while t < pe_duration
+        pe_active = t < self.pe_duration
+        pe = probing_signal(t, self.pe_amplitude) if pe_active else 0.0
+        tc1, tc2 = (ts1 + pe, ts2 + pe) if self.pe_in_critic else (ts1, ts2)
 
-        # F_v(z_phi, z_v) of (4)/(6)
-        if self.fv_error_form == "drift":
-            fe1, fe2 = forward_dynamics(zp2, zv1, zv2, 0.0, 0.0, m)
-        else:
-            fe1, fe2 = 0.0, 0.0
+        # F_v(z_phi, z_v) of (4)/(6): the drift -D^-1 (H v + G) of (2) evaluated at the error coordinates
+        fe1, fe2 = forward_dynamics(zp2, zv1, zv2, 0.0, 0.0, m) if self.fv_drift else (0.0, 0.0)
 
-        # modelled error dynamics (6) = (7): zdot = F_bar + g mu_hat (with the coupling terms of (6))
-        if self.chi_a_form == "backstepping":
+        # eqs. (6)/(7): zdot = F_bar(z) + g mu_hat, including the coupling terms +z_v and -z_phi of (6)
+        if self.backstepping:
             zd1 = -lam11 * zp1 + cs1 + zv1
             zd2 = -lam12 * zp2 + cs2 + zv2
         else:
@@ -354,113 +393,116 @@ class SOTCController(ControllerCore):
             zd2 = lam12 * zv2 + cs2 + zv2
         zd3 = fe1 - lam21 * zv1 - zp1 + i11 * tc1 + i12 * tc2
         zd4 = fe2 - lam22 * zv2 - zp2 + i12 * tc1 + i22 * tc2
-        zdot = (zd1, zd2, zd3, zd4)
 
-        # eq. (29): eta = grad(zeta) zdot, e1 = W^T eta + z^T Theta z + Omega(mu_hat)
-        eta = basis_directional(z, zdot)
+        # eq. (29): eta = grad(zeta) zdot, e1 = W^T eta + z^T Theta z + Omega(mu_hat), Omega of eq. (17)
+        eta = np.array(basis_directional(z, (zd1, zd2, zd3, zd4)))
         th = self.theta
-        zqz = th[0] * zp1 * zp1 + th[1] * zp2 * zp2 + th[2] * zv1 * zv1 + th[3] * zv2 * zv2
+        rew = (th[0] * zp1 * zp1 + th[1] * zp2 * zp2 + th[2] * zv1 * zv1 + th[3] * zv2 * zv2)
         omega = (omega_term_of_arg(x1, s, rr[0]) + omega_term_of_arg(x2, s, rr[1])
-                 + omega_term_of_arg(x3, s, rr[2]) + omega_term_of_arg(x4, s, rr[3]))  # eq. (17)
-        rew = zqz + omega
+                 + omega_term_of_arg(x3, s, rr[2]) + omega_term_of_arg(x4, s, rr[3]))
+        rew += omega
         Wv = np.array(W)
-        eta_v = np.array(eta)
-        etaeta = float(eta_v @ eta_v)
-        e1 = float(Wv @ eta_v) + rew
+        etaeta = float(eta @ eta)
+        e1 = float(Wv @ eta) + rew
 
-        # tuning law (30) / (31): normalised gradient on e1, plus the CL sum over the stack
-        wdot = eta_v * (-self.alpha1 * e1 / (etaeta + 1.0) ** 2)
-        if self.cl_enabled and self.stack_count:
-            wdot -= self.alpha1 * (self.cl_M @ Wv + self.cl_b)
-        law31 = zp1 * zd1 + zp2 * zd2 + zv1 * zd3 + zv2 * zd4 >= 0.0
-        if law31:
-            # eq. (31): + alpha2/2 grad(zeta) G z, G = g R^-1 g^T = diag(R1^-1, D^-1 R2^-1 D^-1)
-            u1, u2 = i11 * zv1 + i12 * zv2, i12 * zv1 + i22 * zv2
-            u1, u2 = u1 / rr[2], u2 / rr[3]
+        # eqs. (30)/(31): dW/dt = -alpha1 xi e1 - alpha1 sum_i xi_i (eta_i^T W + r_i) [+ alpha2/2 grad(zeta) G z],
+        # xi = eta / (eta^T eta + 1)^2; the CL sum is M W + b (sotc_stack)
+        xi = eta * (1.0 / (etaeta + 1.0) ** 2)
+        wdot = xi * (-self.alpha1 * e1)
+        cl_M = cl_E = None
+        cl_min_eig = 0.0
+        if self.cl_enabled and self.stack.count:
+            cl_M, cl_b, cl_E, cl_min_eig = self.stack.terms(Wv)
+            wdot -= self.alpha1 * (cl_M @ Wv + cl_b)
+        law31 = zp1 * zd1 + zp2 * zd2 + zv1 * zd3 + zv2 * zd4 >= 0.0  # z^T zdot >= 0: eq. (31)
+        if law31:  # + alpha2/2 grad(zeta) G z with G = g R^-1 g^T = diag(R_phi^-1, D^-1 R_v^-1 D^-1)
+            u1, u2 = (i11 * zv1 + i12 * zv2) / rr[2], (i12 * zv1 + i22 * zv2) / rr[3]
             gz = (zp1 / rr[0], zp2 / rr[1], i11 * u1 + i12 * u2, i12 * u1 + i22 * u2)
             wdot += (0.5 * self.alpha2) * np.array(basis_directional(z, gz))
 
-        # d chi_vd / dt for tau^a, eq. (4)
-        if self.chi_a_form == "backstepping":
+        # dchi_vd/dt for tau^a of (4)
+        if self.backstepping:
             dca1, dca2 = ddphi1_d - lam11 * dzp1, ddphi2_d - lam12 * dzp2
         else:
             dca1, dca2 = ddphi1_d + lam11 * zd3, ddphi2_d + lam12 * zd4
         if chi_a_bounded:
-            dca1 = dca2 = 0.0  # the bounded chi_vd^a is not differentiated (never active in section 4)
+            dca1 = dca2 = 0.0  # a bounded chi_vd^a is not differentiated (inactive in the section-4 runs)
         if self.chi_dot_form == "chain":
-            # chi_vd* = -s tanh(x_phi), x_phi = grad_phi J / (2 s r): dx/dt = (Hess zdot + grad(zeta)^T Wdot) / (2 s r)
-            hs = value_hessian(W)
-            wd = wdot.tolist()
-            gd1, gd2, _, _ = value_gradient(z, wd)
-            hz1 = hs[0][0] * zd1 + hs[0][1] * zd2 + hs[0][2] * zd3 + hs[0][3] * zd4
-            hz2 = hs[1][0] * zd1 + hs[1][1] * zd2 + hs[1][2] * zd3 + hs[1][3] * zd4
-            dcs1 = -s * (1.0 - t1 * t1) * (hz1 + gd1) / (2.0 * s * rr[0])
-            dcs2 = -s * (1.0 - t2 * t2) * (hz2 + gd2) / (2.0 * s * rr[1])
+            # chi_vd* = -s tanh(x_phi), x_phi = grad_phi J_hat / (2 s r): the chain rule gives
+            # dx_phi/dt = (Hess(J_hat) zdot + grad(zeta)^T dW/dt)_phi / (2 s r), zdot from (6)
+            h = value_hessian(W)
+            gd1, gd2, _, _ = value_gradient(z, wdot.tolist())
+            hz1 = h[0][0] * zd1 + h[0][1] * zd2 + h[0][2] * zd3 + h[0][3] * zd4
+            hz2 = h[1][0] * zd1 + h[1][1] * zd2 + h[1][2] * zd3 + h[1][3] * zd4
+            dchi1 = dca1 - (1.0 - t1 * t1) * (hz1 + gd1) / (2.0 * rr[0])
+            dchi2 = dca2 - (1.0 - t2 * t2) * (hz2 + gd2) / (2.0 * rr[1])
+        elif self.chi_dot_form == "difference" and self.prev_chi is not None and t > self.prev_chi[0]:
+            hstep = t - self.prev_chi[0]
+            dchi1 = (ca1 + cs1 - self.prev_chi[1]) / hstep
+            dchi2 = (ca2 + cs2 - self.prev_chi[2]) / hstep
         else:
-            dcs1 = dcs2 = 0.0
-        dchi1, dchi2 = dca1 + dcs1, dca2 + dcs2
+            dchi1, dchi2 = dca1, dca2
 
-        # eq. (4), second line: tau^a = D (F_v(z) + dchi_vd/dt - z_phi - Lambda2 z_v) - D F_v(phi, dphi)
-        # with -D F_v(phi, dphi) = H dphi + G
+        # eq. (4), second line, with g_v^-1 = D and -D F_v(phi, dphi) = H dphi + G:
+        # tau^a = D (F_v(z_phi, z_v) + dchi_vd/dt - z_phi - Lambda2 z_v) + H dphi + G, then the bound (5)
         v1 = fe1 + dchi1 - zp1 - lam21 * zv1
         v2 = fe2 + dchi2 - zp2 - lam22 * zv2
         b1, b2 = bias_torque(phi2, dphi1, dphi2, m)
-        ta1, ta2, tau_a_bounded = self._limit(d11 * v1 + d12 * v2 + b1, d12 * v1 + d22 * v2 + b2, self.bound5)  # eq. (5)
+        tr1, tr2 = d11 * v1 + d12 * v2 + b1, d12 * v1 + d22 * v2 + b2
+        if self.bound_form == "accel":
+            ta1, ta2, tau_a_bounded = accel_projection(tr1, tr2, self.bound5, d11, d12, d22)
+        else:
+            ta1, ta2, tau_a_bounded = _limit(tr1, tr2, self.bound5, per_joint)
 
-        # tau = tau* + tau^a (+ PE), then the actuator limit ||tau|| <= rho
-        tau1, tau2, tau_limited = self._limit(ts1 + ta1 + pe, ts2 + ta2 + pe, self.rho)
+        # tau = tau* + tau^a (+ PE), then the actuator limit ||tau|| <= rho of eq. (1)
+        tau1, tau2, tau_limited = _limit(ts1 + ta1 + pe, ts2 + ta2 + pe, self.rho, self.actuator_per_joint)
 
-        J = sum(w * b for w, b in zip(W, basis(z)))
         self._pending = {
-            "t": t,
-            "wdot": wdot,
-            "eta": eta_v,
-            "r": rew,
-            "law": 31 if law31 else 30,
+            "t": t, "W": Wv, "wdot": wdot, "xi": xi, "eta": eta, "r": rew, "z": z,
+            "dinv": (i11, i12, i22), "fe": (fe1, fe2), "cl_M": cl_M, "cl_E": cl_E, "cl_min_eig": cl_min_eig,
+            "chi": (ca1 + cs1, ca2 + cs2),
         }
-        self._last_inputs = (float(t), [float(v) for v in y], [float(v) for v in r])
+        self._last_inputs = {"t": float(t), "y": [phi1, phi2, dphi1, dphi2],
+                             "r": [phi1_d, phi2_d, dphi1_d, dphi2_d, ddphi1_d, ddphi2_d]}
+        J = math.fsum(w * b for w, b in zip(W, basis(z)))
         self.outputs = [
             tau1, tau2, ts1, ts2, ta1, ta2, cs1, cs2, ca1, ca2, zp1, zp2, zv1, zv2, *W,
-            J, e1, omega, 31.0 if law31 else 30.0, float(self.stack_count), self.cl_min_eig,
+            J, e1, omega, rew, 31.0 if law31 else 30.0, float(self.stack.count), cl_min_eig,
             1.0 if pe_active else 0.0, pe, float(tau_a_bounded), float(chi_a_bounded), float(tau_limited),
-            math.hypot(tau1, tau2), dchi1, dchi2, float(np.sqrt(wdot @ wdot)),
+            math.hypot(tau1, tau2), tr1, tr2, dchi1, dchi2, math.sqrt(float(wdot @ wdot)),
         ]
 
-    # --- learning over [t, t + dt) -----------------------------------------------------------------------
+    # --- learning over [t, t + dt) ---------------------------------------------------------------------
 
     def advance(self, t: float, dt: float) -> None:
-        """Euler step of (30)/(31) with the rate computed at the last evaluate, then the CL stack."""
+        """Integrate (30)/(31) over [t, t + dt) from the last ``evaluate`` (which must be at t), then
+        offer that sample to the CL stack (every ``cl_record_interval`` s).
+
+        ``weight_integrator`` = implicit (chosen): the part of (30)/(31) linear in W, -alpha1 Gamma W
+        with Gamma = xi eta^T + M (symmetric >= 0), is taken at the end of the step:
+            (I + dt alpha1 Gamma) W+ = W + dt (dW/dt + alpha1 Gamma W).
+        = euler: W+ = W + dt dW/dt, stable only while dt alpha1 lambda_max(Gamma) < 2, which the CL
+        sum can break (lambda_max(Gamma) <= (P + 1)/4, i.e. up to 2.6 at the paper's values)."""
         pend = self._pending
         if pend is None or abs(pend["t"] - t) > 1e-9 * max(1.0, abs(t)):
-            raise RuntimeError(f"advance({t}, {dt}) needs evaluate() at the same t first")
-        wdot = pend["wdot"]
-        self.W = [w + dt * wd for w, wd in zip(self.W, wdot.tolist())]
+            raise RuntimeError(f"advance({t}, {dt}) needs evaluate() at t = {t} first")
+        if not (dt > 0.0 and math.isfinite(dt)):
+            raise ValueError(f"advance: step size {dt} must be positive and finite")
+        Wv = pend["W"]
+        if self.implicit:
+            G = np.outer(pend["xi"], pend["eta"])
+            if pend["cl_M"] is not None:
+                G += pend["cl_M"]
+            G *= dt * self.alpha1
+            rhs = Wv + dt * pend["wdot"] + G @ Wv
+            G[np.diag_indices(N_BASIS)] += 1.0
+            self.W = np.linalg.solve(G, rhs).tolist()
+        else:
+            self.W = (Wv + dt * pend["wdot"]).tolist()
+        if self.chi_dot_form == "difference":
+            self.prev_chi = [t, *pend["chi"]]
         if self.cl_enabled and t >= self.next_record_t - 1e-9:
-            self.next_record_t += self.params["cl_record_interval"]
-            self._record(pend["eta"], pend["r"])
+            self.next_record_t += self.cl_record_interval
+            self.stack.record(pend["eta"], pend["r"], pend["z"], pend["dinv"], pend["fe"],
+                              pend["cl_M"], pend["cl_E"], pend["cl_min_eig"])
         self._pending = None
-
-    def _record(self, eta: np.ndarray, rew: float) -> None:
-        """Store (eta(t_i), r(t_i)) in the CL stack according to ``cl_selection``."""
-        P = self.P
-        if self.stack_count < P:
-            row = self.stack_count
-            self.stack_count += 1
-        elif self.cl_selection == "fill":
-            return
-        elif self.cl_selection == "fifo":
-            row = self.stack_next
-            self.stack_next = (self.stack_next + 1) % P
-        else:  # "maxeig": swap the row whose replacement raises lambda_min(M) the most
-            E = self.stack_eta
-            sc = 1.0 / (1.0 + np.einsum("ij,ij->i", E, E)) ** 2
-            terms = np.einsum("i,ij,ik->ijk", sc, E, E)
-            cand = np.outer(eta, eta) / (1.0 + float(eta @ eta)) ** 2
-            trial = self.cl_M[None, :, :] - terms + cand[None, :, :]
-            eigs = np.linalg.eigvalsh(trial)[:, 0]
-            row = int(np.argmax(eigs))
-            if not eigs[row] > self.cl_min_eig:
-                return
-        self.stack_eta[row] = eta
-        self.stack_r[row] = rew
-        self._refresh_stack()

@@ -33,9 +33,24 @@ N_BASIS = len(BASIS_PAIRS)
 
 
 def log_cosh(x: float) -> float:
-    """ln cosh x without overflow: |x| + ln(1 + e^{-2|x|}) - ln 2 (finite for every finite x)."""
+    """ln cosh x without overflow or cancellation: ln(1 + 2 sinh^2(x/2)) for |x| < 1, else
+    |x| + ln(1 + e^{-2|x|}) - ln 2 (finite for every finite x)."""
     a = abs(x)
+    if a < 1.0:
+        h = math.sinh(0.5 * a)
+        return math.log1p(2.0 * h * h)
     return a + math.log1p(math.exp(-2.0 * a)) - LN2
+
+
+def _x_tanh_minus_log_cosh(x: float) -> float:
+    """x tanh x - ln cosh x (>= 0, even, -> ln 2 as |x| -> inf), accurate for every finite x: for
+    |x| >= 1 it is rewritten with e = e^{-2|x|} as ln 2 - ln(1 + e) - 2|x| e / (1 + e), which avoids
+    subtracting two numbers of size |x|."""
+    a = abs(x)
+    if a < 1.0:
+        return a * math.tanh(a) - log_cosh(a)
+    e = math.exp(-2.0 * a)
+    return LN2 - math.log1p(e) - 2.0 * a * e / (1.0 + e)
 
 
 def omega_term_of_arg(x: float, s: float, r: float) -> float:
@@ -43,9 +58,9 @@ def omega_term_of_arg(x: float, s: float, r: float) -> float:
 
     With mu = -s tanh x, atanh(mu/s) = -x and ln(1 - mu^2/s^2) = ln(1 - tanh^2 x) = -2 ln cosh x, so
         2 s atanh(mu/s) r mu + s^2 r ln(1 - mu^2/s^2) = 2 s^2 r (x tanh x - ln cosh x)   eq. (17)
-    which stays finite (and >= 0) even where tanh x rounds to +-1.
+    which stays finite (-> 2 s^2 r ln 2) even where tanh x rounds to +-1.
     """
-    return 2.0 * s * s * r * (x * math.tanh(x) - log_cosh(x))
+    return 2.0 * s * s * r * _x_tanh_minus_log_cosh(x)
 
 
 def omega_of_arg(x: Sequence[float], s: float, r: Sequence[float]) -> float:
@@ -180,3 +195,29 @@ def probing_signal(t: float, amplitude: float = 0.5) -> float:
         + s112 * s112
         + math.cos(2.4 * t) * s24 ** 3
     )
+
+
+# --- row-wise (stacked) versions for the concurrent-learning replay ----------------------------------
+
+
+def basis_directional_rows(Z: np.ndarray, V: np.ndarray) -> np.ndarray:
+    """``basis_directional`` for each row of Z (n x 4) and V (n x 4): an n x 10 array."""
+    a, b, c, d = Z[:, 0], Z[:, 1], Z[:, 2], Z[:, 3]
+    p, q, u, w = V[:, 0], V[:, 1], V[:, 2], V[:, 3]
+    return np.stack([
+        2.0 * a * p, a * q + b * p, a * u + c * p, a * w + d * p, 2.0 * b * q,
+        b * u + c * q, b * w + d * q, 2.0 * c * u, c * w + d * u, 2.0 * d * w,
+    ], axis=1)
+
+
+def omega_of_arg_rows(X: np.ndarray, s: float, r: np.ndarray) -> np.ndarray:
+    """Omega of eq. (17) for each row of pre-saturation arguments X (n x 4), R = diag(r); the same
+    cancellation-free form of x tanh x - ln cosh x as ``omega_term_of_arg``."""
+    A = np.abs(X)
+    small = A < 1.0
+    As = np.where(small, A, 0.0)
+    h = np.sinh(0.5 * As)
+    f_small = As * np.tanh(As) - np.log1p(2.0 * h * h)
+    e = np.exp(-2.0 * np.where(small, 1.0, A))
+    f_large = LN2 - np.log1p(e) - 2.0 * A * e / (1.0 + e)
+    return (2.0 * s * s) * (np.where(small, f_small, f_large) @ r)
