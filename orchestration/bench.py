@@ -2,6 +2,12 @@
 
 ``integrator``: the plant's fixed-step RK4 with N substeps against scipy's DOP853 (rtol 1e-10)
 on a 10 s torque profile with the torque held over each 0.01 s step, and the cost of one step.
+
+``recording``: the 100 s ``paper`` scenario with and without the Rerun recording, alternated in
+one process, 3 times each; the ratio of the median wall times (target: at most 1.10), and the
+time spent inside the recorder itself (less sensitive to other load on the machine).
+
+``recording-blocks``: the same at several block sizes (how ``recording.BLOCK_SIZE`` was chosen).
 """
 from __future__ import annotations
 
@@ -70,4 +76,92 @@ def bench_integrator() -> str:
     return "\n".join(lines)
 
 
-BENCHMARKS = {"integrator": bench_integrator}
+class _TimedRecorder:
+    """A RunRecorder whose own time (start, blocks, finish and close) is added up."""
+
+    def __init__(self, recorder):
+        self.recorder, self.seconds = recorder, 0.0
+
+    def _timed(self, method, *args):
+        t0 = time.perf_counter()
+        try:
+            return method(*args)
+        finally:
+            self.seconds += time.perf_counter() - t0
+
+    def start(self, scenario, columns):
+        self._timed(self.recorder.start, scenario, columns)
+
+    def block(self, t, rows):
+        self._timed(self.recorder.block, t, rows)
+
+    def finish(self, result):
+        self._timed(self.recorder.finish, result)
+
+
+def _timed_runs(block_sizes: list[int | None], repeats: int = 3, scenario_name: str = "paper") -> dict:
+    """Median wall time of a full run per block size (None: no recording), alternating the variants."""
+    import statistics
+    import tempfile
+    from pathlib import Path
+
+    from orchestration.build import DEFAULT_FMU_DIR, ensure_built
+    from orchestration.master import run
+    from orchestration.recording import BLOCK_SIZE, RunRecorder
+    from orchestration.scenario import load_scenario
+
+    scenario = load_scenario(scenario_name)
+    paths = ensure_built(sorted({i.fmu for i in scenario.instances.values()}), DEFAULT_FMU_DIR)
+    times: dict[int | None, list[float]] = {b: [] for b in block_sizes}
+    own: dict[int | None, list[float]] = {b: [] for b in block_sizes if b is not None}
+    sizes: dict[int | None, int] = {}
+    with tempfile.TemporaryDirectory(prefix="sotc_bench_") as tmp:
+        warm = Path(tmp) / "warm.rrd"
+        with RunRecorder(warm) as rec:  # imports, first blueprint, FMU extraction
+            run(scenario.with_stop_time(1.0), paths, observer=rec, block_size=BLOCK_SIZE)
+        for _ in range(repeats):
+            for block in block_sizes:
+                target = Path(tmp) / f"run-{block}.rrd"
+                t0 = time.perf_counter()
+                if block is None:
+                    result = run(scenario, paths)
+                else:
+                    timed = _TimedRecorder(RunRecorder(target))
+                    with timed.recorder:
+                        result = run(scenario, paths, observer=timed, block_size=block)
+                    own[block].append(timed.seconds)
+                times[block].append(time.perf_counter() - t0)
+                if result.failed:
+                    raise RuntimeError(f"benchmark run failed: {result.error}")
+                if block is not None:
+                    sizes[block] = target.stat().st_size
+    return {"scenario": scenario, "median": {b: statistics.median(t) for b, t in times.items()}, "sizes": sizes,
+            "own": {b: statistics.median(t) for b, t in own.items()}}
+
+
+def bench_recording() -> str:
+    from orchestration.recording import BLOCK_SIZE
+
+    m = _timed_runs([None, BLOCK_SIZE])
+    sc, base, rec = m["scenario"], m["median"][None], m["median"][BLOCK_SIZE]
+    return "\n".join([
+        f"Rerun recording overhead: scenario {sc.name} ({sc.controller_fmu()}), {sc.stop_time:g} s, {sc.steps + 1} samples,"
+        f" block size {BLOCK_SIZE}; medians of 3 alternated runs in one process",
+        f"{'without recording':>20} {base:8.3f} s",
+        f"{'with recording':>20} {rec:8.3f} s   ({m['sizes'][BLOCK_SIZE] / 1e6:.1f} MB .rrd)",
+        f"{'ratio':>20} {rec / base:8.3f}   (target <= 1.10)",
+        f"{'recorder own time':>20} {m['own'][BLOCK_SIZE]:8.3f} s   ({m['own'][BLOCK_SIZE] / base:.1%} of the run without recording)",
+    ])
+
+
+def bench_recording_blocks() -> str:
+    blocks = [250, 500, 1000, 2000, 5000]
+    m = _timed_runs([None, *blocks])
+    base = m["median"][None]
+    lines = [f"Recording overhead by block size: scenario {m['scenario'].name}, medians of 3 alternated runs",
+             f"{'block':>8} {'wall s':>8} {'ratio':>7} {'recorder own s':>15}", f"{'none':>8} {base:8.3f} {1.0:7.3f}"]
+    lines += [f"{b:>8} {m['median'][b]:8.3f} {m['median'][b] / base:7.3f} {m['own'][b]:15.3f}" for b in blocks]
+    return "\n".join(lines)
+
+
+BENCHMARKS = {"integrator": bench_integrator, "recording": bench_recording, "recording-blocks": bench_recording_blocks}

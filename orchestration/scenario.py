@@ -29,6 +29,9 @@ from pathlib import Path
 from typing import Any
 
 
+PAPER_TORQUE_LIMIT = 4.0  # rho, N.m (section 4)
+
+
 class ScenarioError(ValueError):
     """A scenario that cannot be run as written; the message says where and why."""
 
@@ -68,6 +71,16 @@ class Scenario:
     def controller_fmu(self) -> str | None:
         inst = self.instances.get("controller")
         return inst.fmu if inst else None
+
+    def torque_limit(self) -> float:
+        """The controller's torque bound as the scenario sets it (``rho`` or ``tau_max``), else the
+        paper's rho = 4 N.m (section 4), which every controller FMU uses by default."""
+        inst = self.instances.get("controller")
+        params = inst.parameters if inst else {}
+        for key in ("rho", "tau_max"):
+            if key in params:
+                return float(params[key])
+        return PAPER_TORQUE_LIMIT
 
 
 def available_scenarios() -> list[str]:

@@ -11,19 +11,8 @@ import numpy as np
 from orchestration.master import RunResult
 from orchestration.metrics import tracking_metrics
 
-PAPER_TORQUE_LIMIT = 4.0  # rho, N.m (section 4)
-
-
 def _column(result: RunResult, instance: str, name: str) -> np.ndarray | None:
     return result.outputs.get(instance, {}).get(name)
-
-
-def torque_limit(result: RunResult) -> float:
-    params = result.scenario.instances["controller"].parameters if "controller" in result.scenario.instances else {}
-    for key in ("rho", "tau_max"):
-        if key in params:
-            return float(params[key])
-    return PAPER_TORQUE_LIMIT
 
 
 def error_and_torque(result: RunResult) -> tuple[np.ndarray, np.ndarray]:
@@ -50,7 +39,7 @@ def summarize(result: RunResult) -> dict[str, Any]:
         return summary
     e, tau = error_and_torque(result)
     cost = _column(result, "controller", "cost_rate")
-    metrics = tracking_metrics(result.time, e, tau, torque_limit(result), cost_rate=cost, stop_time=sc.stop_time)
+    metrics = tracking_metrics(result.time, e, tau, sc.torque_limit(), cost_rate=cost, stop_time=sc.stop_time)
     metrics["max_norm_tau"] = metrics.pop("max_tau_norm")
     summary.update(metrics)
     weights = [_column(result, "controller", f"W{i}") for i in range(1, 11)]

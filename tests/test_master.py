@@ -56,7 +56,8 @@ def test_invalid_parameter_fails_the_run_with_the_reason_and_frees_everything(fm
     assert not ok.failed and ok.samples == 51
 
 
-def test_a_failed_run_does_not_stop_the_others(fmu_dir, tmp_path, capsys):
+def test_a_failed_run_does_not_stop_the_others(fmu_dir, tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # its recordings go to tmp_path/recordings
     bad = _scenario_file(tmp_path, "[instances.controller]\nparameters = { kp = -5.0 }\n")
     code = main(["run", str(bad), "paper-ct", "--stop-time", "0.5", "--fmu-dir", str(fmu_dir)])
     out, err = capsys.readouterr()
