@@ -139,3 +139,14 @@ def tracking_metrics(
         elif isinstance(value, list):
             out[key] = [None if isinstance(v, float) and not math.isfinite(v) else v for v in value]
     return out
+
+
+def weight_total_variation(t: np.ndarray, weights: np.ndarray, t0: float, t1: float) -> float:
+    """Total variation sum_k ||W_{k+1} - W_k||_2 of critic weights (n, m) over samples in [t0, t1].
+
+    The measurable form of the paper's Figures 1-2: weights that keep jumping (PE only) against
+    weights that settle (concurrent learning)."""
+    t = np.asarray(t, dtype=float)
+    w = np.asarray(weights, dtype=float)[(t >= t0 - 1e-9) & (t <= t1 + 1e-9)]
+    return float(np.sum(np.linalg.norm(np.diff(w, axis=0), axis=1)))
+

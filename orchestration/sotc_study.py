@@ -26,6 +26,7 @@ import scipy.linalg
 from fmu_controller.sotc import SCENARIO_SETTINGS, SotcCore
 from fmu_controller.sotc_math import matrix_to_weights, weights_to_matrix
 from fmu_plant.dynamics import ArmParameters, inertia_matrix
+from orchestration.metrics import weight_total_variation
 from orchestration.pure_loop import LoopResult, metrics, simulate
 
 PAPER_W = np.array([0.4303, -0.6671, -0.148, 0.0157, 1.14, -0.0216, 0.1913, 0.0074, 0.0284, 0.01572])
@@ -51,8 +52,7 @@ def weights(res: LoopResult) -> np.ndarray:
 
 def weight_variation(res: LoopResult, t0: float, t1: float) -> float:
     """Total variation sum_k ||W_{k+1} - W_k||_2 of the critic weights over [t0, t1]."""
-    w = weights(res)[(res.t >= t0 - 1e-9) & (res.t <= t1 + 1e-9)]
-    return float(np.sum(np.linalg.norm(np.diff(w, axis=0), axis=1)))
+    return weight_total_variation(res.t, weights(res), t0, t1)
 
 
 def lqr_weights(phi2: float, ctrl: SotcCore, arm: ArmParameters | None = None) -> np.ndarray:

@@ -17,6 +17,7 @@ from fmu_controller.sotc import SCENARIO_SETTINGS, SotcCore, accel_projection
 from fmu_plant.dynamics import ArmParameters, inertia_matrix, rk4_step
 from fmu_plant.parameters import ParameterError
 from fmu_plant.trajectory import CircleTrajectory
+from orchestration.metrics import weight_total_variation as metrics_weight_tv
 from orchestration.pure_loop import metrics, simulate
 
 T = 0.01
@@ -74,8 +75,7 @@ def pe_only_run():
 
 def weight_total_variation(res, t0: float, t1: float) -> float:
     i = res.names.index("W1")
-    w = res.outputs[(res.t >= t0 - 1e-9) & (res.t <= t1 + 1e-9), i:i + 10]
-    return float(np.sum(np.linalg.norm(np.diff(w, axis=0), axis=1)))
+    return metrics_weight_tv(res.t, res.outputs[:, i:i + 10], t0, t1)
 
 
 # --- critic basis, eq. (27) and section 4 -----------------------------------------------------------------

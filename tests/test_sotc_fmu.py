@@ -1,0 +1,70 @@
+"""The SOTC through the FMUs and the fmpy master at T = 0.01 s: the paper's section 4 results."""
+import math
+
+import numpy as np
+import pytest
+from fmpy.fmi1 import FMICallException
+
+from fmu_driver import DrivenFmu
+from orchestration.master import run
+from orchestration.metrics import weight_total_variation
+from orchestration.scenario import load_scenario
+from orchestration.summary import summarize
+
+WEIGHTS = [f"W{k}" for k in range(1, 11)]
+
+
+@pytest.fixture(scope="module")
+def paper(fmu_paths):
+    result = run(load_scenario("paper"), fmu_paths)
+    assert not result.failed, result.error
+    return result
+
+
+@pytest.fixture(scope="module")
+def pe_only(fmu_paths):
+    result = run(load_scenario("paper-pe-only"), fmu_paths)
+    assert not result.failed, result.error
+    return result
+
+
+def _weights(result):
+    return np.column_stack([result.outputs["controller"][w] for w in WEIGHTS])
+
+
+def test_paper_run_meets_table_1_within_1_3x_and_the_torque_bound(paper):
+    s = summarize(paper)
+    assert s["samples"] == 10001 and s["controller"] == "SotcController"
+    assert s["mse"][0] <= 0.00325 and s["mse"][1] <= 0.0109  # paper Table 1: 0.0025, 0.0084
+    assert max(s["max_abs_error_last_half"]) <= 1.5e-3
+    assert s["max_norm_tau"] <= 4.0 and s["samples_over_limit"] == 0
+    assert len(s["final_weights"]) == 10 and s["final_weights"] == list(_weights(paper)[-1])
+    assert s["cl_stack_min_eig"] > 0.0
+    assert s["cost_integral"] > 0.0
+
+
+def test_cl_settles_the_weights_pe_alone_keeps_them_jumping(paper, pe_only):
+    """Figures 1 and 2 as numbers: weight total variation over [40, 80] s."""
+    tv_cl = weight_total_variation(paper.time, _weights(paper), 40.0, 80.0)
+    tv_pe = weight_total_variation(pe_only.time, _weights(pe_only), 40.0, 80.0)
+    assert tv_cl < 0.1 < 0.25 < tv_pe and tv_pe > 5 * tv_cl
+    c = paper.outputs["controller"]
+    assert np.all(c["pe_active"][paper.time >= 0.4 - 1e-9] == 0) and np.all(c["pe_active"][paper.time < 0.4 - 1e-9] == 1)
+    assert np.all(pe_only.outputs["controller"]["cl_stack_size"] == 0)
+    assert c["cl_stack_size"][-1] == 20
+
+
+@pytest.mark.parametrize(
+    "params, name",
+    [({"sigma": 4.0}, "sigma"), ({"sigma": 5.0, "rho": 4.0}, "sigma"), ({"alpha1": 0.0}, "alpha1"),
+     ({"alpha1": -1.0}, "alpha1"), ({"P": 9}, "P"), ({"alpha2": math.nan}, "alpha2"), ({"W0_3": math.inf}, "W0_3")],
+)
+def test_invalid_parameters_are_refused_at_initialization(fmu_paths, tmp_path, params, name):
+    fmu = DrivenFmu(fmu_paths["SotcController"], tmp_path / "sotc")
+    fmu.set(**params)
+    fmu.fmu.setupExperiment(startTime=0.0)
+    fmu.fmu.enterInitializationMode()
+    with pytest.raises(FMICallException):
+        fmu.fmu.exitInitializationMode()
+    assert any(f"'{name}'" in m for s, m in fmu.messages if s == 3), fmu.logged()
+    fmu.free()
