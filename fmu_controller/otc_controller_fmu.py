@@ -9,3 +9,4 @@ from fmu_controller.slave import ControllerSlave as Fmi2Slave  # the name python
 class OtcController(Fmi2Slave):
     description = "Optimal tracking controller (OTC) after Kong et al. 2021, the paper's comparison controller"
     CORE = OtcCore
+    STATE_OUTPUTS = ("wc_norm", "wa_norm")  # norms of the learned weights: no input feedthrough

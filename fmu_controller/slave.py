@@ -1,20 +1,24 @@
 """The FMI wrapper shared by every controller FMU: ports, parameters and the feedthrough rule.
 
 Port convention (``fmu_controller.base``): inputs ``phi1, phi2, dphi1, dphi2`` (plant) and
-``phi1_d ... ddphi2_d`` (reference), outputs ``tau1, tau2`` then the core's diagnostics. Every
-output depends directly on every input: the torque read at communication point t is computed from
-the inputs set at t, and the master holds it over [t, t + T). ``doStep(t, T)`` then lets the core
-learn over that interval.
+``phi1_d ... ddphi2_d`` (reference), outputs ``tau1, tau2`` then the core's diagnostics. The torque
+and every diagnostic computed from the measurement depend directly on every input: the torque read
+at communication point t is computed from the inputs set at t, and the master holds it over
+[t, t + T). Diagnostics of the learning state or of time alone (``STATE_OUTPUTS``, e.g. critic
+weights) declare no input dependency. ``doStep(t, T)`` then lets the core learn over that interval.
+A non-finite input makes every output read NaN (with a logged warning) until it is replaced.
 """
 from __future__ import annotations
 
+import math
 from typing import Any, ClassVar
 
 from fmu_controller.base import (
     INPUT_UNITS, MEASUREMENT_PORTS, MODEL_PARAMETER_SPECS, REFERENCE_PORTS, ControllerCore,
 )
 from fmu_plant.dynamics import ArmParameters
-from fmu_plant.slave_base import DescribedSlave
+from fmu_plant.parameters import ParameterError
+from fmu_plant.slave_base import DescribedSlave, Fmi2Status
 
 INPUT_PORTS = MEASUREMENT_PORTS + REFERENCE_PORTS
 INPUT_DOCS = {
@@ -27,9 +31,12 @@ INPUT_DOCS = {
 
 
 class ControllerSlave(DescribedSlave):
-    """Subclasses set ``CORE`` (a ControllerCore subclass) and ``description``."""
+    """Subclasses set ``CORE`` (a ControllerCore subclass) and ``description``, and list in
+    ``STATE_OUTPUTS`` the diagnostics computed from the learning state and time only: those declare
+    no dependency on the inputs (``sotc-cosim validate`` checks both declarations by experiment)."""
 
     CORE: ClassVar[type[ControllerCore]]
+    STATE_OUTPUTS: ClassVar[tuple[str, ...]] = ()
 
     def __init__(self, **kwargs: Any):
         super().__init__(**kwargs)
@@ -42,10 +49,15 @@ class ControllerSlave(DescribedSlave):
         units = {"tau1": ("N.m", "Joint 1 torque command, held over [t, t + T)"),
                  "tau2": ("N.m", "Joint 2 torque command, held over [t, t + T)")}
         units.update({o.name: (o.unit, o.description) for o in self.CORE.EXTRA_OUTPUTS})
+        unknown = sorted(set(self.STATE_OUTPUTS) - set(self.CORE.output_names()))
+        if unknown:
+            raise ValueError(f"STATE_OUTPUTS {unknown} are not outputs of {self.CORE.__name__}")
         for index, name in enumerate(self.CORE.output_names()):
             unit, doc = units[name]
-            self.declare_output(name, unit, doc, depends_on=INPUT_PORTS, getter=self._output_getter(index))
-        self._stale = True
+            depends_on = () if name in self.STATE_OUTPUTS else INPUT_PORTS
+            self.declare_output(name, unit, doc, depends_on=depends_on, getter=self._output_getter(index))
+        self._stale = True  # inputs or learning state changed since the core last evaluated
+        self._invalid_inputs: str | None = None  # why the outputs are NaN (a non-finite input), or None
 
     def _make_core(self) -> ControllerCore:
         values = self.parameter_values(self._param_specs)
@@ -56,6 +68,8 @@ class ControllerSlave(DescribedSlave):
         def get() -> float:
             if self._stale and self._initialized:
                 self._evaluate()
+            if self._invalid_inputs is not None:
+                return math.nan
             return self._core.outputs[index]
         return get
 
@@ -63,24 +77,51 @@ class ControllerSlave(DescribedSlave):
         return [getattr(self, n) for n in MEASUREMENT_PORTS], [getattr(self, n) for n in REFERENCE_PORTS]
 
     def _evaluate(self) -> None:
-        y, r = self._inputs()
-        self._core.evaluate(self._time, y, r)
+        """Outputs for the current inputs; a bad input makes every output NaN (logged), never a stale value."""
         self._stale = False
+        self._invalid_inputs = self.input_problem()
+        if self._invalid_inputs is not None:
+            self.log(f"{self.instance_name}: outputs are NaN: {self._invalid_inputs}", Fmi2Status.warning)
+            return
+        y, r = self._inputs()
+        try:
+            self._core.evaluate(self._time, y, r)
+        except Exception as exc:  # e.g. an overflow for absurd inputs: refuse these inputs, keep running
+            self._invalid_inputs = f"the controller cannot evaluate these inputs: {type(exc).__name__}: {exc}"
+            self.log(f"{self.instance_name}: outputs are NaN: {self._invalid_inputs}", Fmi2Status.error)
+            return
+        bad = next((n for n, v in zip(self.CORE.output_names(), self._core.outputs) if not math.isfinite(v)), None)
+        if bad is not None:
+            self.log(f"{self.instance_name}: output '{bad}' is not finite for the finite inputs at t = {self._time!r}",
+                     Fmi2Status.error)
 
     def set_real(self, vrs, values):
         super().set_real(vrs, values)
         self._stale = True
 
     def initialize(self) -> None:
-        self._core = self._make_core()
+        try:
+            self._core = self._make_core()
+        except ParameterError:
+            raise
+        except Exception as exc:  # the core failed on an admissible-looking combination: say which values
+            values = self.parameter_values(self._param_specs)
+            changed = ", ".join(f"'{s.name}' = {values[s.name]!r}" for s in self._param_specs
+                                if values[s.name] != s.default) or "every parameter at its default"
+            raise ValueError(f"the {self.CORE.__name__} core cannot be built with parameter {changed}: "
+                             f"{type(exc).__name__}: {exc}") from exc
         self._stale = True
 
     def step(self, current_time: float, step_size: float) -> bool:
-        reason = self.first_nonfinite(INPUT_PORTS)
-        if reason:
-            return self.discard(reason)
+        # the base class has refused non-finite inputs already
         if self._stale:
             self._evaluate()
+        if self._invalid_inputs is not None:
+            return self.discard(f"{self._invalid_inputs}; the step is refused and the state is kept")
+        bad = [n for n, v in zip(self.CORE.output_names(), self._core.outputs) if not math.isfinite(v)]
+        if bad:
+            return self.discard(f"output '{bad[0]}' is not finite at t = {current_time!r}: "
+                                "the core does not learn from it; the step is refused and the state is kept")
         self._core.advance(current_time, step_size)
         self._stale = True  # the outputs now reflect the new learning state at the next read
         return True
@@ -92,4 +133,6 @@ class ControllerSlave(DescribedSlave):
         if self._initialized:
             self._core = self._make_core()
             self._core.set_state(state.get("core", {}))
+        # the cached evaluation belongs to the state left behind: the next read evaluates again
         self._stale = True
+        self._invalid_inputs = None

@@ -3,8 +3,9 @@ truthful dependencies, a modelDescription that passes ``fmpy validate``, whole-s
 and the error conventions.
 
 pythonfmu 0.7 facts this module is built around (measured, see docs/interop.md):
-- its modelDescription lacks UnitDefinitions, units and ModelStructure/InitialUnknowns:
-  ``to_xml`` below adds them;
+- its modelDescription lacks UnitDefinitions, units and ModelStructure/InitialUnknowns, and writes
+  Real start values with 16 significant digits (pi/2 comes back one ulp off): ``to_xml`` adds the
+  former and rewrites starts with ``repr``, which round-trips;
 - a Python exception in any callback becomes ``fmi2Fatal``; ``do_step`` returning False becomes
   ``fmi2Discard``. So invalid parameters are refused at ``exitInitializationMode`` by logging the
   reason with status Error and raising (the host sees a non-OK status and the message), and bad
@@ -21,11 +22,31 @@ pythonfmu 0.7 facts this module is built around (measured, see docs/interop.md):
   ``__init_subclass__`` takes one reference each time a model class statement runs: once at
   import, and once in every re-execution, just before the binary's extra release;
 - the exported binary finds the model class with the regex ``class X(Fmi2Slave):``, so each FMU
-  script imports its base class under the name ``Fmi2Slave``.
+  script imports its base class under the name ``Fmi2Slave``;
+- ``fmi2Reset`` makes the binary create a new Python instance of the model class: every variable,
+  parameters set before included, is back at its start value (what FMI 2.0 asks of a reset);
+- ``fmi2GetFMUstate`` hands the binary the dict ``_get_fmu_state`` returns; serialization calls the
+  *class* methods ``_fmu_state_to_bytes``/``_fmu_state_from_bytes`` (JSON), where no instance can
+  balance an exception, so those two never raise.
+
+FMI state machine kept by this class (``_mode``): instantiated -> initialization -> stepping ->
+terminated. Calls outside their state are refused with a logged Error naming the call and the state
+(doStep: Discard; the others: an exception, so fmi2Fatal) and leave the instance as it was:
+
+- fixed parameters can be set before ``exitInitializationMode`` only; setting one to a different value
+  later is refused (setting the value it already has is accepted, for masters that re-apply starts);
+- outputs cannot be set; an unknown value reference or a variable of another type is refused by name;
+- in initialization mode outputs are computed from the current parameters (``initialize`` is run as a
+  preview on the first read after a change), so a master that propagates initial values (OSP's
+  libcosim does) reads the true initial state, not zeros;
+- a non-finite input, or one outside its declared [min, max], makes ``doStep`` log the variable's name
+  and return Discard without touching the state.
 """
 from __future__ import annotations
 
+import copy
 import ctypes
+import json
 import math
 import sys
 from contextlib import contextmanager
@@ -57,6 +78,12 @@ UNIT_BASES: dict[str, dict[str, int]] = {
 }
 
 STEP_SIZE = 0.01  # the paper's sampling period T, also each FMU's DefaultExperiment stepSize
+
+# FMI 2.0 co-simulation states (``DescribedSlave._mode``)
+INSTANTIATED = "instantiated"
+INITIALIZATION = "initialization mode"
+STEPPING = "stepping"
+TERMINATED = "terminated"
 
 
 @dataclass
@@ -100,7 +127,10 @@ class DescribedSlave(Fmi2Slave):
     def __init__(self, **kwargs: Any):
         super().__init__(**kwargs)
         self._meta: dict[str, _Meta] = {}
-        self._initialized = False
+        self._input_ranges: list[tuple[str, float | None, float | None]] = []  # name, low, high
+        self._mode = INSTANTIATED
+        self._initialized = False  # ``initialize`` succeeded with the current parameter values
+        self._preview_stale = True  # initialization mode: a parameter changed since the last preview
         self._time = 0.0
 
     # --- declaration -------------------------------------------------------------------------
@@ -123,13 +153,18 @@ class DescribedSlave(Fmi2Slave):
             _Meta(None, low, high, None),
         )
 
-    def declare_input(self, name: str, unit: str, description: str, start: float = 0.0) -> None:
+    def declare_input(
+        self, name: str, unit: str, description: str, start: float = 0.0,
+        low: float | None = None, high: float | None = None,
+    ) -> None:
+        """A continuous input; ``low``/``high`` (optional) become min/max, and doStep refuses values outside."""
         setattr(self, name, start)
         self._register(
             Real(name, causality=Fmi2Causality.input, variability=Fmi2Variability.continuous,
                  description=description),
-            _Meta(unit, None, None, None),
+            _Meta(unit, low, high, None),
         )
+        self._input_ranges.append((name, low, high))
 
     def declare_output(
         self, name: str, unit: str, description: str, depends_on: Sequence[str] = (),
@@ -162,9 +197,13 @@ class DescribedSlave(Fmi2Slave):
             cosim.set(flag, value)
 
         index_of = {v.name: i + 1 for i, v in enumerate(self.vars.values())}
-        for element in root.find("ModelVariables"):
+        for var, element in zip(self.vars.values(), root.find("ModelVariables")):
             meta = self._meta[element.get("name")]
             typed = element[0]
+            if typed.tag == "Real" and var.start is not None:
+                # pythonfmu writes 16 significant digits, which does not always give back the same
+                # double (pi/2 does not): an importer applying XML starts would run another model
+                typed.set("start", _xml_number(var.start))
             if meta.unit is not None:
                 typed.set("unit", meta.unit)
             if meta.low is not None:
@@ -206,21 +245,61 @@ class DescribedSlave(Fmi2Slave):
                 ctypes.pythonapi.Py_IncRef(ctypes.py_object(obj))
             raise
 
+    # --- variable access ----------------------------------------------------------------------
+
+    def _variable(self, vr: int, kind: type):
+        var = self.vars.get(vr)
+        if var is None:
+            raise ValueError(f"no variable has valueReference {vr}")
+        if not isinstance(var, kind):
+            raise TypeError(f"'{var.name}' (valueReference {vr}) is a {type(var).__name__}, "
+                            f"not a {kind.__name__}")
+        return var
+
+    def _set(self, vrs, values, kind: type) -> None:
+        """Check every value first, then set them all: a refused call changes nothing."""
+        accepted = []
+        for vr, value in zip(vrs, values):
+            var = self._variable(vr, kind)
+            if var.causality == Fmi2Causality.output or var.setter is None:
+                raise ValueError(f"'{var.name}' is an output; only inputs and parameters can be set")
+            if var.causality == Fmi2Causality.parameter and self._mode in (STEPPING, TERMINATED):
+                current = var.getter()
+                if value != current:
+                    raise ValueError(
+                        f"parameter '{var.name}' is fixed once initialization is done; "
+                        f"{value!r} refused, it keeps {current!r} (set it before exitInitializationMode, "
+                        "or fmi2Reset and initialize again)"
+                    )
+            accepted.append((var, value))
+        for var, value in accepted:
+            var.setter(value)
+        if self._mode == INITIALIZATION and any(v.causality == Fmi2Causality.parameter for v, _ in accepted):
+            self._preview_stale = True  # the initial outputs follow the parameters
+
+    def _get(self, vrs, kind: type, convert: Callable[[Any], Any]) -> list:
+        if self._mode == INITIALIZATION and self._preview_stale:
+            self._preview()
+        values = []
+        for vr in vrs:
+            values.append(convert(self._variable(vr, kind).getter()))
+        return values
+
     def set_real(self, vrs, values):
         with self._guarded("fmi2SetReal"):
-            super().set_real(vrs, values)
+            self._set(vrs, values, Real)
 
     def get_real(self, vrs):
         with self._guarded("fmi2GetReal"):
-            return super().get_real(vrs)
+            return self._get(vrs, Real, float)
 
     def set_integer(self, vrs, values):
         with self._guarded("fmi2SetInteger"):
-            super().set_integer(vrs, values)
+            self._set(vrs, values, Integer)
 
     def get_integer(self, vrs):
         with self._guarded("fmi2GetInteger"):
-            return super().get_integer(vrs)
+            return self._get(vrs, Integer, int)
 
     def set_boolean(self, vrs, values):
         with self._guarded("fmi2SetBoolean"):
@@ -240,16 +319,45 @@ class DescribedSlave(Fmi2Slave):
 
     # --- lifecycle ----------------------------------------------------------------------------
 
+    def _require_mode(self, call: str, *allowed: str) -> None:
+        if self._mode not in allowed:
+            raise RuntimeError(f"{call} is not allowed in state '{self._mode}' (allowed in: {', '.join(allowed)})")
+
     def setup_experiment(self, start_time: float, stop_time: float | None = None, tolerance: float | None = None):
-        self._time = float(start_time)
+        with self._guarded("fmi2SetupExperiment"):
+            self._require_mode("fmi2SetupExperiment", INSTANTIATED)
+            if not math.isfinite(start_time):
+                raise ValueError(f"fmi2SetupExperiment: start time {start_time!r} is not finite")
+            self._time = float(start_time)
+
+    def enter_initialization_mode(self) -> None:
+        with self._guarded("fmi2EnterInitializationMode"):
+            self._require_mode("fmi2EnterInitializationMode", INSTANTIATED)
+        self._mode = INITIALIZATION
+        self._preview_stale = True
 
     def exit_initialization_mode(self) -> None:
         with self._guarded("fmi2ExitInitializationMode (initialization refused)"):
-            self.initialize()
+            self._require_mode("fmi2ExitInitializationMode", INITIALIZATION)
+            self._initialized = False
+            self.initialize()  # raises naming the parameter; the instance stays in initialization mode
         self._initialized = True
+        self._preview_stale = False
+        self._mode = STEPPING
+
+    def _preview(self) -> None:
+        """Initialization mode: compute the initial outputs from the parameters set so far."""
+        self._preview_stale = False
+        try:
+            self.initialize()
+            self._initialized = True
+        except Exception as exc:
+            self._initialized = False
+            self.log(f"{self.instance_name}: outputs are not defined in initialization mode yet: {exc}",
+                     Fmi2Status.warning)
 
     def terminate(self) -> None:
-        self._initialized = False
+        self._mode = TERMINATED
 
     def do_step(self, current_time: float, step_size: float) -> bool:
         try:
@@ -258,6 +366,9 @@ class DescribedSlave(Fmi2Slave):
             return self.discard(f"doStep failed: {type(exc).__name__}: {exc}")
 
     def _do_step(self, current_time: float, step_size: float) -> bool:
+        if self._mode != STEPPING:
+            when = "before exitInitializationMode" if self._mode != TERMINATED else "after fmi2Terminate"
+            return self.discard(f"doStep called {when} (state '{self._mode}')")
         if not (math.isfinite(step_size) and step_size > 0.0):
             return self.discard(f"communication step size must be finite and > 0, got {step_size!r}")
         if not math.isclose(current_time, self._time, rel_tol=1e-12, abs_tol=1e-9):
@@ -265,8 +376,9 @@ class DescribedSlave(Fmi2Slave):
                 f"doStep starts at t = {current_time!r} but the FMU is at t = {self._time!r}; "
                 "rewind with fmi2SetFMUstate instead of jumping in time"
             )
-        if not self._initialized:
-            return self.discard("doStep called before exitInitializationMode")
+        reason = self.input_problem()
+        if reason:
+            return self.discard(reason)
         ok = self.step(current_time, step_size)
         if ok:
             self._time = current_time + step_size
@@ -277,6 +389,17 @@ class DescribedSlave(Fmi2Slave):
         self.log(f"{self.instance_name}: {reason}", Fmi2Status.error)
         return False
 
+    def input_problem(self) -> str | None:
+        """Why the current inputs cannot be used (naming the first bad input), or None."""
+        for name, low, high in self._input_ranges:
+            value = getattr(self, name)
+            if not math.isfinite(value):
+                return f"input '{name}' is {value!r}; the step is refused and the state is kept"
+            if (low is not None and value < low) or (high is not None and value > high):
+                return (f"input '{name}' = {value!r} is outside its range [{low}, {high}]; "
+                        "the step is refused and the state is kept")
+        return None
+
     def first_nonfinite(self, names: Sequence[str]) -> str | None:
         for name in names:
             value = getattr(self, name)
@@ -286,31 +409,68 @@ class DescribedSlave(Fmi2Slave):
 
     # --- whole-state snapshot (fmi2GetFMUstate / fmi2SetFMUstate / serialization) -------------
 
+    def _snapshot(self) -> dict[str, Any]:
+        values = {v.name: v.getter() for v in self.vars.values() if v.setter is not None}
+        return copy.deepcopy({
+            "model": type(self).__name__,
+            "values": values,
+            "mode": self._mode,
+            "initialized": self._initialized,
+            "preview_stale": self._preview_stale,
+            "time": self._time,
+            "internal": self.internal_state(),
+        })
+
+    def _restore(self, state: dict[str, Any]) -> None:
+        state = copy.deepcopy(state)
+        settable = {v.name: v for v in self.vars.values() if v.setter is not None}
+        for name, value in state["values"].items():
+            settable[name].setter(value)
+        self._mode = state["mode"]
+        self._initialized = bool(state["initialized"])
+        self._preview_stale = bool(state["preview_stale"])
+        self._time = float(state["time"])
+        self.restore_internal_state(state["internal"])
+
     def _get_fmu_state(self) -> dict[str, Any]:
         with self._guarded("fmi2GetFMUstate"):
-            state = super()._get_fmu_state()
-            state["__internal__"] = {"time": self._time, "initialized": self._initialized, **self.internal_state()}
+            state = self._snapshot()
+            json.dumps(state)  # fail here, naming the call, rather than later in the class-level serializer
             return state
 
     def _set_fmu_state(self, state: dict[str, Any]) -> None:
         with self._guarded("fmi2SetFMUstate"):
-            if not isinstance(state, dict) or "__internal__" not in state:
-                raise ValueError("not an FMU state of this model (corrupt or foreign serialized state)")
-            state = dict(state)
-            internal = dict(state.pop("__internal__"))
-            super()._set_fmu_state(state)
-            self._time = float(internal.pop("time", self._time))
-            self._initialized = bool(internal.pop("initialized", self._initialized))
-            self.restore_internal_state(internal)
+            model = type(self).__name__
+            if not isinstance(state, dict) or state.get("model") != model:
+                found = state.get("model") if isinstance(state, dict) else type(state).__name__
+                raise ValueError(f"not an FMU state of {model} (got {found!r}: corrupt or another model's state)")
+            settable = {v.name for v in self.vars.values() if v.setter is not None}
+            unknown = sorted(set(state.get("values", {})) - settable)
+            if unknown or state.get("mode") not in (INSTANTIATED, INITIALIZATION, STEPPING, TERMINATED):
+                raise ValueError(f"FMU state does not fit this {model} (unknown variables {unknown})")
+            backup = self._snapshot()
+            try:
+                self._restore(state)
+            except Exception:
+                self._restore(backup)  # a state that cannot be applied leaves the instance as it was
+                raise
+
+    @staticmethod
+    def _fmu_state_to_bytes(state: dict[str, Any]) -> bytes:
+        # called on the class: never raise (a state that cannot be written becomes one _set refuses)
+        try:
+            return json.dumps(state).encode("utf-8")
+        except Exception:
+            return b"null"
 
     @staticmethod
     def _fmu_state_from_bytes(state: bytes) -> dict[str, Any]:
         # called on the class, where no instance can balance an exception: never raise here,
         # hand a marker to _set_fmu_state, which refuses it
         try:
-            return Fmi2Slave._fmu_state_from_bytes(state)
+            return json.loads(state.decode("utf-8"))
         except Exception:
-            return {"__corrupt__": True}
+            return {"model": None, "corrupt": True}
 
     # --- to implement ---------------------------------------------------------------------------
 

@@ -32,10 +32,22 @@ def _cmd_run(args: argparse.Namespace) -> int:
         scenarios = [s.with_stop_time(args.stop_time) for s in scenarios]
     if args.summary and len(scenarios) > 1:
         raise ScenarioError("--summary takes one scenario; run them one by one")
+    if args.recording and len(scenarios) > 1:
+        raise ScenarioError("--recording takes one scenario; without it each run writes recordings/<scenario>.rrd")
     paths = ensure_built(sorted({i.fmu for s in scenarios for i in s.instances.values()}), args.fmu_dir)
-    summaries = []
+    summaries, written = [], []
     for scenario in scenarios:
-        result = run(scenario, paths)
+        if args.no_recording:
+            result = run(scenario, paths)
+        else:
+            from orchestration.recording import BLOCK_SIZE, RunRecorder, default_recording_path
+
+            target = args.recording or default_recording_path(scenario.name)
+            if target in written:  # the same scenario twice: keep both
+                target = target.with_name(f"{target.stem}-{len(written) + 1}{target.suffix}")
+            with RunRecorder(target) as recorder:
+                result = run(scenario, paths, observer=recorder, block_size=BLOCK_SIZE)
+            written.append(target)
         summary = summarize(result)
         summaries.append(summary)
         if result.failed:
@@ -43,6 +55,28 @@ def _cmd_run(args: argparse.Namespace) -> int:
         if args.summary:
             write_summary(summary, args.summary)
     print(format_table(summaries))
+    for target in written:
+        print(f"recording: {target}")
+    return 1 if any(s["status"] != "ok" for s in summaries) else 0
+
+
+def _cmd_compare(args: argparse.Namespace) -> int:
+    from orchestration.master import run
+    from orchestration.recording import record_comparison
+    from orchestration.summary import format_table, summarize
+
+    scenarios = [load_scenario(name) for name in args.scenarios]
+    if args.stop_time is not None:
+        scenarios = [s.with_stop_time(args.stop_time) for s in scenarios]
+    paths = ensure_built(sorted({i.fmu for s in scenarios for i in s.instances.values()}), args.fmu_dir)
+    results = []
+    for scenario in scenarios:
+        results.append(run(scenario, paths))
+        if results[-1].failed:
+            print(f"{scenario.name}: FAILED: {results[-1].error}", file=sys.stderr)
+    summaries = [summarize(r) for r in results]
+    print(format_table(summaries))
+    print(f"recording: {record_comparison(results, args.recording)}")
     return 1 if any(s["status"] != "ok" for s in summaries) else 0
 
 
@@ -68,6 +102,46 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
     return 1 if any(s["status"] != "ok" for s in summaries) else 0
 
 
+def _fmu_files(names: list[str], fmu_dir: Path) -> list[Path]:
+    """Model names (built if missing) or paths to .fmu files; none: every FMU of FMU_SOURCES."""
+    names = names or list(FMU_SOURCES)
+    unknown = [n for n in names if n not in FMU_SOURCES and not Path(n).is_file()]
+    if unknown:
+        raise BuildError(f"no FMU {unknown}: give a model ({', '.join(FMU_SOURCES)}) or a .fmu path")
+    built = ensure_built([n for n in names if n in FMU_SOURCES], fmu_dir)
+    return [built[n] if n in FMU_SOURCES else Path(n) for n in names]
+
+
+def _cmd_validate(args: argparse.Namespace) -> int:
+    from orchestration.validate import format_report, validate_fmus
+
+    report = validate_fmus(_fmu_files(args.fmus, args.fmu_dir))
+    print(format_report(report))
+    return 0 if report.ok else 1
+
+
+def _cmd_cross_check(args: argparse.Namespace) -> int:
+    from orchestration.cross_check import SOURCE_SCENARIO, generate
+
+    models = args.models or list(FMU_SOURCES)
+    loop = sorted({i.fmu for i in load_scenario(SOURCE_SCENARIO).instances.values()})
+    paths = ensure_built(sorted(set(models) | set(loop)), args.fmu_dir)
+    for folder in generate(args.out, paths, stop_time=args.stop_time, models=models):
+        print(folder)
+    return 0
+
+
+def _cmd_export_ssp(args: argparse.Namespace) -> int:
+    from orchestration.ssp import export_ssp
+
+    scenario = load_scenario(args.scenario)
+    if args.stop_time is not None:
+        scenario = scenario.with_stop_time(args.stop_time)
+    paths = ensure_built(sorted({i.fmu for i in scenario.instances.values()}), args.fmu_dir)
+    print(export_ssp(scenario, paths, args.out))
+    return 0
+
+
 def _cmd_bench(args: argparse.Namespace) -> int:
     from orchestration.bench import BENCHMARKS
 
@@ -86,13 +160,25 @@ def build_parser() -> argparse.ArgumentParser:
                    help=f"FMUs to build (default all: {', '.join(FMU_SOURCES)})")
     p.set_defaults(func=_cmd_build)
 
-    p = sub.add_parser("run", help="run scenarios through the FMUs and print their metrics")
+    p = sub.add_parser("run", help="run scenarios through the FMUs, print their metrics, record them for Rerun")
     p.add_argument("scenarios", nargs="*", metavar="SCENARIO",
                    help=f"scenario names or .toml paths (default {DEFAULT_SCENARIO})")
     p.add_argument("--stop-time", type=float, help="override the scenario's stop time, s")
     p.add_argument("--summary", type=Path, help="write the run's summary as JSON to this path")
     p.add_argument("--fmu-dir", type=Path, default=DEFAULT_FMU_DIR, help="where FMUs are built and found")
+    rec = p.add_mutually_exclusive_group()
+    rec.add_argument("--recording", type=Path, metavar="PATH",
+                     help="write the Rerun recording here (one scenario; default recordings/<scenario>.rrd)")
+    rec.add_argument("--no-recording", action="store_true", help="do not write a Rerun recording")
     p.set_defaults(func=_cmd_run)
+
+    p = sub.add_parser("compare", help="run scenarios and overlay them in one Rerun recording (paper Figs 10-12)")
+    p.add_argument("scenarios", nargs="+", metavar="SCENARIO", help="scenario names or .toml paths")
+    p.add_argument("--recording", type=Path, metavar="PATH", default=Path("recordings") / "compare.rrd",
+                   help="where to write the recording (default recordings/compare.rrd)")
+    p.add_argument("--stop-time", type=float, help="override every scenario's stop time, s")
+    p.add_argument("--fmu-dir", type=Path, default=DEFAULT_FMU_DIR, help="where FMUs are built and found")
+    p.set_defaults(func=_cmd_compare)
 
     p = sub.add_parser("reproduce", help="run the paper's section 4 experiment and write Table 1 extended")
     p.add_argument("--out", type=Path, default=Path("recordings"), help="where table1.md/.csv go (default recordings/)")
@@ -103,6 +189,26 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("bench", help="measurements behind design choices (prints ratios measured side by side)")
     p.add_argument("names", nargs="*", metavar="NAME", help="benchmarks to run (default all)")
     p.set_defaults(func=_cmd_bench)
+
+    p = sub.add_parser("validate", help="check FMUs: fmpy, fmutool -check and the project's invariants")
+    p.add_argument("fmus", nargs="*", metavar="FMU", help="model names or .fmu paths (default: every FMU)")
+    p.add_argument("--fmu-dir", type=Path, default=DEFAULT_FMU_DIR, help="where FMUs are built and found")
+    p.set_defaults(func=_cmd_validate)
+
+    p = sub.add_parser("cross-check", help="write a reference run of every FMU in the FMI Cross-Check layout")
+    p.add_argument("models", nargs="*", metavar="MODEL", help="FMUs to export (default all)")
+    p.add_argument("--out", type=Path, required=True, help="folder that receives fmus/2.0/cs/<platform>/...")
+    p.add_argument("--stop-time", type=float, default=5.0, help="length of each reference run, s (default 5)")
+    p.add_argument("--fmu-dir", type=Path, default=DEFAULT_FMU_DIR, help="where FMUs are built and found")
+    p.set_defaults(func=_cmd_cross_check)
+
+    p = sub.add_parser("export-ssp", help="write a scenario (FMUs, connections, parameters) as an SSP 1.0 archive")
+    p.add_argument("scenario", nargs="?", default=DEFAULT_SCENARIO, metavar="SCENARIO",
+                   help=f"scenario name or .toml path (default {DEFAULT_SCENARIO})")
+    p.add_argument("--out", type=Path, required=True, help="the .ssp file to write")
+    p.add_argument("--stop-time", type=float, help="override the scenario's stop time, s")
+    p.add_argument("--fmu-dir", type=Path, default=DEFAULT_FMU_DIR, help="where FMUs are built and found")
+    p.set_defaults(func=_cmd_export_ssp)
 
     p = sub.add_parser("scenarios", help="list the scenarios that ship with the package")
     p.set_defaults(func=_cmd_scenarios)

@@ -16,7 +16,6 @@ An algebraic loop (a cycle of feedthrough) is refused before the run starts.
 """
 from __future__ import annotations
 
-import ctypes
 import shutil
 import tempfile
 import time
@@ -27,9 +26,9 @@ from typing import Protocol
 import numpy as np
 from fmpy import extract, read_model_description
 from fmpy.fmi1 import FMICallException
-from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, fmi2Real, fmi2ValueReference
-from fmpy.logging import addLoggerProxy
+from fmpy.fmi2 import FMU2Slave, fmi2Real, fmi2ValueReference
 
+from orchestration.fmi_direct import forget_callbacks, make_callbacks
 from orchestration.scenario import Scenario, ScenarioError
 
 STATUS_LABELS = ("OK", "WARNING", "DISCARD", "ERROR", "FATAL", "PENDING")
@@ -74,10 +73,22 @@ class RunObserver(Protocol):
     def finish(self, result: "RunResult") -> None: ...
 
 
+class _LogSink:
+    """Turns one instance's (status, message) log entries into the run's LogRecords."""
+
+    def __init__(self, instance: str, logs: list[LogRecord]):
+        self.instance, self.logs = instance, logs
+
+    def append(self, entry: tuple[int, str]) -> None:
+        status, message = entry
+        label = STATUS_LABELS[status] if 0 <= status < len(STATUS_LABELS) else str(status)
+        self.logs.append(LogRecord(self.instance, label, message))
+
+
 class _Loaded:
     """One FMU instance with its value references and preallocated ctypes buffers."""
 
-    def __init__(self, name: str, fmu_file: Path, workdir: Path, callbacks):
+    def __init__(self, name: str, fmu_file: Path, workdir: Path, logs: list[LogRecord]):
         self.name = name
         self.md = read_model_description(str(fmu_file))
         if self.md.coSimulation is None:
@@ -94,7 +105,9 @@ class _Loaded:
             guid=self.md.guid, unzipDirectory=self.unzipdir,
             modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=name,
         )
-        self.fmu.instantiate(callbacks=callbacks, loggingOn=True)
+        # fmpy keeps one process-wide logger: fmi_direct routes each instance's messages to its sink
+        self.callbacks = make_callbacks(_LogSink(name, logs))
+        self.fmu.instantiate(callbacks=self.callbacks, loggingOn=True)
         self.instantiated = True
         self.initialized = False
 
@@ -188,16 +201,6 @@ def run(
     ``observer`` (optional) is handed the samples every ``block_size`` samples and at the end.
     """
     logs: list[LogRecord] = []
-
-    def on_log(env, instance, status, category, message):
-        logs.append(LogRecord(instance.decode(errors="replace") if instance else "",
-                              STATUS_LABELS[status] if 0 <= status < 6 else str(status),
-                              message.decode(errors="replace") if message else ""))
-
-    callbacks = fmi2CallbackFunctions()
-    callbacks.logger = fmi2CallbackLoggerTYPE(on_log)
-    addLoggerProxy(ctypes.byref(callbacks))
-
     n_steps = scenario.steps
     T = scenario.step_size
     times = np.arange(n_steps + 1, dtype=float) * T
@@ -213,7 +216,7 @@ def run(
         for inst in scenario.instances.values():
             if inst.fmu not in fmu_paths:
                 raise ScenarioError(f"instance '{inst.name}': no built FMU for model '{inst.fmu}'")
-            loaded[inst.name] = _Loaded(inst.name, fmu_paths[inst.fmu], workdir, callbacks)
+            loaded[inst.name] = _Loaded(inst.name, fmu_paths[inst.fmu], workdir, logs)
         links = _resolve_links(scenario, loaded)
         order = _feedthrough_order(loaded, links)
         pushes = {name: [l for l in links if l.source.name == name] for name in order}
@@ -283,4 +286,5 @@ def _free(loaded: dict[str, _Loaded]) -> None:
             ld.fmu.freeInstance()
         except FMICallException:
             pass
+        forget_callbacks(ld.callbacks)
         ld.instantiated = False

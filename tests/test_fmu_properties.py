@@ -1,0 +1,223 @@
+"""Property-based tests (hypothesis): random inputs, parameters and step sizes thrown at every FMU.
+
+- finite inputs of physically plausible size: doStep OK, every output finite;
+- any finite input, however large: doStep is OK or Discard with a logged reason, never an error
+  status; after a Discard the state is exactly what it was;
+- a non-finite input: the outputs that depend on it read NaN (never a stale number), doStep answers
+  Discard naming the input, and the state before the call is kept (bitwise);
+- a step size that is not a finite positive number: Discard naming the step size, state kept;
+- one parameter set to a random value: inside its declared [min, max] the FMU initializes, or refuses
+  with a message naming a parameter (open bounds and cross-constraints such as sigma < rho or a
+  reachable circle are not expressible as min/max); outside the range or non-finite it is refused
+  (status >= Error) with a logged message naming it.
+
+One instance per FMU serves every example: a saved FMU state (or fmi2Reset for the parameter tests)
+puts it back at the start of each example.
+"""
+from __future__ import annotations
+
+import math
+
+import pytest
+from fmpy.fmi1 import FMICallException
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from fmu_driver import DrivenFmu
+from orchestration.build import FMU_SOURCES
+
+T = 0.01
+SETTINGS = settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+# magnitudes a physically meaningful input of each unit stays within (test-side notion of "plausible")
+PLAUSIBLE = {"rad": 3.5, "rad/s": 10.0, "rad/s2": 50.0, "N.m": 20.0}
+NONFINITE = st.sampled_from([math.nan, math.inf, -math.inf])
+
+
+class Probe:
+    """One initialized instance of a model, a saved state to start every example from."""
+
+    def __init__(self, fmu_file, workdir, model):
+        self.unit = DrivenFmu(fmu_file, workdir, instance_name=model)
+        md = self.unit.md
+        self.inputs = [v for v in md.modelVariables if v.causality == "input"]
+        self.outputs = [v.name for v in md.modelVariables if v.causality == "output" and v.type == "Real"]
+        self.depends = {u.variable.name: {d.name for d in u.dependencies} for u in md.outputs}
+        self.parameters = [v for v in md.modelVariables if v.causality == "parameter"]
+        self.unit.initialize()
+        self.unit.fmu.doStep(0.0, T)  # start from a state that has moved once
+        self.t = T
+        self.start_state = self.unit.fmu.getFMUState()
+
+    def fresh(self):
+        self.unit.fmu.setFMUState(self.start_state)
+        self.unit.messages.clear()
+        return self.unit
+
+    def state_bytes(self) -> bytes:
+        state = self.unit.fmu.getFMUState()
+        blob = self.unit.fmu.serializeFMUState(state)
+        self.unit.fmu.freeFMUState(state)
+        return blob
+
+    def close(self):
+        self.unit.fmu.freeFMUState(self.start_state)
+        self.unit.free()
+
+
+@pytest.fixture(scope="module")
+def probes(fmu_paths, tmp_path_factory):
+    made: dict[str, Probe] = {}
+
+    def get(model: str) -> Probe:
+        if model not in made:
+            made[model] = Probe(fmu_paths[model], tmp_path_factory.mktemp(model), model)
+        return made[model]
+
+    yield get
+    for probe in made.values():
+        probe.close()
+
+
+def plausible(var):
+    bound = PLAUSIBLE.get(var.unit, 1.0)
+    low = max(-bound, float(var.min)) if var.min is not None else -bound
+    high = min(bound, float(var.max)) if var.max is not None else bound
+    return st.floats(low, high, allow_nan=False)
+
+
+@pytest.mark.parametrize("model", list(FMU_SOURCES))
+@SETTINGS
+@given(data=st.data())
+def test_plausible_inputs_step_ok_with_finite_outputs(probes, model, data):
+    probe = probes(model)
+    unit = probe.fresh()
+    values = {v.name: data.draw(plausible(v), label=v.name) for v in probe.inputs}
+    unit.set(**values)
+    assert all(math.isfinite(y) for y in unit.get(*probe.outputs)), unit.logged()
+    unit.fmu.doStep(probe.t, T)
+    assert all(math.isfinite(y) for y in unit.get(*probe.outputs)), unit.logged()
+
+
+@pytest.mark.filterwarnings("ignore::RuntimeWarning")  # numpy overflow inside a core, for absurd inputs
+@pytest.mark.parametrize("model", list(FMU_SOURCES))
+@SETTINGS
+@given(data=st.data())
+def test_any_finite_input_is_ok_or_discarded_with_a_reason(probes, model, data):
+    probe = probes(model)
+    if not probe.inputs:
+        return
+    unit = probe.fresh()
+    values = {v.name: data.draw(st.floats(allow_nan=False, allow_infinity=False, width=64), label=v.name)
+              for v in probe.inputs}
+    unit.set(**values)
+    unit.get(*probe.outputs)  # reading never fails
+    before = probe.state_bytes()
+    try:
+        unit.fmu.doStep(probe.t, T)
+    except FMICallException as exc:
+        assert exc.status == 2, unit.logged()  # Discard, never Error/Fatal
+        assert any(s >= 2 for s, _ in unit.messages), "a Discard without a logged reason"
+        assert probe.state_bytes() == before, "a refused step changed the state"
+
+
+@pytest.mark.parametrize("model", list(FMU_SOURCES))
+@SETTINGS
+@given(data=st.data())
+def test_nonfinite_input_is_discarded_by_name_and_state_kept(probes, model, data):
+    probe = probes(model)
+    if not probe.inputs:
+        return
+    unit = probe.fresh()
+    good = {v.name: data.draw(plausible(v), label=v.name) for v in probe.inputs}
+    unit.set(**good)
+    ok_state = unit.fmu.getFMUState()
+    bad = data.draw(st.sampled_from(probe.inputs), label="bad input").name
+    unit.set(**{bad: data.draw(NONFINITE, label="value")})
+    for name, y in zip(probe.outputs, unit.get(*probe.outputs)):
+        if bad in probe.depends[name]:
+            assert math.isnan(y), f"{name} reads {y} although {bad} is not finite"
+    with pytest.raises(FMICallException) as info:
+        unit.fmu.doStep(probe.t, T)
+    assert info.value.status == 2
+    assert any(s >= 2 and f"'{bad}'" in m for s, m in unit.messages), unit.logged()
+    # the refused step changed nothing: with the good value back, the step equals one from the saved state
+    unit.set(**{bad: good[bad]})
+    unit.fmu.doStep(probe.t, T)
+    after_refusal = unit.get(*probe.outputs)
+    unit.fmu.setFMUState(ok_state)
+    unit.fmu.freeFMUState(ok_state)
+    unit.fmu.doStep(probe.t, T)
+    assert unit.get(*probe.outputs) == after_refusal
+
+
+@pytest.mark.parametrize("model", list(FMU_SOURCES))
+@SETTINGS
+@given(step=st.one_of(st.floats(max_value=0.0), NONFINITE))
+def test_bad_step_size_is_discarded_and_state_kept(probes, model, step):
+    probe = probes(model)
+    unit = probe.fresh()
+    before = probe.state_bytes()
+    with pytest.raises(FMICallException) as info:
+        unit.fmu.doStep(probe.t, step)
+    assert info.value.status == 2
+    assert "step size" in unit.logged()
+    assert probe.state_bytes() == before
+
+
+def _parameter_value(var, data, inside: bool):
+    low = None if var.min is None else float(var.min)
+    high = None if var.max is None else float(var.max)
+    integer = var.type == "Integer"
+    if inside:
+        if integer:
+            return data.draw(st.integers(int(low), int(high)), label=var.name)
+        return data.draw(st.floats(low, high, allow_nan=False, allow_infinity=False), label=var.name)
+    choices = []
+    if low is not None:
+        choices.append(st.integers(-10**6, int(low) - 1) if integer else st.floats(max_value=low, exclude_max=True,
+                                                                                     allow_infinity=False))
+    if high is not None:
+        choices.append(st.integers(int(high) + 1, 10**6) if integer else st.floats(min_value=high, exclude_min=True,
+                                                                                     allow_infinity=False))
+    if not integer:
+        choices.append(st.just(math.nan))
+        if low is not None:
+            choices.append(st.just(-math.inf))
+        if high is not None:
+            choices.append(st.just(math.inf))
+    return data.draw(st.one_of(choices), label=var.name) if choices else None
+
+
+@pytest.mark.filterwarnings("ignore::RuntimeWarning")  # scipy, for absurd (refused) LQR weights
+@pytest.mark.parametrize("model", list(FMU_SOURCES))
+@SETTINGS
+@given(data=st.data())
+def test_random_parameter_is_accepted_or_refused_by_name(probes, model, data):
+    probe = probes(model)
+    unit = probe.unit
+    unit.fmu.reset()  # back to instantiated, every variable at its start value
+    unit.messages.clear()
+    var = data.draw(st.sampled_from(probe.parameters), label="parameter")
+    inside = data.draw(st.booleans(), label="inside the range")
+    value = _parameter_value(var, data, inside)
+    if value is None:  # a parameter any real value may take: no outside
+        value, inside = _parameter_value(var, data, True) if var.min is not None else 0.0, True
+    unit.set(**{var.name: value})
+    unit.fmu.setupExperiment(startTime=0.0)
+    unit.fmu.enterInitializationMode()
+    try:
+        unit.fmu.exitInitializationMode()
+        refused = None
+    except FMICallException as exc:
+        refused = exc
+    named = any(s >= 3 and f"'{var.name}'" in m for s, m in unit.messages)
+    if not inside:
+        assert refused is not None and refused.status >= 3, f"{var.name} = {value} was accepted"
+        assert named, unit.logged()
+    elif refused is not None:  # a cross-constraint (e.g. the circle must stay reachable) names its parameter
+        names = {p.name for p in probe.parameters}
+        assert any(s >= 3 and any(f"'{n}'" in m for n in names) for s, m in unit.messages), unit.logged()
+    # leave the instance as the other tests expect it: initialized at the defaults, one step done
+    unit.fmu.reset()
+    unit.initialize()
+    unit.fmu.doStep(0.0, T)

@@ -1,0 +1,121 @@
+"""``sotc-cosim validate``: every built FMU passes; deliberately broken copies fail on the right check."""
+import shutil
+import zipfile
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import pytest
+
+from orchestration.build import FMU_SOURCES
+from orchestration.cli import main
+from orchestration.validate import format_report, validate_fmu_file, validate_fmus
+
+
+def broken_copy(src: Path, dst: Path, edit) -> Path:
+    """Copy an FMU, applying ``edit(root)`` to the ElementTree of its modelDescription.xml."""
+    with zipfile.ZipFile(src) as zin, zipfile.ZipFile(dst, "w", zipfile.ZIP_DEFLATED) as zout:
+        for item in zin.infolist():
+            data = zin.read(item.filename)
+            if item.filename == "modelDescription.xml":
+                root = ET.fromstring(data)
+                edit(root)
+                data = ET.tostring(root, encoding="utf-8", xml_declaration=True)
+            zout.writestr(item, data)
+    return dst
+
+
+def variable(root, name):
+    return next(v for v in root.iter("ScalarVariable") if v.get("name") == name)
+
+
+def output_unknown(root, name):
+    index = [v.get("name") for v in root.iter("ScalarVariable")].index(name) + 1
+    return next(u for u in root.find("ModelStructure/Outputs") if u.get("index") == str(index))
+
+
+def test_every_built_fmu_passes(fmu_paths):
+    report = validate_fmus([fmu_paths[m] for m in FMU_SOURCES])
+    assert report.ok, format_report(report)
+    assert sorted(r.model for r in report.fmus) == sorted(FMU_SOURCES)
+
+
+def _strip_unit(root):
+    del variable(root, "tau1")[0].attrib["unit"]
+
+
+def _drop_description(root):
+    del variable(root, "tau2").attrib["description"]
+
+
+def _step_size(root):
+    root.find("DefaultExperiment").set("stepSize", "0.001")
+
+
+def _unbounded_parameter(root):
+    real = variable(root, "p1")[0]
+    del real.attrib["min"], real.attrib["max"]
+
+
+def _no_state_capability(root):
+    root.find("CoSimulation").set("canSerializeFMUstate", "false")
+
+
+def _input_without_start(root):
+    del variable(root, "tau1")[0].attrib["start"]
+
+
+def _false_dependency(root):  # phi1 is the state: it does not depend on tau1 at the same instant
+    tau1 = [v.get("name") for v in root.iter("ScalarVariable")].index("tau1") + 1
+    output_unknown(root, "phi1").set("dependencies", str(tau1))
+
+
+@pytest.mark.parametrize("edit, check, needle", [
+    (_strip_unit, "units", "'tau1'"),
+    (_drop_description, "descriptions", "'tau2'"),
+    (_step_size, "step", "0.001"),
+    (_unbounded_parameter, "ranges", "'p1'"),
+    (_no_state_capability, "state", "canSerializeFMUstate"),
+    (_input_without_start, "starts", "'tau1'"),
+    (_false_dependency, "dependencies", "'phi1'"),
+])
+def test_broken_plant_copy_fails_the_right_check(fmu_paths, tmp_path, edit, check, needle):
+    broken = broken_copy(fmu_paths["ArmPlant"], tmp_path / "ArmPlant.fmu", edit)
+    report = validate_fmu_file(broken)
+    assert not report.ok
+    assert any(needle in p for p in report.problems[check]), report.problems
+
+
+def test_start_that_does_not_round_trip_is_caught(fmu_paths, tmp_path):
+    """pythonfmu's own 16-digit starts: phase = pi/2 would come back one ulp off."""
+    def sixteen_digits(root):
+        real = variable(root, "phase")[0]
+        real.set("start", f"{float(real.get('start')):.16g}")
+
+    broken = broken_copy(fmu_paths["ReferenceTrajectory"], tmp_path / "ReferenceTrajectory.fmu", sixteen_digits)
+    problems = validate_fmu_file(broken).problems["starts"]
+    assert any("'phase'" in p for p in problems), problems
+
+
+def test_hidden_feedthrough_is_caught_by_experiment(fmu_paths, tmp_path):
+    """A controller whose torque claims no dependency on the measurement is caught by perturbation."""
+    def hide(root):
+        output_unknown(root, "tau1").set("dependencies", "")
+
+    broken = broken_copy(fmu_paths["CtController"], tmp_path / "CtController.fmu", hide)
+    problems = validate_fmu_file(broken).problems["dependencies"]
+    assert any("'tau1' changes when input" in p for p in problems), problems
+
+
+def test_duplicate_identifiers_fail_the_set_and_the_cli_exits_non_zero(fmu_paths, tmp_path, capsys):
+    copy = tmp_path / "copy" / "ArmPlant.fmu"
+    copy.parent.mkdir()
+    shutil.copy(fmu_paths["ArmPlant"], copy)
+    report = validate_fmus([fmu_paths["ArmPlant"], copy])
+    assert any("modelIdentifier 'ArmPlant'" in p for p in report.set_problems)
+    assert any("script module 'arm_plant_fmu'" in p for p in report.set_problems)
+
+    broken = broken_copy(fmu_paths["ArmPlant"], tmp_path / "ArmPlant.fmu", _step_size)
+    assert main(["validate", str(broken)]) == 1
+    out = capsys.readouterr().out
+    assert "FAIL" in out and "stepSize" in out
+    assert main(["validate", str(fmu_paths["ReferenceTrajectory"])]) == 0
