@@ -23,83 +23,93 @@ def _cmd_scenarios(args: argparse.Namespace) -> int:
     return 0
 
 
-def _cmd_run(args: argparse.Namespace) -> int:
-    from orchestration.master import run
-    from orchestration.summary import format_table, summarize, write_summary
+def _prepare(names: list[str], stop_time: float | None, fmu_dir: Path):
+    """Load the scenarios, apply --stop-time, and build the FMUs they need."""
+    scenarios = [load_scenario(name) for name in names]
+    if stop_time is not None:
+        scenarios = [s.with_stop_time(stop_time) for s in scenarios]
+    return scenarios, ensure_built(sorted({i.fmu for s in scenarios for i in s.instances.values()}), fmu_dir)
 
-    scenarios = [load_scenario(name) for name in (args.scenarios or [DEFAULT_SCENARIO])]
-    if args.stop_time is not None:
-        scenarios = [s.with_stop_time(args.stop_time) for s in scenarios]
-    if args.summary and len(scenarios) > 1:
-        raise ScenarioError("--summary takes one scenario; run them one by one")
-    if args.recording and len(scenarios) > 1:
-        raise ScenarioError("--recording takes one scenario; without it each run writes recordings/<scenario>.rrd")
-    paths = ensure_built(sorted({i.fmu for s in scenarios for i in s.instances.values()}), args.fmu_dir)
-    summaries, written = [], []
+
+def _run_each(scenarios, paths, recording_for=None) -> list:
+    """Run every scenario (a failure is reported and the next one still runs); ``recording_for``
+    maps a scenario to the .rrd path its run streams to, or None for no recording."""
+    from orchestration.master import run
+
+    results = []
     for scenario in scenarios:
-        if args.no_recording:
+        target = recording_for(scenario) if recording_for else None
+        if target is None:
             result = run(scenario, paths)
         else:
-            from orchestration.recording import BLOCK_SIZE, RunRecorder, default_recording_path
+            from orchestration.recording import BLOCK_SIZE, RunRecorder
 
-            target = args.recording or default_recording_path(scenario.name)
-            if target in written:  # the same scenario twice: keep both
-                target = target.with_name(f"{target.stem}-{len(written) + 1}{target.suffix}")
             with RunRecorder(target) as recorder:
                 result = run(scenario, paths, observer=recorder, block_size=BLOCK_SIZE)
-            written.append(target)
-        summary = summarize(result)
-        summaries.append(summary)
         if result.failed:
             print(f"{scenario.name}: FAILED: {result.error}", file=sys.stderr)
-        if args.summary:
-            write_summary(summary, args.summary)
+        results.append(result)
+    return results
+
+
+def _exit_code(summaries: list[dict]) -> int:
+    return 1 if any(s["status"] != "ok" for s in summaries) else 0
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    from orchestration.summary import format_table, summarize, write_summary
+
+    if args.summary and len(args.scenarios) > 1:
+        raise ScenarioError("--summary takes one scenario; run them one by one")
+    if args.recording and len(args.scenarios) > 1:
+        raise ScenarioError("--recording takes one scenario; without it each run writes recordings/<scenario>.rrd")
+    scenarios, paths = _prepare(args.scenarios or [DEFAULT_SCENARIO], args.stop_time, args.fmu_dir)
+    written: list[Path] = []
+
+    def recording_for(scenario):
+        if args.no_recording:
+            return None
+        from orchestration.recording import default_recording_path
+
+        target = args.recording or default_recording_path(scenario.name)
+        if target in written:  # the same scenario twice: keep both
+            target = target.with_name(f"{target.stem}-{len(written) + 1}{target.suffix}")
+        written.append(target)
+        return target
+
+    summaries = [summarize(r) for r in _run_each(scenarios, paths, recording_for)]
+    if args.summary:
+        write_summary(summaries[0], args.summary)
     print(format_table(summaries))
     for target in written:
         print(f"recording: {target}")
-    return 1 if any(s["status"] != "ok" for s in summaries) else 0
+    return _exit_code(summaries)
 
 
 def _cmd_compare(args: argparse.Namespace) -> int:
-    from orchestration.master import run
     from orchestration.recording import record_comparison
     from orchestration.summary import format_table, summarize
 
-    scenarios = [load_scenario(name) for name in args.scenarios]
-    if args.stop_time is not None:
-        scenarios = [s.with_stop_time(args.stop_time) for s in scenarios]
-    paths = ensure_built(sorted({i.fmu for s in scenarios for i in s.instances.values()}), args.fmu_dir)
-    results = []
-    for scenario in scenarios:
-        results.append(run(scenario, paths))
-        if results[-1].failed:
-            print(f"{scenario.name}: FAILED: {results[-1].error}", file=sys.stderr)
+    results = _run_each(*_prepare(args.scenarios, args.stop_time, args.fmu_dir))
     summaries = [summarize(r) for r in results]
     print(format_table(summaries))
     print(f"recording: {record_comparison(results, args.recording)}")
-    return 1 if any(s["status"] != "ok" for s in summaries) else 0
+    return _exit_code(summaries)
 
 
 def _cmd_reproduce(args: argparse.Namespace) -> int:
-    from orchestration.master import run
+    from orchestration.recording import record_comparison
     from orchestration.reproduce import REPRODUCE_SCENARIOS, compact_table, write_table
     from orchestration.summary import summarize
 
-    scenarios = [load_scenario(name) for name in REPRODUCE_SCENARIOS]
-    if args.stop_time is not None:
-        scenarios = [s.with_stop_time(args.stop_time) for s in scenarios]
-    paths = ensure_built(sorted({i.fmu for s in scenarios for i in s.instances.values()}), args.fmu_dir)
-    summaries = []
-    for scenario in scenarios:
-        result = run(scenario, paths)
-        if result.failed:
-            print(f"{scenario.name}: FAILED: {result.error}", file=sys.stderr)
-        summaries.append(summarize(result))
+    results = _run_each(*_prepare(list(REPRODUCE_SCENARIOS), args.stop_time, args.fmu_dir))
+    summaries = [summarize(r) for r in results]
     md, cs, text = write_table(summaries, args.out)
     print(text)
     print(compact_table(summaries))
     print(f"wrote {md} and {cs}")
-    return 1 if any(s["status"] != "ok" for s in summaries) else 0
+    print(f"recording: {record_comparison(results, args.recording)} (paper Figs 10-12: every controller overlaid)")
+    return _exit_code(summaries)
 
 
 def _fmu_files(names: list[str], fmu_dir: Path) -> list[Path]:
@@ -182,6 +192,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("reproduce", help="run the paper's section 4 experiment and write Table 1 extended")
     p.add_argument("--out", type=Path, default=Path("recordings"), help="where table1.md/.csv go (default recordings/)")
+    p.add_argument("--recording", type=Path, metavar="PATH", default=Path("recordings") / "reproduce.rrd",
+                   help="the comparison recording of all runs (default recordings/reproduce.rrd)")
     p.add_argument("--stop-time", type=float, help="override every scenario's stop time, s (default: the paper's 100 s)")
     p.add_argument("--fmu-dir", type=Path, default=DEFAULT_FMU_DIR, help="where FMUs are built and found")
     p.set_defaults(func=_cmd_reproduce)

@@ -1,6 +1,8 @@
 """`sotc-cosim reproduce`: Table 1 extended, every number from this invocation's runs."""
 import csv
 
+from rerun.chunk import RrdReader
+
 import orchestration.summary as summary_module
 from orchestration.cli import main
 from orchestration.reproduce import COLUMNS, PAPER_TABLE1, REPRODUCE_SCENARIOS
@@ -23,7 +25,9 @@ def test_reproduce_writes_the_table_from_its_own_runs(fmu_dir, tmp_path, monkeyp
 
     monkeypatch.setattr(summary_module, "summarize", spy)
     monkeypatch.chdir(tmp_path)
-    code = main(["reproduce", "--stop-time", "3", "--fmu-dir", str(fmu_dir), "--out", str(tmp_path / "out")])
+    rrd = tmp_path / "out" / "reproduce.rrd"
+    code = main(["reproduce", "--stop-time", "3", "--fmu-dir", str(fmu_dir), "--out", str(tmp_path / "out"),
+                 "--recording", str(rrd)])
     printed = capsys.readouterr().out
     assert code == 0
     header, rows = _read(tmp_path / "out" / "table1.csv")
@@ -39,3 +43,7 @@ def test_reproduce_writes_the_table_from_its_own_runs(fmu_dir, tmp_path, monkeyp
         assert row[4:] == [get(s) for _, _, get in COLUMNS]
         assert float(row[4]) == float(format(s["mse"][0], ".5f"))
     assert "paper-otc" in printed and "wrote" in printed
+    # the comparison recording overlays every run of this invocation (paper Figs 10-12)
+    entities = {c.entity_path for c in RrdReader(rrd).stream().to_chunks()}
+    for name in REPRODUCE_SCENARIOS:
+        assert f"/{name}/fmu/plant" in entities, sorted(entities)[:20]
