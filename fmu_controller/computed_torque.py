@@ -52,27 +52,44 @@ def saturate_norm(tau1: float, tau2: float, tau_max: float) -> tuple[float, floa
     return tau1, tau2, norm, False
 
 
-class CtCore(ControllerCore):
+TAU_MAX_SPEC = positive("tau_max", DEFAULT_TAU_MAX, "N.m", "Bound on the torque norm ||tau|| (the paper's rho), eq. (CT-4)")
+
+
+class LinearisingCore(ControllerCore):
+    """Feedback linearisation with error feedback, saturated on the norm: the common frame of the
+    computed-torque and LQR baselines. Subclasses give the feedback acceleration w(e, e_dot):
+
+        tau_raw = D(phi) (ddphi_d + w) + H(phi, dphi) dphi + G(dphi),   tau = sat(tau_raw)   (CT-3), (CT-4)
+    """
+
+    EXTRA_OUTPUTS = (
+        OutputSpec("tau_norm_raw", "N.m", "||tau|| before saturation, eq. (CT-3)"),
+        OutputSpec("saturated", "1", "1 when the norm bound (CT-4) scaled the torque down, else 0"),
+        OutputSpec("v1", "rad/s2", "Error-feedback acceleration w_1 of joint 1 (added to ddphi1_d)"),
+        OutputSpec("v2", "rad/s2", "Error-feedback acceleration w_2 of joint 2 (added to ddphi2_d)"),
+    )
+
+    def feedback(self, e1: float, e2: float, de1: float, de2: float) -> tuple[float, float]:
+        raise NotImplementedError
+
+    def evaluate(self, t: float, y: Sequence[float], r: Sequence[float]) -> None:
+        phi1, phi2, dphi1, dphi2 = (float(v) for v in y)
+        q1d, q2d, dq1d, dq2d, ddq1d, ddq2d = (float(v) for v in r[:6])
+        w1, w2 = self.feedback(phi1 - q1d, phi2 - q2d, dphi1 - dq1d, dphi2 - dq2d)  # eq. (CT-1)
+        raw1, raw2 = inverse_dynamics(phi2, dphi1, dphi2, ddq1d + w1, ddq2d + w2, self.model)  # eq. (CT-3)
+        tau1, tau2, norm, sat = saturate_norm(raw1, raw2, self.params["tau_max"])  # eq. (CT-4)
+        self.outputs = [tau1, tau2, norm, 1.0 if sat else 0.0, w1, w2]
+
+
+class CtCore(LinearisingCore):
     """Computed torque with PD error feedback, saturated on the torque norm, eqs. (CT-1)..(CT-4)."""
 
     PARAMETER_SPECS: tuple[ParameterSpec, ...] = (
         positive("kp", 25.0, "1/s2", "Position gain Kp of the error dynamics e_ddot + Kd e_dot + Kp e = 0, eq. (CT-2)", high=1e6),
         positive("kd", 10.0, "1/s", "Velocity gain Kd of the error dynamics, eq. (CT-2); 2 sqrt(kp) is critical damping", high=1e4),
-        positive("tau_max", DEFAULT_TAU_MAX, "N.m", "Bound on the torque norm ||tau|| (the paper's rho), eq. (CT-4)"),
-    )
-    EXTRA_OUTPUTS = (
-        OutputSpec("tau_norm_raw", "N.m", "||tau|| before saturation, eq. (CT-3)"),
-        OutputSpec("saturated", "1", "1 when the norm bound (CT-4) scaled the torque down, else 0"),
-        OutputSpec("v1", "rad/s2", "Commanded acceleration of joint 1, eq. (CT-2)"),
-        OutputSpec("v2", "rad/s2", "Commanded acceleration of joint 2, eq. (CT-2)"),
+        TAU_MAX_SPEC,
     )
 
-    def evaluate(self, t: float, y: Sequence[float], r: Sequence[float]) -> None:
-        phi1, phi2, dphi1, dphi2 = (float(v) for v in y)
-        q1d, q2d, dq1d, dq2d, ddq1d, ddq2d = (float(v) for v in r[:6])
+    def feedback(self, e1: float, e2: float, de1: float, de2: float) -> tuple[float, float]:
         kp, kd = self.params["kp"], self.params["kd"]
-        v1 = ddq1d - kd * (dphi1 - dq1d) - kp * (phi1 - q1d)
-        v2 = ddq2d - kd * (dphi2 - dq2d) - kp * (phi2 - q2d)
-        raw1, raw2 = inverse_dynamics(phi2, dphi1, dphi2, v1, v2, self.model)  # eq. (CT-3)
-        tau1, tau2, norm, sat = saturate_norm(raw1, raw2, self.params["tau_max"])
-        self.outputs = [tau1, tau2, norm, 1.0 if sat else 0.0, v1, v2]
+        return -kd * de1 - kp * e1, -kd * de2 - kp * e2  # eq. (CT-2): v = ddphi_d + w

@@ -24,15 +24,11 @@ that, but the gain here comes from the Riccati solver, not from this formula.
 """
 from __future__ import annotations
 
-from typing import Sequence
-
 import numpy as np
 from scipy.linalg import solve_continuous_are
 
-from fmu_controller.base import ControllerCore, OutputSpec
-from fmu_controller.computed_torque import DEFAULT_TAU_MAX, saturate_norm
-from fmu_plant.dynamics import inverse_dynamics
-from fmu_plant.parameters import ParameterSpec, positive
+from fmu_controller.computed_torque import TAU_MAX_SPEC, LinearisingCore
+from fmu_plant.parameters import ParameterSpec
 
 
 def error_system() -> tuple[np.ndarray, np.ndarray]:
@@ -53,30 +49,22 @@ def lqr_gain(q: float, r: float) -> tuple[np.ndarray, np.ndarray]:
     return k, p
 
 
-class LqrCore(ControllerCore):
+class LqrCore(LinearisingCore):
     """LQR of the feedback-linearised error, saturated on the torque norm, eqs. (LQR-1)..(LQR-4)."""
 
     PARAMETER_SPECS: tuple[ParameterSpec, ...] = (
-        positive("q", 1.0, "1", "State weight: Theta = q I4 on x = [e, e_dot], eq. (LQR-3); 1 is the SOTC's Theta = I4", high=1e8),
-        positive("r", 1.0, "1", "Input weight: R = r I2 on the commanded acceleration v, eq. (LQR-3)", high=1e8),
-        positive("tau_max", DEFAULT_TAU_MAX, "N.m", "Bound on the torque norm ||tau|| (the paper's rho), eq. (CT-4)"),
-    )
-    EXTRA_OUTPUTS = (
-        OutputSpec("tau_norm_raw", "N.m", "||tau|| before saturation, eq. (LQR-1)"),
-        OutputSpec("saturated", "1", "1 when the norm bound scaled the torque down, else 0"),
-        OutputSpec("v1", "rad/s2", "LQR acceleration command of joint 1, v = -K x, eq. (LQR-4)"),
-        OutputSpec("v2", "rad/s2", "LQR acceleration command of joint 2, eq. (LQR-4)"),
+        # bounded away from 0: the Riccati solver fails for weights near underflow (found by hypothesis)
+        ParameterSpec("q", 1.0, "1", "State weight: Theta = q I4 on x = [e, e_dot], eq. (LQR-3); 1 is the SOTC's Theta = I4",
+                      low=1e-6, high=1e8),
+        ParameterSpec("r", 1.0, "1", "Input weight: R = r I2 on the commanded acceleration v, eq. (LQR-3)",
+                      low=1e-6, high=1e8),
+        TAU_MAX_SPEC,
     )
 
     def __init__(self, model=None, **params: float):
         super().__init__(model, **params)
         self.gain, self.riccati = lqr_gain(self.params["q"], self.params["r"])
 
-    def evaluate(self, t: float, y: Sequence[float], r: Sequence[float]) -> None:
-        phi1, phi2, dphi1, dphi2 = (float(v) for v in y)
-        q1d, q2d, dq1d, dq2d, ddq1d, ddq2d = (float(v) for v in r[:6])
-        x = np.array([phi1 - q1d, phi2 - q2d, dphi1 - dq1d, dphi2 - dq2d])
-        v1, v2 = (-self.gain @ x).tolist()
-        raw1, raw2 = inverse_dynamics(phi2, dphi1, dphi2, ddq1d + v1, ddq2d + v2, self.model)
-        tau1, tau2, norm, sat = saturate_norm(raw1, raw2, self.params["tau_max"])
-        self.outputs = [tau1, tau2, norm, 1.0 if sat else 0.0, v1, v2]
+    def feedback(self, e1: float, e2: float, de1: float, de2: float) -> tuple[float, float]:
+        w1, w2 = (-self.gain @ np.array([e1, e2, de1, de2])).tolist()  # eq. (LQR-4): v = -K x
+        return w1, w2
