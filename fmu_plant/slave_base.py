@@ -4,7 +4,8 @@ and the error conventions.
 
 pythonfmu 0.7 facts this module is built around (measured, see docs/interop.md):
 - its modelDescription lacks UnitDefinitions, units and ModelStructure/InitialUnknowns, and writes
-  Real start values with 16 significant digits (pi/2 comes back one ulp off): ``to_xml`` adds the
+  Real start values with 16 significant digits (pi/2 comes back one ulp off): ``to_xml`` (through
+  ``fmu_plant.model_description``) adds the
   former and rewrites starts with ``repr``, which round-trips;
 - a Python exception in any callback becomes ``fmi2Fatal``; ``do_step`` returning False becomes
   ``fmi2Discard``. So invalid parameters are refused at ``exitInitializationMode`` by logging the
@@ -50,32 +51,14 @@ import json
 import math
 import sys
 from contextlib import contextmanager
-from dataclasses import dataclass
 from typing import Any, Callable, ClassVar, Iterator, Sequence
-from xml.etree.ElementTree import Element, SubElement
+from xml.etree.ElementTree import Element
 
 from pythonfmu import DefaultExperiment, Fmi2Causality, Fmi2Slave, Fmi2Variability, Integer, Real
 from pythonfmu.enums import Fmi2Initial, Fmi2Status
 
+from fmu_plant.model_description import UNIT_BASES, VariableMeta, complete_model_description
 from fmu_plant.parameters import ParameterSpec
-
-# SI base-unit exponents of every unit the FMUs use (FMI 2.0 UnitDefinitions/BaseUnit attributes).
-UNIT_BASES: dict[str, dict[str, int]] = {
-    "1": {},
-    "s": {"s": 1},
-    "m": {"m": 1},
-    "rad": {"rad": 1},
-    "rad/s": {"rad": 1, "s": -1},
-    "rad/s2": {"rad": 1, "s": -2},
-    "m/s": {"m": 1, "s": -1},
-    "m/s2": {"m": 1, "s": -2},
-    "N.m": {"kg": 1, "m": 2, "s": -2},
-    "kg.m2": {"kg": 1, "m": 2},
-    "N.m.s/rad": {"kg": 1, "m": 2, "s": -1, "rad": -1},
-    "N.m/rad": {"kg": 1, "m": 2, "s": -2, "rad": -1},
-    "1/s": {"s": -1},
-    "1/s2": {"s": -2},
-}
 
 STEP_SIZE = 0.01  # the paper's sampling period T, also each FMU's DefaultExperiment stepSize
 
@@ -84,18 +67,6 @@ INSTANTIATED = "instantiated"
 INITIALIZATION = "initialization mode"
 STEPPING = "stepping"
 TERMINATED = "terminated"
-
-
-@dataclass
-class _Meta:
-    unit: str | None
-    low: float | None
-    high: float | None
-    depends_on: tuple[str, ...] | None  # outputs only: the inputs they depend on at the same instant
-
-
-def _xml_number(x: float) -> str:
-    return repr(float(x))
 
 
 class DescribedSlave(Fmi2Slave):
@@ -126,7 +97,7 @@ class DescribedSlave(Fmi2Slave):
 
     def __init__(self, **kwargs: Any):
         super().__init__(**kwargs)
-        self._meta: dict[str, _Meta] = {}
+        self._meta: dict[str, VariableMeta] = {}
         self._input_ranges: list[tuple[str, float | None, float | None]] = []  # name, low, high
         self._mode = INSTANTIATED
         self._initialized = False  # ``initialize`` succeeded with the current parameter values
@@ -141,7 +112,7 @@ class DescribedSlave(Fmi2Slave):
         self._register(
             Real(spec.name, causality=Fmi2Causality.parameter, variability=Fmi2Variability.fixed,
                  initial=Fmi2Initial.exact, description=f"{spec.description}; valid range {spec.range_text()}"),
-            _Meta(spec.unit, None if math.isinf(spec.low) else spec.low,
+            VariableMeta(spec.unit, None if math.isinf(spec.low) else spec.low,
                   None if math.isinf(spec.high) else spec.high, None),
         )
 
@@ -150,7 +121,7 @@ class DescribedSlave(Fmi2Slave):
         self._register(
             Integer(name, causality=Fmi2Causality.parameter, variability=Fmi2Variability.fixed,
                     initial=Fmi2Initial.exact, description=f"{description}; valid range [{low}, {high}]"),
-            _Meta(None, low, high, None),
+            VariableMeta(None, low, high, None),
         )
 
     def declare_input(
@@ -162,7 +133,7 @@ class DescribedSlave(Fmi2Slave):
         self._register(
             Real(name, causality=Fmi2Causality.input, variability=Fmi2Variability.continuous,
                  description=description),
-            _Meta(unit, low, high, None),
+            VariableMeta(unit, low, high, None),
         )
         self._input_ranges.append((name, low, high))
 
@@ -176,10 +147,10 @@ class DescribedSlave(Fmi2Slave):
         self._register(
             Real(name, causality=Fmi2Causality.output, variability=Fmi2Variability.continuous,
                  description=description, getter=getter),
-            _Meta(unit, None, None, tuple(depends_on)),
+            VariableMeta(unit, None, None, tuple(depends_on)),
         )
 
-    def _register(self, var: Real | Integer, meta: _Meta) -> None:
+    def _register(self, var: Real | Integer, meta: VariableMeta) -> None:
         if meta.unit is not None and meta.unit not in UNIT_BASES:
             raise ValueError(f"unit {meta.unit!r} of {var.name} is missing from UNIT_BASES")
         self.register_variable(var)
@@ -191,46 +162,7 @@ class DescribedSlave(Fmi2Slave):
     # --- modelDescription --------------------------------------------------------------------
 
     def to_xml(self, model_options: dict[str, str] = dict()) -> Element:  # noqa: B006 (pythonfmu's signature)
-        root = super().to_xml(model_options)
-        cosim = root.find("CoSimulation")
-        for flag, value in self.CAPABILITIES.items():
-            cosim.set(flag, value)
-
-        index_of = {v.name: i + 1 for i, v in enumerate(self.vars.values())}
-        for var, element in zip(self.vars.values(), root.find("ModelVariables")):
-            meta = self._meta[element.get("name")]
-            typed = element[0]
-            if typed.tag == "Real" and var.start is not None:
-                # pythonfmu writes 16 significant digits, which does not always give back the same
-                # double (pi/2 does not): an importer applying XML starts would run another model
-                typed.set("start", _xml_number(var.start))
-            if meta.unit is not None:
-                typed.set("unit", meta.unit)
-            if meta.low is not None:
-                typed.set("min", _xml_number(meta.low) if typed.tag == "Real" else str(int(meta.low)))
-            if meta.high is not None:
-                typed.set("max", _xml_number(meta.high) if typed.tag == "Real" else str(int(meta.high)))
-
-        units = sorted({m.unit for m in self._meta.values() if m.unit is not None})
-        unit_defs = Element("UnitDefinitions")
-        for unit in units:
-            u = SubElement(unit_defs, "Unit", name=unit)
-            SubElement(u, "BaseUnit", {k: str(v) for k, v in UNIT_BASES[unit].items()})
-        root.insert(list(root).index(cosim) + 1, unit_defs)
-
-        structure = root.find("ModelStructure")
-        for child in list(structure):
-            structure.remove(child)
-        outputs = SubElement(structure, "Outputs")
-        initial = SubElement(structure, "InitialUnknowns")
-        for v in self.vars.values():
-            if v.causality != Fmi2Causality.output:
-                continue
-            deps = " ".join(str(index_of[n]) for n in self._meta[v.name].depends_on)
-            SubElement(outputs, "Unknown", index=str(index_of[v.name]), dependencies=deps)
-            # at initialization an output may also depend on parameters: leave dependencies open
-            SubElement(initial, "Unknown", index=str(index_of[v.name]))
-        return root
+        return complete_model_description(super().to_xml(model_options), self.vars, self._meta, self.CAPABILITIES)
 
     # --- exceptions that leave Python -----------------------------------------------------------
 
