@@ -142,7 +142,7 @@ class _Link:
         self.view = np.ctypeslib.as_array(self.buf)
 
     def push(self) -> None:
-        self.view[:] = self.source.out_view[self.src_index]
+        np.take(self.source.out_view, self.src_index, out=self.view)  # no per-step allocation
         self.target.fmu.fmi2SetReal(self.target.fmu.component, self.vr, self.n, self.buf)
 
 
