@@ -112,6 +112,23 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
     return _exit_code(summaries)
 
 
+def _cmd_sweep(args: argparse.Namespace) -> int:
+    from orchestration.summary import format_table
+    from orchestration.sweep import parse_assignments, run_sweep, write_results
+
+    grid = parse_assignments(args.set)
+    (base,), paths = _prepare([args.scenario], args.stop_time, args.fmu_dir)
+    results = run_sweep(base, grid, paths, scheduler=args.scheduler, workers=args.workers)
+    for r in results:
+        if r["status"] != "ok":
+            print(f"{r['scenario']} {r['parameters']}: FAILED: {r['error']}", file=sys.stderr)
+    print(format_table(results))
+    out = args.out or Path("recordings") / f"sweep-{base.name}.csv"
+    csv_path, json_path = write_results(results, out)
+    print(f"wrote {csv_path} and {json_path}")
+    return _exit_code(results)
+
+
 def _fmu_files(names: list[str], fmu_dir: Path) -> list[Path]:
     """Model names (built if missing) or paths to .fmu files; none: every FMU of FMU_SOURCES."""
     names = names or list(FMU_SOURCES)
@@ -189,6 +206,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--stop-time", type=float, help="override every scenario's stop time, s")
     p.add_argument("--fmu-dir", type=Path, default=DEFAULT_FMU_DIR, help="where FMUs are built and found")
     p.set_defaults(func=_cmd_compare)
+
+    p = sub.add_parser("sweep", help="run a scenario over a grid of parameter values (Dask: local processes by default)")
+    p.add_argument("scenario", metavar="SCENARIO", help="scenario name or .toml path")
+    p.add_argument("--set", action="append", default=[], metavar="INSTANCE.PARAM=V1,V2,...", required=True,
+                   help="values of one parameter; several --set make a cartesian grid")
+    p.add_argument("--scheduler", default="processes",
+                   help="processes (default, local), synchronous, or a dask.distributed address tcp://host:port")
+    p.add_argument("--workers", type=int, help="local worker processes (default: one per core)")
+    p.add_argument("--stop-time", type=float, help="override the scenario's stop time, s")
+    p.add_argument("--out", type=Path, help="CSV of the results (default recordings/sweep-<scenario>.csv; JSON beside it)")
+    p.add_argument("--fmu-dir", type=Path, default=DEFAULT_FMU_DIR, help="where FMUs are built and found")
+    p.set_defaults(func=_cmd_sweep)
 
     p = sub.add_parser("reproduce", help="run the paper's section 4 experiment and write Table 1 extended")
     p.add_argument("--out", type=Path, default=Path("recordings"), help="where table1.md/.csv go (default recordings/)")

@@ -68,6 +68,21 @@ class Scenario:
     def with_stop_time(self, stop_time: float) -> "Scenario":
         return _validated({**self.__dict__, "stop_time": stop_time})
 
+    def with_parameters(self, overrides: dict[str, float], name: str | None = None) -> "Scenario":
+        """A copy with ``{"instance.parameter": value}`` overrides (an unknown parameter name is
+        refused later, by the FMU's modelDescription, when the run loads it)."""
+        instances = dict(self.instances)
+        for key, value in overrides.items():
+            inst_name, _, pname = key.partition(".")
+            if inst_name not in instances or not pname:
+                raise ScenarioError(
+                    f"scenario '{self.name}': override '{key}' must be instance.parameter with an instance "
+                    f"in {sorted(instances)}"
+                )
+            inst = instances[inst_name]
+            instances[inst_name] = Instance(inst.name, inst.fmu, {**inst.parameters, pname: value})
+        return _validated({**self.__dict__, "instances": instances, "name": name or self.name})
+
     def controller_fmu(self) -> str | None:
         inst = self.instances.get("controller")
         return inst.fmu if inst else None

@@ -65,6 +65,6 @@ def format_table(summaries: list[dict[str, Any]]) -> str:
         tail = s.get("max_abs_error_last_half") or [math.nan, math.nan]
         rows.append(
             f"{s['scenario']:<16} {str(s['controller']):<16} {s['status']:<7} {mse[0]:>10.5f} {mse[1]:>10.5f} "
-            f"{max(tail):>18.2e} {s.get('max_norm_tau', math.nan):>10.4f} {s['wall_time_s']:>7.2f}"
+            f"{max(tail):>18.2e} {s.get('max_norm_tau', math.nan):>10.4f} {s.get('wall_time_s', math.nan):>7.2f}"
         )
     return "\n".join(rows)
