@@ -6,7 +6,8 @@ and every diagnostic computed from the measurement depend directly on every inpu
 at communication point t is computed from the inputs set at t, and the master holds it over
 [t, t + T). Diagnostics of the learning state or of time alone (``STATE_OUTPUTS``, e.g. critic
 weights) declare no input dependency. ``doStep(t, T)`` then lets the core learn over that interval.
-A non-finite input makes every output read NaN (with a logged warning) until it is replaced.
+A non-finite input makes every output that depends on the inputs read NaN (with a logged warning)
+until it is replaced; the ``STATE_OUTPUTS`` keep showing the learning state.
 """
 from __future__ import annotations
 
@@ -55,20 +56,22 @@ class ControllerSlave(DescribedSlave):
         for index, name in enumerate(self.CORE.output_names()):
             unit, doc = units[name]
             depends_on = () if name in self.STATE_OUTPUTS else INPUT_PORTS
-            self.declare_output(name, unit, doc, depends_on=depends_on, getter=self._output_getter(index))
+            self.declare_output(name, unit, doc, depends_on=depends_on,
+                                getter=self._output_getter(index, input_dependent=bool(depends_on)))
         self._stale = True  # inputs or learning state changed since the core last evaluated
-        self._invalid_inputs: str | None = None  # why the outputs are NaN (a non-finite input), or None
+        self._invalid_inputs: str | None = None  # why the input-dependent outputs are NaN, or None
+        self._last_valid: tuple[list[float], list[float]] | None = None  # inputs of the last good evaluation
 
     def _make_core(self) -> ControllerCore:
         values = self.parameter_values(self._param_specs)
         model = ArmParameters.from_mapping({s.name: values[s.name] for s in MODEL_PARAMETER_SPECS})
         return self.CORE(model, **{s.name: values[s.name] for s in self.CORE.PARAMETER_SPECS})
 
-    def _output_getter(self, index: int):
+    def _output_getter(self, index: int, input_dependent: bool):
         def get() -> float:
             if self._stale and self._initialized:
                 self._evaluate()
-            if self._invalid_inputs is not None:
+            if input_dependent and self._invalid_inputs is not None:
                 return math.nan
             return self._core.outputs[index]
         return get
@@ -77,19 +80,26 @@ class ControllerSlave(DescribedSlave):
         return [getattr(self, n) for n in MEASUREMENT_PORTS], [getattr(self, n) for n in REFERENCE_PORTS]
 
     def _evaluate(self) -> None:
-        """Outputs for the current inputs; a bad input makes every output NaN (logged), never a stale value."""
+        """Outputs for the current inputs. A bad input makes the input-dependent outputs NaN (logged),
+        never a stale value; the state outputs are then evaluated at the last good inputs, which
+        leaves them exact (they do not depend on the inputs) and the learning state untouched."""
         self._stale = False
         self._invalid_inputs = self.input_problem()
-        if self._invalid_inputs is not None:
-            self.log(f"{self.instance_name}: outputs are NaN: {self._invalid_inputs}", Fmi2Status.warning)
-            return
-        y, r = self._inputs()
+        if self._invalid_inputs is None:
+            y, r = self._inputs()
+        else:
+            self.log(f"{self.instance_name}: input-dependent outputs are NaN: {self._invalid_inputs}",
+                     Fmi2Status.warning)
+            y, r = self._last_valid or ([0.0] * len(MEASUREMENT_PORTS), [0.0] * len(REFERENCE_PORTS))
         try:
             self._core.evaluate(self._time, y, r)
         except Exception as exc:  # e.g. an overflow for absurd inputs: refuse these inputs, keep running
             self._invalid_inputs = f"the controller cannot evaluate these inputs: {type(exc).__name__}: {exc}"
             self.log(f"{self.instance_name}: outputs are NaN: {self._invalid_inputs}", Fmi2Status.error)
             return
+        if self._invalid_inputs is not None:
+            return
+        self._last_valid = (y, r)
         bad = next((n for n, v in zip(self.CORE.output_names(), self._core.outputs) if not math.isfinite(v)), None)
         if bad is not None:
             self.log(f"{self.instance_name}: output '{bad}' is not finite for the finite inputs at t = {self._time!r}",

@@ -9,9 +9,10 @@ from __future__ import annotations
 
 import csv
 import io
-import math
 from pathlib import Path
 from typing import Any, Callable
+
+from orchestration.summary import fmt_cell
 
 REPRODUCE_SCENARIOS = ("paper", "paper-pe-only", "paper-otc", "paper-ct", "paper-lqr")
 
@@ -113,9 +114,9 @@ def compact_table(summaries: list[dict[str, Any]]) -> str:
         bound = "<= 4" if name == "SOTC" else "?"  # the paper states the bound for SOTC only
         lines.append(f"{'paper':<14} {name:<15} {m1:>9.5f} {m2:>9.5f} {bound:>10} {'':>10}")
     for s in summaries:
-        mse = s.get("mse") or [math.nan, math.nan]
+        mse = s.get("mse") or [None, None]
         lines.append(
-            f"{s['scenario']:<14} {str(s['controller']):<15} {mse[0]:>9.5f} {mse[1]:>9.5f} "
-            f"{s.get('max_norm_tau', math.nan):>10.3f} {s.get('samples_over_limit', ''):>10}"
+            f"{s['scenario']:<14} {str(s['controller']):<15} {fmt_cell(mse[0], '.5f', 9)} {fmt_cell(mse[1], '.5f', 9)} "
+            f"{fmt_cell(s.get('max_norm_tau'), '.3f', 10)} {fmt_cell(s.get('samples_over_limit'), 'd', 10)}"
         )
     return "\n".join(lines)

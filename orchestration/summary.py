@@ -56,15 +56,23 @@ def write_summary(summary: dict[str, Any], path: Path) -> None:
     path.write_text(json.dumps(summary, indent=2, allow_nan=False) + "\n")
 
 
+def fmt_cell(value: Any, spec: str, width: int) -> str:
+    """A number in a fixed-width column; a missing or undefined one (None, NaN) as '-'."""
+    if value is None or (isinstance(value, float) and not math.isfinite(value)):
+        return f"{'-':>{width}}"
+    return f"{value:>{width}{spec}}"
+
+
 def format_table(summaries: list[dict[str, Any]]) -> str:
-    """A short fixed-width table: one row per run."""
+    """A short fixed-width table: one row per run (failed runs too, with '-' where undefined)."""
     head = f"{'scenario':<16} {'controller':<16} {'status':<7} {'MSE 1':>10} {'MSE 2':>10} {'max|e| 2nd half':>18} {'max||tau||':>10} {'wall s':>7}"
     rows = [head, "-" * len(head)]
     for s in summaries:
-        mse = s.get("mse") or [math.nan, math.nan]
-        tail = s.get("max_abs_error_last_half") or [math.nan, math.nan]
+        mse = s.get("mse") or [None, None]
+        tail = [v for v in (s.get("max_abs_error_last_half") or []) if v is not None]
         rows.append(
-            f"{s['scenario']:<16} {str(s['controller']):<16} {s['status']:<7} {mse[0]:>10.5f} {mse[1]:>10.5f} "
-            f"{max(tail):>18.2e} {s.get('max_norm_tau', math.nan):>10.4f} {s.get('wall_time_s', math.nan):>7.2f}"
+            f"{s['scenario']:<16} {str(s['controller']):<16} {s['status']:<7} {fmt_cell(mse[0], '.5f', 10)} "
+            f"{fmt_cell(mse[1], '.5f', 10)} {fmt_cell(max(tail) if tail else None, '.2e', 18)} "
+            f"{fmt_cell(s.get('max_norm_tau'), '.4f', 10)} {fmt_cell(s.get('wall_time_s'), '.2f', 7)}"
         )
     return "\n".join(rows)

@@ -82,3 +82,23 @@ def test_fmu_loop_equals_the_pure_core_loop(paper):
     assert np.max(np.abs(pure.y[:, 0] - p["phi1"])) < 1e-9 and np.max(np.abs(pure.y[:, 1] - p["phi2"])) < 1e-9
     assert np.max(np.abs(pure.tau - np.column_stack([c["tau1"], c["tau2"]]))) < 1e-9
     assert np.max(np.abs(pure.outputs[:, pure.names.index("W1")] - c["W1"])) < 1e-9
+
+
+def test_nonfinite_input_blanks_only_the_outputs_that_depend_on_it(fmu_paths, tmp_path):
+    fmu = DrivenFmu(fmu_paths["SotcController"], tmp_path / "sotc")
+    fmu.initialize()
+    inputs = dict(phi1=0.5, phi2=-0.5, dphi1=0.0, dphi2=0.0, phi1_d=0.14, phi2_d=0.9, dphi1_d=-0.28,
+                  dphi2_d=0.32, ddphi1_d=-0.02, ddphi2_d=0.08)
+    fmu.set(**inputs)
+    for k in range(30):
+        fmu.fmu.doStep(k * 0.01, 0.01)
+    weights = fmu.get(*WEIGHTS)
+    assert any(w != 0.0 for w in weights)
+    fmu.set(phi1=math.nan)
+    assert math.isnan(fmu.get("tau1")[0]) and math.isnan(fmu.get("z1")[0])
+    assert fmu.get(*WEIGHTS) == weights  # the learning state is still shown, exactly
+    with pytest.raises(FMICallException):
+        fmu.fmu.doStep(0.3, 0.01)
+    fmu.set(phi1=0.5)
+    assert fmu.get(*WEIGHTS) == weights and math.isfinite(fmu.get("tau1")[0])
+    fmu.free()
