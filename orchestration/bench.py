@@ -89,8 +89,8 @@ class _TimedRecorder:
         finally:
             self.seconds += time.perf_counter() - t0
 
-    def start(self, scenario, columns):
-        self._timed(self.recorder.start, scenario, columns)
+    def start(self, scenario, columns, parameters):
+        self._timed(self.recorder.start, scenario, columns, parameters)
 
     def block(self, t, rows):
         self._timed(self.recorder.block, t, rows)

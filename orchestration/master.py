@@ -39,6 +39,7 @@ class LogRecord:
     instance: str
     status: str
     message: str
+    sample: int = -1  # the sample k whose output reads or doStep(t_k) logged it; -1 during set-up
 
 
 @dataclass
@@ -52,6 +53,8 @@ class RunResult:
     failed: bool = False
     error: str | None = None
     logs: list[LogRecord] = field(default_factory=list)
+    # every parameter of every instance as the FMU holds it after initialization (defaults included)
+    parameters: dict[str, dict[str, float]] = field(default_factory=dict)
 
     @property
     def samples(self) -> int:
@@ -61,34 +64,45 @@ class RunResult:
 class RunObserver(Protocol):
     """Receives a run while it happens (e.g. the Rerun recorder), in blocks of samples.
 
-    ``start`` gets each instance's output names; ``block`` gets the sample times and, per
+    ``start`` gets each instance's output names and the parameter values every instance runs with
+    (read back from the FMUs, defaults included); ``block`` gets the sample times and, per
     instance, an array (m, n_outputs) of the samples since the previous block (views: copy what
     must outlive the call); ``finish`` gets the complete result, also after a failure.
     """
 
-    def start(self, scenario: Scenario, columns: dict[str, list[str]]) -> None: ...
+    def start(self, scenario: Scenario, columns: dict[str, list[str]], parameters: dict[str, dict[str, float]]) -> None: ...
 
     def block(self, time: np.ndarray, rows: dict[str, np.ndarray]) -> None: ...
 
     def finish(self, result: "RunResult") -> None: ...
 
 
+class _ObserverFailed(Exception):
+    """The observer raised: the run stops, and the observer is not handed that data again."""
+
+
+class _Clock:
+    """The sample the run is at, for stamping log messages (-1 during set-up)."""
+
+    sample = -1
+
+
 class _LogSink:
     """Turns one instance's (status, message) log entries into the run's LogRecords."""
 
-    def __init__(self, instance: str, logs: list[LogRecord]):
-        self.instance, self.logs = instance, logs
+    def __init__(self, instance: str, logs: list[LogRecord], clock: _Clock):
+        self.instance, self.logs, self.clock = instance, logs, clock
 
     def append(self, entry: tuple[int, str]) -> None:
         status, message = entry
         label = STATUS_LABELS[status] if 0 <= status < len(STATUS_LABELS) else str(status)
-        self.logs.append(LogRecord(self.instance, label, message))
+        self.logs.append(LogRecord(self.instance, label, message, self.clock.sample))
 
 
 class _Loaded:
     """One FMU instance with its value references and preallocated ctypes buffers."""
 
-    def __init__(self, name: str, fmu_file: Path, workdir: Path, logs: list[LogRecord]):
+    def __init__(self, name: str, fmu_file: Path, workdir: Path, logs: list[LogRecord], clock: _Clock):
         self.name = name
         self.md = read_model_description(str(fmu_file))
         if self.md.coSimulation is None:
@@ -106,13 +120,22 @@ class _Loaded:
             modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=name,
         )
         # fmpy keeps one process-wide logger: fmi_direct routes each instance's messages to its sink
-        self.callbacks = make_callbacks(_LogSink(name, logs))
+        self.callbacks = make_callbacks(_LogSink(name, logs, clock))
         self.fmu.instantiate(callbacks=self.callbacks, loggingOn=True)
         self.instantiated = True
         self.initialized = False
 
     def read_outputs(self) -> None:
         self.fmu.fmi2GetReal(self.fmu.component, self.out_vr, len(self.output_names), self.out_buf)
+
+    def parameter_values(self) -> dict[str, float]:
+        """Every Real and Integer parameter as the instance holds it now."""
+        values: dict[str, float] = {}
+        for v in self.md.modelVariables:
+            if v.causality == "parameter" and v.type in ("Real", "Integer"):
+                get = self.fmu.getReal if v.type == "Real" else self.fmu.getInteger
+                values[v.name] = get([v.valueReference])[0]
+        return values
 
     def set_parameters(self, values: dict[str, float]) -> None:
         for pname, value in values.items():
@@ -196,11 +219,15 @@ def run(
 ) -> RunResult:
     """Run ``scenario`` with the FMUs at ``fmu_paths`` (model identifier -> .fmu file).
 
-    A failing FMI call ends the run early; the result then has ``failed=True``, the error, the
-    FMUs' log messages and every sample recorded up to the failure. Instances are always freed.
+    A failing FMI call (or any other error once the scenario is accepted, e.g. an FMU that cannot be
+    loaded, or an observer that cannot write) ends the run early; the result then has
+    ``failed=True``, the error, the FMUs' log messages and every sample recorded up to the failure.
+    Instances are always freed. A ``ScenarioError`` (the scenario itself is wrong) is raised.
     ``observer`` (optional) is handed the samples every ``block_size`` samples and at the end.
     """
     logs: list[LogRecord] = []
+    clock = _Clock()
+    parameters: dict[str, dict[str, float]] = {}
     n_steps = scenario.steps
     T = scenario.step_size
     times = np.arange(n_steps + 1, dtype=float) * T
@@ -211,12 +238,13 @@ def run(
     recorded = 0  # samples t_0 .. t_{recorded-1} hold every output of every instance
     flushed = 0
     error: str | None = None
+    observer_ok = True
     started = time.perf_counter()
     try:
         for inst in scenario.instances.values():
             if inst.fmu not in fmu_paths:
                 raise ScenarioError(f"instance '{inst.name}': no built FMU for model '{inst.fmu}'")
-            loaded[inst.name] = _Loaded(inst.name, fmu_paths[inst.fmu], workdir, logs)
+            loaded[inst.name] = _Loaded(inst.name, fmu_paths[inst.fmu], workdir, logs, clock)
         links = _resolve_links(scenario, loaded)
         order = _feedthrough_order(loaded, links)
         pushes = {name: [l for l in links if l.source.name == name] for name in order}
@@ -227,10 +255,12 @@ def run(
             ld.fmu.enterInitializationMode()
             ld.fmu.exitInitializationMode()
             ld.initialized = True
+            parameters[inst.name] = ld.parameter_values()
             records[inst.name] = np.empty((n_steps + 1, len(ld.output_names)))
         if observer is not None:
-            observer.start(scenario, {name: list(ld.output_names) for name, ld in loaded.items()})
+            _call_observer(observer.start, scenario, {n: list(ld.output_names) for n, ld in loaded.items()}, parameters)
         for k in range(n_steps + 1):
+            clock.sample = k
             for name in order:
                 ld = loaded[name]
                 ld.read_outputs()
@@ -239,17 +269,18 @@ def run(
                     link.push()
             recorded = k + 1
             if observer is not None and k + 1 - flushed >= block_size:
-                observer.block(times[flushed:k + 1], {n: r[flushed:k + 1] for n, r in records.items()})
+                _call_observer(observer.block, times[flushed:k + 1], {n: r[flushed:k + 1] for n, r in records.items()})
                 flushed = k + 1
             if k == n_steps:
                 break
             t = times[k]
             for ld in loaded.values():
                 ld.fmu.doStep(currentCommunicationPoint=t, communicationStepSize=T)
-    except (FMICallException, ScenarioError, OSError) as exc:
-        if isinstance(exc, ScenarioError):
-            raise  # the scenario itself is wrong: nothing ran
+    except ScenarioError:
+        raise  # the scenario itself is wrong: nothing ran
+    except Exception as exc:  # FMI status errors, fmpy's load/instantiate errors, observer errors
         error = _describe_failure(exc, k, times, logs)
+        observer_ok = not isinstance(exc, _ObserverFailed)
     finally:
         wall = time.perf_counter() - started
         _free(loaded)
@@ -259,18 +290,30 @@ def run(
         name: {v: records[name][:completed, i].copy() for i, v in enumerate(loaded[name].output_names)}
         for name in records
     }
-    result = RunResult(scenario, times[:completed], outputs, wall, failed=error is not None, error=error, logs=logs)
+    result = RunResult(scenario, times[:completed], outputs, wall, failed=error is not None, error=error,
+                       logs=logs, parameters=parameters)
     if observer is not None:
-        if completed > flushed:
-            observer.block(times[flushed:completed], {n: r[flushed:completed] for n, r in records.items()})
+        try:
+            if observer_ok and completed > flushed:
+                _call_observer(observer.block, times[flushed:completed], {n: r[flushed:completed] for n, r in records.items()})
+        except _ObserverFailed as exc:  # the samples are in the result; say that the observer lost them
+            result.failed, result.error = True, (result.error + "; " if result.error else "") + str(exc)
         observer.finish(result)
     return result
 
 
+def _call_observer(method, *args) -> None:
+    try:
+        method(*args)
+    except Exception as exc:
+        raise _ObserverFailed(f"observer failed: {type(exc).__name__}: {exc}") from exc
+
+
 def _describe_failure(exc: Exception, k: int, times: np.ndarray, logs: list[LogRecord]) -> str:
     where = f"at t = {times[k]:.2f} s (sample {k})" if 0 <= k < len(times) else "during set-up"
+    what = str(exc) if isinstance(exc, FMICallException) else f"{type(exc).__name__}: {exc}"
     reasons = "; ".join(f"{r.instance}: {r.message}" for r in logs if r.status in ("DISCARD", "ERROR", "FATAL"))
-    return f"{exc} {where}" + (f" -- {reasons}" if reasons else "")
+    return f"{what} {where}" + (f" -- {reasons}" if reasons else "")
 
 
 def _free(loaded: dict[str, _Loaded]) -> None:

@@ -291,7 +291,7 @@ class RunWriter:
 
     def send_end(self, result: RunResult) -> None:
         last = max(result.samples - 1, 0)
-        logs = [(last, f"{r.instance}: {r.message}", _FMI_LEVELS.get(r.status, "INFO"))
+        logs = [(min(max(r.sample, 0), last), f"{r.instance}: {r.message}", _FMI_LEVELS.get(r.status, "INFO"))
                 for r in result.logs if r.status != "OK"]
         if logs:
             self.send_events("fmu_log", logs)
@@ -304,7 +304,12 @@ class RunWriter:
 _FMI_LEVELS = {"WARNING": "WARN", "DISCARD": "WARN", "ERROR": "ERROR", "FATAL": "CRITICAL", "PENDING": "DEBUG"}
 
 
-def send_scenario_properties(stream: rr.RecordingStream, scenario: Scenario, prefix: str = "") -> None:
+def send_scenario_properties(
+    stream: rr.RecordingStream, scenario: Scenario, parameters: dict[str, dict[str, float]] | None = None,
+    prefix: str = "",
+) -> None:
+    """The scenario, and per instance its FMU and every parameter value it ran with (read back from
+    the FMU, defaults included; the scenario's overrides where the run never got that far)."""
     stream.send_property(f"{prefix}scenario", rr.AnyValues(
         name=scenario.name, description=scenario.description, stop_time=scenario.stop_time,
         step_size=scenario.step_size, steps=scenario.steps, controller=scenario.controller_fmu() or "",
@@ -313,7 +318,8 @@ def send_scenario_properties(stream: rr.RecordingStream, scenario: Scenario, pre
         connections=[f"{c.source}.{c.output} -> {c.target}.{c.input}" for c in scenario.links],
     ))
     for inst in scenario.instances.values():
-        stream.send_property(f"{prefix}{inst.name}", rr.AnyValues(fmu=inst.fmu, **inst.parameters))
+        values = (parameters or {}).get(inst.name) or inst.parameters
+        stream.send_property(f"{prefix}{inst.name}", rr.AnyValues(fmu=inst.fmu, **values))
 
 
 def send_result_properties(stream: rr.RecordingStream, result: RunResult, prefix: str = "") -> None:
@@ -351,11 +357,12 @@ class RunRecorder:
         self.writer: RunWriter | None = None
         self.closed = False
 
-    def start(self, scenario: Scenario, columns: dict[str, list[str]]) -> None:
+    def start(self, scenario: Scenario, columns: dict[str, list[str]],
+              parameters: dict[str, dict[str, float]] | None = None) -> None:
         self.writer = RunWriter(scenario, columns, run_groups(scenario))
         self.stream = self.writer.stream = _new_stream(self.path, run_blueprint(self.writer))
         self.stream.send_recording_name(scenario.name)
-        send_scenario_properties(self.stream, scenario)
+        send_scenario_properties(self.stream, scenario, parameters)
         self.writer.send_static()
         self.stream.flush()
 
@@ -367,7 +374,7 @@ class RunRecorder:
 
     def finish(self, result: RunResult) -> None:
         if self.stream is None:  # failed before the first sample: record why
-            self.start(result.scenario, {})
+            self.start(result.scenario, {}, result.parameters)
         self.writer.send_end(result)
         send_result_properties(self.stream, result)
         self.close()
@@ -413,7 +420,7 @@ def record_comparison(results: Sequence[RunResult], path: str | Path) -> Path:
     try:
         stream.send_recording_name("compare: " + ", ".join(labels))
         for r, label, writer in zip(results, labels, writers):
-            send_scenario_properties(stream, r.scenario, prefix=f"{label}_")
+            send_scenario_properties(stream, r.scenario, r.parameters, prefix=f"{label}_")
             send_result_properties(stream, r, prefix=f"{label}_")
             writer.stream = stream
             writer.send_static()

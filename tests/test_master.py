@@ -84,3 +84,35 @@ def test_stop_time_must_be_whole_steps():
     with pytest.raises(ScenarioError, match="whole number of steps"):
         load_scenario("paper-ct").with_stop_time(1.005)
     assert math.isclose(load_scenario("paper-ct").with_stop_time(3.0).steps, 300)
+
+
+def test_results_carry_every_parameter_the_fmus_ran_with(fmu_paths):
+    result = run(load_scenario("paper-ct").with_stop_time(0.1), fmu_paths)
+    assert result.parameters["controller"]["kp"] == 25.0  # a default the scenario does not set
+    assert result.parameters["plant"]["phi2_0"] == -0.5 and result.parameters["plant"]["substeps"] == 4
+    assert result.parameters["reference"]["phase"] == math.pi / 2
+
+
+def test_fmu_messages_are_stamped_with_their_sample(fmu_paths, tmp_path):
+    from orchestration.master import _Clock, _LogSink
+
+    bad = run(load_scenario(str(_scenario_file(tmp_path, "[instances.plant]\nparameters = { p1 = -1.0 }\n"))), fmu_paths)
+    assert bad.failed and [r.sample for r in bad.logs if "'p1'" in r.message] == [-1]  # set-up
+    clock, logs = _Clock(), []
+    sink = _LogSink("plant", logs, clock)
+    clock.sample = 7
+    sink.append((2, "discarded"))
+    assert (logs[0].instance, logs[0].status, logs[0].sample) == ("plant", "DISCARD", 7)
+
+
+def test_an_fmu_that_cannot_be_loaded_fails_its_run_only(fmu_paths, tmp_path):
+    import zipfile
+
+    broken = tmp_path / "ArmPlant.fmu"
+    with zipfile.ZipFile(fmu_paths["ArmPlant"]) as src, zipfile.ZipFile(broken, "w") as dst:
+        for item in src.infolist():
+            if not item.filename.startswith("binaries/"):
+                dst.writestr(item, src.read(item))
+    result = run(load_scenario("paper-ct").with_stop_time(0.1), {**fmu_paths, "ArmPlant": broken})
+    assert result.failed and result.samples == 0 and "set-up" in result.error
+    assert not run(load_scenario("paper-ct").with_stop_time(0.1), fmu_paths).failed

@@ -194,9 +194,9 @@ def test_an_exception_during_the_run_still_finalises_the_file(fmu_paths, tmp_pat
             if self.writer.next_step >= 200:
                 raise RuntimeError("observer bug")
 
-    with pytest.raises(RuntimeError, match="observer bug"):
-        with Exploding(path) as rec:
-            run(load_scenario("paper-ct"), fmu_paths, observer=rec, block_size=100)
+    with Exploding(path) as rec:
+        result = run(load_scenario("paper-ct"), fmu_paths, observer=rec, block_size=100)
+    assert result.failed and "observer bug" in result.error  # the run stops and says why
     RrdReader(path).store()  # footer present
     ents = read_entities(path)
     assert len(ents["/fmu/plant"]["step"]) == 200
@@ -213,8 +213,8 @@ KILLED_SCRIPT = textwrap.dedent('''
     class StopsAfterThreeBlocks:
         def __init__(self, recorder):
             self.recorder, self.blocks = recorder, 0
-        def start(self, scenario, columns):
-            self.recorder.start(scenario, columns)
+        def start(self, scenario, columns, parameters):
+            self.recorder.start(scenario, columns, parameters)
         def block(self, time_, rows):
             self.recorder.block(time_, rows)
             self.blocks += 1
