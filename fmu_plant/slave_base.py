@@ -103,6 +103,11 @@ class DescribedSlave(Fmi2Slave):
         self._initialized = False  # ``initialize`` succeeded with the current parameter values
         self._preview_stale = True  # initialization mode: a parameter changed since the last preview
         self._time = 0.0
+        # communication time as t0 + n h while every step has the same size h: the same doubles as a
+        # master computing t_k = k T, never a running sum (which drifts by ulps)
+        self._start_time = 0.0
+        self._steps = 0
+        self._uniform_step: float | None = None  # h while uniform, nan once a step size changed
 
     # --- declaration -------------------------------------------------------------------------
 
@@ -260,7 +265,8 @@ class DescribedSlave(Fmi2Slave):
             self._require_mode("fmi2SetupExperiment", INSTANTIATED)
             if not math.isfinite(start_time):
                 raise ValueError(f"fmi2SetupExperiment: start time {start_time!r} is not finite")
-            self._time = float(start_time)
+            self._time = self._start_time = float(start_time)
+            self._steps, self._uniform_step = 0, None
 
     def enter_initialization_mode(self) -> None:
         with self._guarded("fmi2EnterInitializationMode"):
@@ -313,7 +319,14 @@ class DescribedSlave(Fmi2Slave):
             return self.discard(reason)
         ok = self.step(current_time, step_size)
         if ok:
-            self._time = current_time + step_size
+            if self._uniform_step is None or self._uniform_step == step_size:
+                self._uniform_step = step_size
+                self._steps += 1
+                self._time = self._start_time + self._steps * step_size
+            else:
+                self._uniform_step = math.nan
+                self._time = current_time + step_size
+            self.publish(self._time)
         return ok
 
     def discard(self, reason: str) -> bool:
@@ -350,6 +363,7 @@ class DescribedSlave(Fmi2Slave):
             "initialized": self._initialized,
             "preview_stale": self._preview_stale,
             "time": self._time,
+            "clock": [self._start_time, self._steps, self._uniform_step],
             "internal": self.internal_state(),
         })
 
@@ -362,6 +376,7 @@ class DescribedSlave(Fmi2Slave):
         self._initialized = bool(state["initialized"])
         self._preview_stale = bool(state["preview_stale"])
         self._time = float(state["time"])
+        self._start_time, self._steps, self._uniform_step = state["clock"]
         self.restore_internal_state(state["internal"])
 
     def _get_fmu_state(self) -> dict[str, Any]:
@@ -408,6 +423,9 @@ class DescribedSlave(Fmi2Slave):
 
     def initialize(self) -> None:
         """Validate parameters (raise ParameterError naming the parameter) and set initial outputs."""
+
+    def publish(self, t: float) -> None:
+        """After a successful step: set the outputs that are a function of the time t reached."""
 
     def step(self, current_time: float, step_size: float) -> bool:  # pragma: no cover - abstract
         raise NotImplementedError
