@@ -5,7 +5,8 @@ cost integrand -- into a flat dict of JSON-friendly values (floats, ints, None, 
 floats). Names are stable; each is documented in ``tracking_metrics``.
 
 Conventions: ``e = phi - phi_d`` in rad, ``tau`` the torque the controller commands (held over the
-sample in a sampled loop) in N.m, integrals by the trapezoid rule over the samples given, "per
+sample in a sampled loop) in N.m; integrals of torques are exact for that hold (each sample over
+its step), integrals of continuous signals (|e|, the cost rate) use the trapezoid rule; "per
 joint" values are lists [joint 1, joint 2]. NaN never appears: an undefined value is None.
 """
 from __future__ import annotations
@@ -86,7 +87,8 @@ def tracking_metrics(
     - ``fraction_at_limit``: samples_at_limit / n.
     - ``samples_over_limit``: number of samples with ||tau|| > torque_limit + 1e-9 (a violation
       of the bound, as opposed to riding on it).
-    - ``control_energy``: integral of tau' tau dt, trapezoid (N^2.m^2.s).
+    - ``control_energy``: integral of tau' tau dt (N^2.m^2.s), exact for the sampled loop's
+      zero-order hold: sum_k (t_{k+1} - t_k) ||tau_k||^2 (tau_k is held over [t_k, t_{k+1})).
     - ``tau_total_variation_rate``: sum_k |tau_i[k+1] - tau_i[k]| / duration, per joint (N.m/s).
     - ``cost_integral``: integral of cost_rate dt, trapezoid, or None without cost_rate.
     - ``torque_limit``: the limit used.
@@ -122,7 +124,7 @@ def tracking_metrics(
         "samples_at_limit": int(np.sum(tau_norm >= torque_limit - LIMIT_TOLERANCE)),
         "fraction_at_limit": float(np.sum(tau_norm >= torque_limit - LIMIT_TOLERANCE) / n),
         "samples_over_limit": int(np.sum(tau_norm > torque_limit + LIMIT_TOLERANCE)),
-        "control_energy": float(_trapezoid(tau_norm**2, t)),
+        "control_energy": float(np.dot(np.diff(t), tau_norm[:-1] ** 2)),
         "tau_total_variation_rate": _per_joint(tv / duration) if duration > 0.0 else [0.0, 0.0],
         "cost_integral": None,
         "torque_limit": float(torque_limit),

@@ -53,8 +53,8 @@ def test_step_torque_gives_known_total_variation_and_energy():
     assert m["tau_total_variation_rate"] == pytest.approx([0.1, 0.0])  # 1 N.m over 10 s
     assert m["max_abs_tau"] == pytest.approx([1.0, 2.0])
     assert m["max_tau_norm"] == pytest.approx(math.sqrt(5.0))
-    # int tau'tau: 4 over 10 s, plus 1 over the 5 s after the step (the step interval counts half)
-    assert m["control_energy"] == pytest.approx(40.0 + 5.0 + 0.5 * T)
+    # int tau'tau with each sample held over its step: 4 over 10 s, plus 1 over [5, 10) s
+    assert m["control_energy"] == pytest.approx(40.0 + 5.0)
     assert m["samples_at_limit"] == 0 and m["samples_over_limit"] == 0
 
 
