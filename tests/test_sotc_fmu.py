@@ -7,6 +7,7 @@ from fmpy.fmi1 import FMICallException
 
 from fmu_driver import DrivenFmu
 from orchestration.master import run
+from orchestration.recording import BLOCK_SIZE, RunRecorder
 from orchestration.metrics import weight_total_variation
 from orchestration.scenario import load_scenario
 from orchestration.summary import summarize
@@ -15,10 +16,18 @@ WEIGHTS = [f"W{k}" for k in range(1, 11)]
 
 
 @pytest.fixture(scope="module")
-def paper(fmu_paths):
-    result = run(load_scenario("paper"), fmu_paths)
+def paper_recorded(fmu_paths, tmp_path_factory):
+    """The 100 s paper run, streamed to a recording as `sotc-cosim run` does."""
+    path = tmp_path_factory.mktemp("rec") / "paper.rrd"
+    with RunRecorder(path) as recorder:
+        result = run(load_scenario("paper"), fmu_paths, observer=recorder, block_size=BLOCK_SIZE)
     assert not result.failed, result.error
-    return result
+    return result, path
+
+
+@pytest.fixture(scope="module")
+def paper(paper_recorded):
+    return paper_recorded[0]
 
 
 @pytest.fixture(scope="module")
@@ -103,3 +112,25 @@ def test_nonfinite_input_blanks_only_the_outputs_that_depend_on_it(fmu_paths, tm
     fmu.set(phi1=0.5)
     assert fmu.get(*WEIGHTS) == weights and math.isfinite(fmu.get("tau1")[0])
     fmu.free()
+
+
+def test_sotc_has_lower_mse_than_otc_on_both_joints_and_stays_in_the_bound(paper, fmu_paths):
+    """The paper's section 4 claim, with our OTC reconstruction (docs/baselines.md)."""
+    otc = summarize(run(load_scenario("paper-otc"), fmu_paths))
+    sotc = summarize(paper)
+    assert sotc["mse"][0] < otc["mse"][0] and sotc["mse"][1] < otc["mse"][1]
+    assert sotc["samples_over_limit"] == 0 and otc["samples_over_limit"] > 0  # OTC is unsaturated
+
+
+def test_the_100_s_recording_has_every_entity_at_every_step(paper_recorded):
+    from test_recording import read_entities, statics
+
+    result, path = paper_recorded
+    entities = read_entities(path)
+    for name in ("/fmu/plant", "/fmu/reference", "/fmu/controller", "/controller/weights", "/torques/tau_star",
+                 "/torques/tau_a", "/torques/tau", "/tracking/error", "/joints/phi1", "/workspace/arm"):
+        assert len(entities[name]["step"]) == 10001, name
+        assert np.array_equal(entities[name]["sim_time"], np.arange(10001, dtype=np.int64) * 10_000_000), name
+    props = statics(path)["/__properties/controller"]
+    assert props["alpha1"] == [[50.0]] and props["sigma"] == [[0.6]] and props["P"] == [[20.0]]
+    assert props["theta_1"] == [[1.0]]  # a default the scenario file does not set: the value the FMU ran with
