@@ -170,27 +170,12 @@ class _Link:
 
 
 def _resolve_links(scenario: Scenario, loaded: dict[str, _Loaded]) -> list[_Link]:
+    """The scenario's connections grouped by (source, target) instance pair."""
+    connections = scenario.resolve_connections(
+        {n: ld.output_names for n, ld in loaded.items()}, {n: ld.inputs for n, ld in loaded.items()})
     pairs: dict[tuple[str, str], list[tuple[str, str]]] = {}
-    fed: dict[tuple[str, str], str] = {}
-
-    def add(src: str, out: str, dst: str, inp: str) -> None:
-        if out not in loaded[src].output_names:
-            raise ScenarioError(f"connection {src}.{out} -> {dst}.{inp}: {src} has no Real output '{out}'")
-        if inp not in loaded[dst].inputs:
-            raise ScenarioError(f"connection {src}.{out} -> {dst}.{inp}: {dst} has no input '{inp}'")
-        if (dst, inp) in fed:
-            raise ScenarioError(f"input {dst}.{inp} is fed twice: from {fed[(dst, inp)]} and {src}.{out}")
-        fed[(dst, inp)] = f"{src}.{out}"
-        pairs.setdefault((src, dst), []).append((out, inp))
-
-    for src, dst in scenario.by_name:
-        matched = [n for n in loaded[src].output_names if n in loaded[dst].inputs]
-        if not matched:
-            raise ScenarioError(f"[[connect]] {src} -> {dst}: no output of {src} matches an input of {dst}")
-        for name in matched:
-            add(src, name, dst, name)
-    for c in scenario.links:
-        add(c.source, c.output, c.target, c.input)
+    for c in connections:
+        pairs.setdefault((c.source, c.target), []).append((c.output, c.input))
     return [_Link(loaded[s], loaded[d], p) for (s, d), p in pairs.items()]
 
 

@@ -87,6 +87,35 @@ class Scenario:
         inst = self.instances.get("controller")
         return inst.fmu if inst else None
 
+    def resolve_connections(self, outputs: dict[str, list[str]], inputs: dict[str, set[str]]) -> list[Connection]:
+        """Every output -> input link of the scenario, given each instance's Real outputs and its
+        inputs (from its modelDescription). ``[[connect]]`` pairs link same-named ports and must
+        match at least one; an unknown port or an input fed twice is refused."""
+        resolved: list[Connection] = []
+        fed: dict[tuple[str, str], str] = {}
+
+        def add(c: Connection) -> None:
+            where = f"connection {c.source}.{c.output} -> {c.target}.{c.input}"
+            if c.output not in outputs[c.source]:
+                raise ScenarioError(f"{where}: {c.source} has no Real output '{c.output}'")
+            if c.input not in inputs[c.target]:
+                raise ScenarioError(f"{where}: {c.target} has no input '{c.input}'")
+            if (c.target, c.input) in fed:
+                raise ScenarioError(f"input {c.target}.{c.input} is fed twice: from {fed[(c.target, c.input)]} "
+                                    f"and {c.source}.{c.output}")
+            fed[(c.target, c.input)] = f"{c.source}.{c.output}"
+            resolved.append(c)
+
+        for src, dst in self.by_name:
+            matched = [n for n in outputs[src] if n in inputs[dst]]
+            if not matched:
+                raise ScenarioError(f"[[connect]] {src} -> {dst}: no output of {src} matches an input of {dst}")
+            for name in matched:
+                add(Connection(src, name, dst, name))
+        for c in self.links:
+            add(c)
+        return resolved
+
     def torque_limit(self) -> float:
         """The controller's torque bound as the scenario sets it (``rho`` or ``tau_max``), else the
         paper's rho = 4 N.m (section 4), which every controller FMU uses by default."""

@@ -25,11 +25,10 @@ names with their prefix. The SSD and the SSVs validate against the SSP 1.0 schem
 from __future__ import annotations
 
 import zipfile
-from dataclasses import dataclass
 from pathlib import Path
 from xml.etree import ElementTree as ET
 
-from orchestration.scenario import Scenario, ScenarioError
+from orchestration.scenario import Connection, Scenario, ScenarioError
 
 NS = {
     "ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
@@ -46,40 +45,15 @@ def _q(tag: str) -> str:
     return f"{{{NS[prefix]}}}{name}"
 
 
-@dataclass(frozen=True)
-class Link:
-    source: str
-    output: str
-    target: str
-    input: str
-
-
-def resolve_links(scenario: Scenario, model_descriptions: dict) -> list[Link]:
-    """The scenario's connections, resolved like ``orchestration.master`` does (same checks)."""
-    def ports(instance: str, causality: str) -> list[str]:
-        md = model_descriptions[instance]
+def resolve_links(scenario: Scenario, model_descriptions: dict) -> list[Connection]:
+    """The scenario's connections, resolved exactly as ``orchestration.master`` resolves them."""
+    def ports(md, causality: str) -> list[str]:
         return [v.name for v in md.modelVariables if v.causality == causality and v.type == "Real"]
 
-    links: list[Link] = []
-    fed: dict[tuple[str, str], str] = {}
-
-    def add(link: Link) -> None:
-        if link.output not in ports(link.source, "output"):
-            raise ScenarioError(f"{link.source} has no Real output '{link.output}'")
-        if link.input not in ports(link.target, "input"):
-            raise ScenarioError(f"{link.target} has no input '{link.input}'")
-        if (link.target, link.input) in fed:
-            raise ScenarioError(f"input {link.target}.{link.input} is fed twice")
-        fed[(link.target, link.input)] = link.source
-        links.append(link)
-
-    for src, dst in scenario.by_name:
-        for name in ports(src, "output"):
-            if name in ports(dst, "input"):
-                add(Link(src, name, dst, name))
-    for c in scenario.links:
-        add(Link(c.source, c.output, c.target, c.input))
-    return links
+    return scenario.resolve_connections(
+        {n: ports(md, "output") for n, md in model_descriptions.items()},
+        {n: set(ports(md, "input")) for n, md in model_descriptions.items()},
+    )
 
 
 def _ssv(instance: str, values: dict[str, float], md) -> bytes:
@@ -95,7 +69,7 @@ def _ssv(instance: str, values: dict[str, float], md) -> bytes:
     return ET.tostring(root, encoding="utf-8", xml_declaration=True)
 
 
-def _ssd(scenario: Scenario, mds: dict, links: list[Link]) -> bytes:
+def _ssd(scenario: Scenario, mds: dict, links: list[Connection]) -> bytes:
     root = ET.Element(_q("ssd:SystemStructureDescription"), {"version": "1.0", "name": scenario.name})
     system = ET.SubElement(root, _q("ssd:System"), {"name": scenario.name,
                                                      "description": scenario.description or scenario.name})
