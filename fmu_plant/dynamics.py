@@ -170,8 +170,3 @@ def coriolis_matrix(phi2: float, dphi1: float, dphi2: float, p: ArmParameters) -
     """H(phi, dphi) of eq. (46) as a 2x2 array."""
     h11, h12, h21 = coriolis_entries(phi2, dphi1, dphi2, p)
     return np.array([[h11, h12], [h21, 0.0]])
-
-
-def drift_acceleration(phi2: float, dphi1: float, dphi2: float, p: ArmParameters) -> np.ndarray:
-    """F_v(chi_phi, chi_v) = -D^-1 (H v + G) of eq. (2): the acceleration at zero torque."""
-    return np.array(forward_dynamics(phi2, dphi1, dphi2, 0.0, 0.0, p))

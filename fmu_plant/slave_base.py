@@ -345,13 +345,6 @@ class DescribedSlave(Fmi2Slave):
                         "the step is refused and the state is kept")
         return None
 
-    def first_nonfinite(self, names: Sequence[str]) -> str | None:
-        for name in names:
-            value = getattr(self, name)
-            if not math.isfinite(value):
-                return f"input '{name}' is {value!r}; the step is refused and the state is kept"
-        return None
-
     # --- whole-state snapshot (fmi2GetFMUstate / fmi2SetFMUstate / serialization) -------------
 
     def _snapshot(self) -> dict[str, Any]:
