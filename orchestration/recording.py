@@ -222,7 +222,9 @@ class RunWriter:
             # the 2D view draws +y downwards: mirror the workspace so that +y points up
             log(ws, rr.Transform3D(scale=[1.0, -1.0, 1.0]), static=True)
         if self.has_arm:
-            log(f"{ws}/arm", rr.LineStrips2D.from_fields(colors=[self.arm_color], radii=[0.025]), static=True)
+            # the arm in the run's colour, half transparent and thinner than before, so the path of E
+            # (same colour, opaque) stays readable underneath it
+            log(f"{ws}/arm", rr.LineStrips2D.from_fields(colors=[(*self.arm_color, 110)], radii=[0.012]), static=True)
             log(f"{ws}/path/actual", rr.LineStrips2D.from_fields(colors=[self.arm_color], radii=[0.006]), static=True)
         if self.has_target:
             log(f"{ws}/target", rr.Points2D.from_fields(colors=[DESIRED], radii=[0.04]), static=True)

@@ -9,11 +9,18 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Sequence
 
 import rerun.blueprint as rrb
+from rerun.encodings import TimeRange, TimeRangeBoundary
 
 if TYPE_CHECKING:
     from orchestration.recording import RunWriter
 
 TIMELINES = ("sim_time", "step")
+
+
+def _whole_run() -> rrb.archetypes.TimeAxis:
+    """Time-series x axis over the whole run, as the paper's figures show it (the viewer's default
+    follows the cursor with a window of the latest samples)."""
+    return rrb.archetypes.TimeAxis(view_range=TimeRange(start=TimeRangeBoundary.infinite(), end=TimeRangeBoundary.infinite()))
 
 
 def _up_to_cursor() -> rrb.VisibleTimeRanges:
@@ -46,7 +53,8 @@ def run_blueprint(writer: "RunWriter") -> rrb.Blueprint:
 
     def plot(name: str, *paths: str) -> None:
         if paths[0] in present:
-            figures.append(rrb.TimeSeriesView(origin="/", contents=[p for p in paths if p in present], name=name))
+            figures.append(rrb.TimeSeriesView(origin="/", contents=[p for p in paths if p in present], name=name,
+                                              axis_x=_whole_run()))
 
     plot("Figs. 1-2: critic weights W", "/controller/weights")
     plot("Fig. 3: joint 1 position phi1 vs phi1_d [rad]", "/joints/phi1")
@@ -59,7 +67,8 @@ def run_blueprint(writer: "RunWriter") -> rrb.Blueprint:
     ws = _workspace_view([writer], "Fig. 9: end-effector path E (red) vs E_d (blue), arm [m]")
     if ws is not None:
         side.insert(0, ws)
-    raw = [rrb.TimeSeriesView(origin=f"/fmu/{inst}", name=f"{inst}: every output") for inst, names in writer.columns.items() if names]
+    raw = [rrb.TimeSeriesView(origin=f"/fmu/{inst}", name=f"{inst}: every output", axis_x=_whole_run())
+           for inst, names in writer.columns.items() if names]
     tabs = [rrb.Horizontal(rrb.Grid(*figures), rrb.Vertical(*side, row_shares=[3, 1][: len(side)]),
                            column_shares=[3, 2], name="Paper figures")]
     if raw:
@@ -72,7 +81,7 @@ def comparison_blueprint(labels: Sequence[str], writers: Sequence["RunWriter"]) 
         paths = [w.entity(suffix) for w in writers if w.entity(suffix) in {g.path for g in w.groups}]
         if not paths:
             return None
-        return rrb.TimeSeriesView(origin="/", contents=paths + list(extra), name=name)
+        return rrb.TimeSeriesView(origin="/", contents=paths + list(extra), name=name, axis_x=_whole_run())
 
     views = [
         overlay("Fig. 10: joint 1 tracking error e1 [rad]", "/tracking/e1"),
