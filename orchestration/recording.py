@@ -413,7 +413,8 @@ def record_comparison(results: Sequence[RunResult], path: str | Path) -> Path:
         raise ValueError("record_comparison needs at least one run")
     path = Path(path)
     labels = _labels(results)
-    colors = [PALETTE[i % len(PALETTE)] for i in range(len(results))]
+    runs_palette = PALETTE[1:]  # PALETTE[0] is a blue like DESIRED: keep blue for the desired path alone
+    colors = [runs_palette[i % len(runs_palette)] for i in range(len(results))]
     columns = [{inst: list(out) for inst, out in r.outputs.items()} for r in results]
     rho = max(r.scenario.torque_limit() for r in results)
     writers = [RunWriter(r.scenario, cols, comparison_groups(f"/{label}", label, color), prefix=f"/{label}", arm_color=color)
