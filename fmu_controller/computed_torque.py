@@ -15,7 +15,7 @@ D (ddphi - v) = 0, i.e. the decoupled linear error dynamics e_ddot + Kd e_dot + 
 Saturation acts on the Euclidean norm, as the paper's constraint ||tau|| <= rho (section 2.1,
 rho = 4 N.m in section 4): the whole vector is scaled down, which keeps its direction. Clipping each
 joint to +-tau_max instead would allow ||tau|| up to sqrt(2) tau_max and so violate the paper's
-bound.
+bound. (CT-4) is ``fmu_controller.saturation.saturate_norm``, shared with the LQR and the SOTC.
 
 Default gains: kp = 25 1/s^2, kd = 10 1/s, i.e. a critically damped double pole at -5 rad/s per
 joint (kd = 2 sqrt(kp)). kd T = 0.1 at T = 0.01 s, far from the sampling limit kd T ~ 2, and the
@@ -25,32 +25,15 @@ transient. Measured on the paper's scenario (docs/baselines.md).
 """
 from __future__ import annotations
 
-import math
 from typing import Sequence
 
 from fmu_controller.base import ControllerCore, OutputSpec
+from fmu_controller.saturation import saturate_norm
 from fmu_plant.dynamics import inverse_dynamics
 from fmu_plant.parameters import ParameterSpec, positive
 
 # the paper's torque bound rho, section 4
 DEFAULT_TAU_MAX = 4.0
-
-
-def saturate_norm(tau1: float, tau2: float, tau_max: float) -> tuple[float, float, float, bool]:
-    """Scale (tau1, tau2) down to Euclidean norm ``tau_max`` if it is larger, eq. (CT-4).
-
-    Returns (tau1, tau2, raw_norm, saturated).
-    """
-    norm = math.hypot(tau1, tau2)
-    if norm > tau_max:
-        k = tau_max / norm
-        s1, s2 = tau1 * k, tau2 * k
-        while math.hypot(s1, s2) > tau_max:  # rounding can land one ulp above the bound
-            k = math.nextafter(k, 0.0)
-            s1, s2 = tau1 * k, tau2 * k
-        return s1, s2, norm, True
-    return tau1, tau2, norm, False
-
 
 TAU_MAX_SPEC = positive("tau_max", DEFAULT_TAU_MAX, "N.m", "Bound on the torque norm ||tau|| (the paper's rho), eq. (CT-4)")
 

@@ -18,7 +18,7 @@ state weight (section 4); r = 1 is the SOTC's R = 1 (there R weights its bounded
 the commanded acceleration v, so the numbers are analogous, not identical problems).
 
 The torque is then bounded on its Euclidean norm, as the paper's ||tau|| <= rho, by scaling the
-vector down (``computed_torque.saturate_norm``), eq. (CT-4). Because A, B, Theta, R are block
+vector down (``saturation.saturate_norm``), eq. (CT-4). Because A, B, Theta, R are block
 diagonal, K = [k_p I2, k_d I2] with k_p = sqrt(q/r), k_d = sqrt(2 k_p + q/r) — the tests check
 that, but the gain here comes from the Riccati solver, not from this formula.
 """
@@ -64,7 +64,9 @@ class LqrCore(LinearisingCore):
     def __init__(self, model=None, **params: float):
         super().__init__(model, **params)
         self.gain, self.riccati = lqr_gain(self.params["q"], self.params["r"])
+        # rows of -K as plain floats: the per-step product below is scalar arithmetic
+        self._neg_gain = tuple(tuple(row) for row in (-self.gain).tolist())
 
     def feedback(self, e1: float, e2: float, de1: float, de2: float) -> tuple[float, float]:
-        w1, w2 = (-self.gain @ np.array([e1, e2, de1, de2])).tolist()  # eq. (LQR-4): v = -K x
-        return w1, w2
+        (a1, a2, a3, a4), (b1, b2, b3, b4) = self._neg_gain  # eq. (LQR-4): v = -K x
+        return a1 * e1 + a2 * e2 + a3 * de1 + a4 * de2, b1 * e1 + b2 * e2 + b3 * de1 + b4 * de2

@@ -58,6 +58,7 @@ Euler towards the updated critic.
 from __future__ import annotations
 
 import math
+import operator
 from typing import Any, Sequence
 
 import numpy as np
@@ -65,45 +66,20 @@ from scipy.linalg import solve_continuous_are
 
 from fmu_controller.base import ControllerCore, OutputSpec
 from fmu_controller.computed_torque import DEFAULT_TAU_MAX
-from fmu_plant.dynamics import bias_torque, inertia_matrix
+from fmu_controller.sotc_math import (
+    N_BASIS,
+    basis,
+    basis_directional,
+    matrix_to_weights,
+    probing_signal,
+    value_gradient,
+)
+from fmu_plant.dynamics import bias_torque, inertia_entries, inertia_matrix
 from fmu_plant.parameters import ParameterError, ParameterSpec, any_real, nonnegative, positive
 
-N_WEIGHTS = 10
-# index pairs (i, j), i <= j, of the quadratic basis, in the SOTC's order (section 4):
-# z1^2, z1 z2, z1 z3, z1 z4, z2^2, z2 z3, z2 z4, z3^2, z3 z4, z4^2
-BASIS_PAIRS: tuple[tuple[int, int], ...] = tuple((i, j) for i in range(4) for j in range(i, 4))
-
-
-def basis(z: np.ndarray) -> np.ndarray:
-    """sigma(z): the 10 quadratic monomials z_i z_j (i <= j), eq. (OTC-7)."""
-    return np.array([z[i] * z[j] for i, j in BASIS_PAIRS])
-
-
-def basis_gradient(z: np.ndarray) -> np.ndarray:
-    """d sigma / d z, a 10 x 4 matrix, eq. (OTC-7)."""
-    grad = np.zeros((N_WEIGHTS, 4))
-    for n, (i, j) in enumerate(BASIS_PAIRS):
-        grad[n, i] += z[j]
-        grad[n, j] += z[i]
-    return grad
-
-
-def probing_signal(t: float) -> float:
-    """The SOTC paper's PE signal without its factor 0.5 (section 4)."""
-    s1 = math.sin(t)
-    return (
-        s1 * s1 * math.cos(t)
-        + math.sin(2.0 * t) ** 2 * math.cos(0.1 * t)
-        + math.sin(1.2 * t) ** 2 * math.cos(0.5 * t)
-        + s1**5
-        + math.sin(1.12 * t) ** 2
-        + math.cos(2.4 * t) * math.sin(2.4 * t) ** 3
-    )
-
-
-def weights_from_quadratic(p: np.ndarray) -> np.ndarray:
-    """Weights W with W' sigma(z) = z' P z for a symmetric 4 x 4 P (P_ii, then 2 P_ij)."""
-    return np.array([p[i, j] if i == j else 2.0 * p[i, j] for i, j in BASIS_PAIRS])
+# The quadratic basis sigma(z) of (OTC-7) is the SOTC's zeta(z) of section 4 (same 10 monomials, same
+# order), and the probing signal of (OTC-10) is the SOTC's PE(t): both come from sotc_math.
+N_WEIGHTS = N_BASIS
 
 
 class OtcCore(ControllerCore):
@@ -145,11 +121,13 @@ class OtcCore(ControllerCore):
         pr = self.params
         self.lam = np.array([pr["lambda1"], pr["lambda2"]])
         self.r_diag = np.array([pr["r1"], pr["r2"]])
+        self._lam = (pr["lambda1"], pr["lambda2"])
+        self._r = (pr["r1"], pr["r2"])
         mode = pr["init_weights"]
         if mode not in (0.0, 1.0):
             raise ParameterError("init_weights", f"{mode:g} is not 0 (zeros) or 1 (Riccati)")
         if mode == 1.0:
-            self.wc = weights_from_quadratic(self.frozen_riccati(pr["init_phi2"]))
+            self.wc = matrix_to_weights(self.frozen_riccati(pr["init_phi2"]))
         else:
             self.wc = np.zeros(N_WEIGHTS)
         self.wa = self.wc.copy()
@@ -169,47 +147,52 @@ class OtcCore(ControllerCore):
     # --- control law --------------------------------------------------------------------------
 
     def evaluate(self, t: float, y: Sequence[float], r: Sequence[float]) -> None:
+        # plain float arithmetic on 2- and 4-vectors (several times faster than small numpy arrays)
         phi1, phi2, dphi1, dphi2 = (float(v) for v in y)
         q1d, q2d, dq1d, dq2d, ddq1d, ddq2d = (float(v) for v in r[:6])
-        lam, q = self.lam, self.params["q"]
-        e = np.array([phi1 - q1d, phi2 - q2d])
-        de = np.array([dphi1 - dq1d, dphi2 - dq2d])
-        z = np.concatenate([e, de + lam * e])  # (OTC-3)
+        lam1, lam2 = self._lam
+        r1, r2 = self._r
+        q = self.params["q"]
+        e1, e2 = phi1 - q1d, phi2 - q2d
+        de1, de2 = dphi1 - dq1d, dphi2 - dq2d
+        z = (e1, e2, de1 + lam1 * e1, de2 + lam2 * e2)  # (OTC-3)
 
-        d = inertia_matrix(phi2, self.model)
-        d_inv = np.linalg.inv(d)
-        alpha_dot = np.array([ddq1d, ddq2d]) - lam * de
-        tau_a = d @ alpha_dot + np.array(bias_torque(phi2, dphi1, dphi2, self.model))  # (OTC-4)
+        d11, d12, d22 = inertia_entries(phi2, self.model)
+        det = d11 * d22 - d12 * d12
+        i11, i12, i22 = d22 / det, -d12 / det, d11 / det  # D^-1, closed-form 2x2 inverse
+        ad1, ad2 = ddq1d - lam1 * de1, ddq2d - lam2 * de2  # alpha_dot
+        b1, b2 = bias_torque(phi2, dphi1, dphi2, self.model)
+        ta1, ta2 = d11 * ad1 + d12 * ad2 + b1, d12 * ad1 + d22 * ad2 + b2  # (OTC-4)
 
-        g = np.zeros((4, 2))
-        g[2:, :] = d_inv  # (OTC-5)
-        grad = basis_gradient(z)
-        gt_grad_t = g.T @ grad.T  # 2 x 10
-        u_hat = -0.5 * (gt_grad_t @ self.wa) / self.r_diag  # (OTC-7)
+        # (OTC-7): u = -1/2 R^-1 g' grad(sigma)' Wa with g = [0; D^-1]: g' grad(sigma)' Wa = D^-1 dV_a/dz2
+        _, _, ga3, ga4 = value_gradient(z, self.wa.tolist())
+        u1 = -0.5 * (i11 * ga3 + i12 * ga4) / r1
+        u2 = -0.5 * (i12 * ga3 + i22 * ga4) / r2
 
-        fz = np.concatenate([-lam * z[:2] + z[2:], np.zeros(2)])
-        z_dot = fz + g @ u_hat
-        omega = grad @ z_dot
-        cost_rate = q * float(z @ z) + float(u_hat @ (self.r_diag * u_hat))
-        delta = float(omega @ self.wc) + cost_rate  # (OTC-8)
+        # (OTC-5): z_dot = F z + g u, F = [[-Lambda, I], [0, 0]]
+        z_dot = (-lam1 * z[0] + z[2], -lam2 * z[1] + z[3], i11 * u1 + i12 * u2, i12 * u1 + i22 * u2)
+        omega = basis_directional(z, z_dot)  # grad(sigma) z_dot
+        wc = self.wc.tolist()
+        cost_rate = q * (z[0] * z[0] + z[1] * z[1] + z[2] * z[2] + z[3] * z[3]) + (u1 * (r1 * u1) + u2 * (r2 * u2))
+        delta = sum(map(operator.mul, omega, wc)) + cost_rate  # (OTC-8)
 
         probe = 0.0
         if t < self.params["probe_duration"]:
-            probe = self.params["probe_amplitude"] * probing_signal(t)
-        tau = tau_a + u_hat + probe  # (OTC-10)
-        tau_norm = float(math.hypot(tau[0], tau[1]))
+            probe = probing_signal(t, self.params["probe_amplitude"])
+        tau1, tau2 = ta1 + u1 + probe, ta2 + u2 + probe  # (OTC-10)
+        tau_norm = math.hypot(tau1, tau2)
 
         self._last = {
-            "z": z, "grad": grad, "g": g, "omega": omega, "cost_rate": cost_rate,
-            "lyap_rate": float(z @ z_dot),
+            "z": z, "dinv": (i11, i12, i22), "omega": omega, "cost_rate": cost_rate,
+            "lyap_rate": z[0] * z_dot[0] + z[1] * z_dot[1] + z[2] * z_dot[2] + z[3] * z_dot[3],
         }
         self.outputs = [
-            float(tau[0]), float(tau[1]),
+            tau1, tau2,
             tau_norm, 1.0 if tau_norm > self.params["tau_limit"] else 0.0,
-            float(tau_a[0]), float(tau_a[1]), float(u_hat[0]), float(u_hat[1]),
-            float(z[2]), float(z[3]),
-            float(self.wc @ basis(z)), delta, cost_rate,
-            float(np.linalg.norm(self.wc)), float(np.linalg.norm(self.wa)),
+            ta1, ta2, u1, u2,
+            z[2], z[3],
+            sum(map(operator.mul, basis(z), wc)), delta, cost_rate,
+            math.hypot(*wc), math.hypot(*self.wa.tolist()),
         ]
 
     # --- learning -----------------------------------------------------------------------------
@@ -222,19 +205,22 @@ class OtcCore(ControllerCore):
             return
         pr = self.params
         omega = last["omega"]
-        ww = float(omega @ omega)
+        ww = sum(map(operator.mul, omega, omega))
         if ww > 0.0 and pr["alpha_c"] > 0.0:
             # exact solution of (OTC-8) for a held regressor: the residual omega'Wc + cost decays
             # as exp(-alpha_c ww/(ww+1)^2 t); only the component of Wc along omega moves.
-            s0 = float(omega @ self.wc) + last["cost_rate"]
+            s0 = sum(map(operator.mul, omega, self.wc.tolist())) + last["cost_rate"]
             decay = math.exp(-pr["alpha_c"] * ww / (ww + 1.0) ** 2 * dt)
-            self.wc = self.wc - omega * (s0 * (1.0 - decay) / ww)
-        stab = np.zeros(N_WEIGHTS)
-        if last["lyap_rate"] > 0.0 and pr["alpha_s"] > 0.0:
-            g, grad, z = last["g"], last["grad"], last["z"]
-            stab = 0.5 * pr["alpha_s"] * (grad @ (g @ ((g.T @ z) / self.r_diag)))
+            self.wc = self.wc - np.array(omega) * (s0 * (1.0 - decay) / ww)
         decay_a = math.exp(-pr["alpha_a"] * dt)
-        self.wa = self.wc + (self.wa - self.wc) * decay_a + stab * dt
+        wa = self.wc + (self.wa - self.wc) * decay_a
+        if last["lyap_rate"] > 0.0 and pr["alpha_s"] > 0.0:
+            # stabilising term of (OTC-9): alpha_s/2 grad(sigma) g R^-1 g' z, g R^-1 g' z = [0; D^-1 R^-1 D^-1 z2]
+            z, (i11, i12, i22) = last["z"], last["dinv"]
+            v1, v2 = (i11 * z[2] + i12 * z[3]) / self._r[0], (i12 * z[2] + i22 * z[3]) / self._r[1]
+            gz = (0.0, 0.0, i11 * v1 + i12 * v2, i12 * v1 + i22 * v2)
+            wa = wa + (0.5 * pr["alpha_s"] * dt) * np.array(basis_directional(z, gz))
+        self.wa = wa
 
     def get_state(self) -> dict[str, Any]:
         return {"wc": self.wc.tolist(), "wa": self.wa.tolist()}

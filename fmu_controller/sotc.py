@@ -10,7 +10,8 @@ measured effect of each are in ``docs/paper-notes.md``.
 One sample (``evaluate`` at t_k, then ``advance(t_k, T)``):
 
 1. error z = [z_phi, z_v], eqs. (6)/(7): z_phi = phi - phi_d and z_v = dphi - chi_vd with
-   chi_vd = chi_vd* + chi_vd^a. chi_vd* of (28) depends on z_v, so z_v is solved for (Newton);
+   chi_vd = chi_vd* + chi_vd^a. chi_vd* of (28) depends on z_v, so z_v is solved for (Newton, with a
+   guess-free fallback for large W; the residual is the output ``zv_residual``);
 2. critic J_hat = W^T zeta(z), eq. (27), and the saturated law mu_hat = [chi_vd*, tau*], eq. (28);
 3. the modelled error rate zdot of (6)/(7), eta = grad(zeta) zdot, the Bellman residual e1 of (29)
    and the weight rate of the tuning law (30) or (31), with the concurrent-learning sum;
@@ -27,12 +28,14 @@ from typing import Any, ClassVar, Sequence
 import numpy as np
 
 from fmu_controller.base import ControllerCore, OutputSpec
+from fmu_controller.saturation import clip_box, saturate_norm, shrink_into_disc
 from fmu_controller.sotc_math import (
     N_BASIS,
     basis,
     basis_directional,
     omega_term_of_arg,
     probing_signal,
+    solve_tanh_system,
     value_gradient,
     value_hessian,
 )
@@ -43,6 +46,12 @@ from fmu_plant.dynamics import ArmParameters, bias_torque, forward_dynamics, ine
 from fmu_plant.parameters import ParameterError, ParameterSpec, any_real, nonnegative, positive
 
 TANH1 = math.tanh(1.0)
+# the implicit z_v (``SotcCore._solve_zv``): plain and damped Newton iterations, step halvings, and
+# the residual (relative to 1 + |c| + s, rad/s) above which the next method is tried
+ZV_PLAIN_ITERATIONS = 30
+ZV_NEWTON_ITERATIONS = 50
+ZV_BACKTRACKS = 40
+ZV_TOLERANCE = 1e-12
 
 # Reading switches (integer-coded parameters); index 0 is the chosen reading, see docs/paper-notes.md.
 CHI_A_FORMS = ("backstepping", "literal")  # chi_vd^a = dphi_d - L1 z_phi | dphi_d + L1 z_v (as printed)
@@ -122,13 +131,6 @@ _SWITCHES: dict[str, tuple[str, ...]] = {
     "pe_form": PE_FORMS,
 }
 
-# The section-4 settings as parameter overrides of the defaults (the defaults are the `paper` setting).
-SCENARIO_SETTINGS: dict[str, dict[str, float]] = {
-    "paper": {},  # CL on (P = 20), PE during the first 0.4 s: Figure 2, Table 1
-    "paper-pe-only": {"cl_enabled": 0.0, "pe_duration": 80.0},  # PE for 0-80 s, no CL: Figure 1
-    "paper-long-pe": {"pe_duration": 20.0},  # CL on, 20 s of PE: learned W vs an LQR value
-}
-
 _EXTRA: tuple[OutputSpec, ...] = (
     OutputSpec("tau_star1", "N.m", "Saturated optimal torque tau*_1, eq. (28)"),
     OutputSpec("tau_star2", "N.m", "Saturated optimal torque tau*_2, eq. (28)"),
@@ -162,28 +164,18 @@ _EXTRA: tuple[OutputSpec, ...] = (
     OutputSpec("dchi_vd1", "rad/s2", "dchi_vd1/dt used in tau^a of (4)"),
     OutputSpec("dchi_vd2", "rad/s2", "dchi_vd2/dt used in tau^a of (4)"),
     OutputSpec("Wdot_norm", "1/s", "Norm of the weight rate dW/dt of (30)/(31) at this sample"),
+    OutputSpec("zv_residual", "rad/s",
+               "max_i |z_vi - (dphi_i - chi_vd*_i - chi_vd^a_i)|: residual of the implicit z_v of (6)/(28) after "
+               "the solve (chi_vd^a before the bound (5) in the printed reading); rounding level when solved"),
 )
 
 
 def _limit(v1: float, v2: float, bound: float, per_joint: bool) -> tuple[float, float, bool]:
     """Bound a 2-vector: radially (Euclidean projection onto the disc) or each entry (the box)."""
     if per_joint:
-        c1 = min(max(v1, -bound), bound)
-        c2 = min(max(v2, -bound), bound)
-        return c1, c2, (c1 != v1 or c2 != v2)
-    n = math.hypot(v1, v2)
-    if n > bound:
-        return (*_shrink_into(v1 * (bound / n), v2 * (bound / n), bound), True)
-    return v1, v2, False
-
-
-def _shrink_into(v1: float, v2: float, bound: float) -> tuple[float, float]:
-    """Remove the last-bit rounding that can leave a radially scaled vector a hair outside the disc,
-    so that ||tau|| <= rho holds exactly in floating point."""
-    k = 1.0
-    while math.hypot(v1 * k, v2 * k) > bound:
-        k = math.nextafter(k, 0.0)
-    return v1 * k, v2 * k
+        return clip_box(v1, v2, bound)
+    c1, c2, _, changed = saturate_norm(v1, v2, bound)
+    return c1, c2, changed
 
 
 def accel_projection(
@@ -217,7 +209,7 @@ def accel_projection(
         if hi - lo <= 1e-15 * hi:
             break
     fa, fb = aa / (aa + hi) * qa, ab / (ab + hi) * qb
-    return (*_shrink_into(c * fa - s * fb, s * fa + c * fb, bound), True)
+    return (*shrink_into_disc(c * fa - s * fb, s * fa + c * fb, bound), True)
 
 
 class SotcCore(ControllerCore):
@@ -254,7 +246,6 @@ class SotcCore(ControllerCore):
         self.cl_enabled = p["cl_enabled"] == 1.0
         self.cl_record_interval = p["cl_record_interval"]
         forms = {name: choices[int(p[name])] for name, choices in _SWITCHES.items()}
-        self.forms = forms
         self.backstepping = forms["chi_a_form"] == "backstepping"
         self.fv_drift = forms["fv_error_form"] == "drift"
         self.bound_form = forms["bound_form"]
@@ -308,23 +299,24 @@ class SotcCore(ControllerCore):
 
     # --- one sample -----------------------------------------------------------------------------------
 
-    def _solve_zv(self, zp1: float, zp2: float, c1: float, c2: float, a1: float, a2: float,
-                  W: Sequence[float]) -> tuple[float, float]:
-        """Solve a_i z_vi + chi_vd*_i(z_phi, z_v) = c_i for z_v by Newton's method.
-
-        z_v = dphi - chi_vd* - chi_vd^a, but chi_vd* = -s tanh(grad_phi J_hat(z) / (2 s r)) of (28)
-        depends on z_v (the basis has z_phi z_v terms), so z_v is defined implicitly; the paper is
-        silent on this. The map is a contraction for moderate W; Newton converges in 2-4 steps."""
+    def _newton_zv(self, zp1: float, zp2: float, c1: float, c2: float, a1: float, a2: float,
+                   W: Sequence[float], hess: tuple[tuple[float, ...], ...], zv1: float, zv2: float,
+                   damped: bool) -> tuple[float, float, float, float]:
+        """Newton for f(z_v) = a z_v + chi_vd*(z_phi, z_v) - c = 0 from (zv1, zv2). ``damped``: a full
+        step when it lowers ||f|| enough (Armijo), otherwise halved, and the iteration stops when no
+        step along the Newton direction lowers ||f||; else plain full steps. Returns (zv1, zv2, f1, f2),
+        f at the returned point."""
         s, r = self.s, self.r
-        h = value_hessian(W)
-        h13, h14, h23, h24 = h[0][2], h[0][3], h[1][2], h[1][3]
-        zv1, zv2 = c1 / a1, c2 / a2
-        for _ in range(30):
-            g1, g2, _, _ = value_gradient((zp1, zp2, zv1, zv2), W)
-            t1 = math.tanh(g1 / (2.0 * s * r[0]))
-            t2 = math.tanh(g2 / (2.0 * s * r[1]))
-            f1 = a1 * zv1 - s * t1 - c1
-            f2 = a2 * zv2 - s * t2 - c2
+        h13, h14, h23, h24 = hess[0][2], hess[0][3], hess[1][2], hess[1][3]
+        g1, g2, _, _ = value_gradient((zp1, zp2, zv1, zv2), W)
+        t1 = math.tanh(g1 / (2.0 * s * r[0]))
+        t2 = math.tanh(g2 / (2.0 * s * r[1]))
+        f1 = a1 * zv1 - s * t1 - c1
+        f2 = a2 * zv2 - s * t2 - c2
+        n2 = f1 * f1 + f2 * f2
+        for _ in range(ZV_NEWTON_ITERATIONS if damped else ZV_PLAIN_ITERATIONS):
+            if n2 == 0.0:
+                break
             k1 = (1.0 - t1 * t1) / (2.0 * r[0])  # d(-s tanh x_i)/dz_vj = -(1 - t_i^2) H_{i,2+j} / (2 r_i)
             k2 = (1.0 - t2 * t2) / (2.0 * r[1])
             j11, j12 = a1 - k1 * h13, -k1 * h14
@@ -334,11 +326,63 @@ class SotcCore(ControllerCore):
                 break
             d1 = (j22 * f1 - j12 * f2) / det
             d2 = (j11 * f2 - j21 * f1) / det
-            zv1 -= d1
-            zv2 -= d2
-            if abs(d1) + abs(d2) <= 1e-14 * (1.0 + abs(zv1) + abs(zv2)):
+            tiny = abs(d1) + abs(d2) <= 1e-14 * (1.0 + abs(zv1) + abs(zv2))  # at rounding level: take it
+            step = 1.0
+            for _ in range(ZV_BACKTRACKS):
+                y1, y2 = zv1 - step * d1, zv2 - step * d2
+                g1, g2, _, _ = value_gradient((zp1, zp2, y1, y2), W)
+                u1 = math.tanh(g1 / (2.0 * s * r[0]))
+                u2 = math.tanh(g2 / (2.0 * s * r[1]))
+                e1 = a1 * y1 - s * u1 - c1
+                e2 = a2 * y2 - s * u2 - c2
+                m2 = e1 * e1 + e2 * e2
+                if tiny or not damped or m2 <= (1.0 - 1e-4 * step) * n2:
+                    break
+                step *= 0.5
+            else:
+                break  # no descent along the Newton direction (a fold of f): the caller falls back
+            zv1, zv2, t1, t2, f1, f2, n2 = y1, y2, u1, u2, e1, e2, m2
+            if abs(step * d1) + abs(step * d2) <= 1e-14 * (1.0 + abs(zv1) + abs(zv2)):
                 break
-        return zv1, zv2
+        return zv1, zv2, f1, f2
+
+    def _solve_zv(self, zp1: float, zp2: float, c1: float, c2: float, a1: float, a2: float,
+                  W: Sequence[float], hess: tuple[tuple[float, ...], ...]) -> tuple[float, float, float]:
+        """Solve a_i z_vi + chi_vd*_i(z_phi, z_v) = c_i for z_v; returns (z_v1, z_v2, residual), the
+        residual max_i |a_i z_vi + chi_vd*_i - c_i| in rad/s (the ``zv_residual`` output).
+
+        z_v = dphi - chi_vd* - chi_vd^a, but chi_vd* = -s tanh(grad_phi J_hat(z) / (2 s r)) of (28)
+        depends on z_v (the basis has z_phi z_v terms), so z_v is defined implicitly; the paper is
+        silent on this. A solution always exists (``solve_tanh_system``); it is unique while the map is
+        a contraction (moderate W), where Newton from z_v = c / a converges in 2-4 steps. For large W
+        Newton can stall on a fold of the residual or jump between roots; then damped Newton is tried
+        from the same start and, if that stalls too, the system is solved without a starting guess by
+        bisection along its saturation (``solve_tanh_system``) and polished by damped Newton. The
+        best answer is kept. (Plain Newton first: wherever it converges, the result is what it was
+        before the fallbacks existed, bit for bit.)"""
+        zv1, zv2, f1, f2 = self._newton_zv(zp1, zp2, c1, c2, a1, a2, W, hess, c1 / a1, c2 / a2, False)
+        res = max(abs(f1), abs(f2))
+        tol = ZV_TOLERANCE * (1.0 + abs(c1) + abs(c2) + self.s)
+        if res <= tol:
+            return zv1, zv2, res
+        y1, y2, e1, e2 = self._newton_zv(zp1, zp2, c1, c2, a1, a2, W, hess, c1 / a1, c2 / a2, True)
+        if max(abs(e1), abs(e2)) < res or not math.isfinite(res):
+            zv1, zv2, res = y1, y2, max(abs(e1), abs(e2))
+        if res <= tol:
+            return zv1, zv2, res
+        # x = x0 + K tanh(x) in the tanh arguments x_i = grad_phi_i J_hat / (2 s r_i), with
+        # z_v = (c + s tanh x) / a: x0 = x(z_v = c / a), K_ij = H_{i,2+j} / (2 r_i a_j)
+        s, r = self.s, self.r
+        g1, g2, _, _ = value_gradient((zp1, zp2, c1 / a1, c2 / a2), W)
+        t1, t2 = solve_tanh_system(
+            g1 / (2.0 * s * r[0]), g2 / (2.0 * s * r[1]),
+            hess[0][2] / (2.0 * r[0] * a1), hess[0][3] / (2.0 * r[0] * a2),
+            hess[1][2] / (2.0 * r[1] * a1), hess[1][3] / (2.0 * r[1] * a2))
+        y1, y2, e1, e2 = self._newton_zv(zp1, zp2, c1, c2, a1, a2, W, hess,
+                                         (c1 + s * t1) / a1, (c2 + s * t2) / a2, True)
+        if max(abs(e1), abs(e2)) < res or not math.isfinite(res):
+            zv1, zv2, res = y1, y2, max(abs(e1), abs(e2))
+        return zv1, zv2, res
 
     def evaluate(self, t: float, y: Sequence[float], r: Sequence[float]) -> None:
         m, W, s, rr = self.model, self.W, self.s, self.r
@@ -347,6 +391,7 @@ class SotcCore(ControllerCore):
         phi1, phi2, dphi1, dphi2 = (float(v) for v in y[:4])
         phi1_d, phi2_d, dphi1_d, dphi2_d, ddphi1_d, ddphi2_d = (float(v) for v in r[:6])
         per_joint = self.bound_form == "joint"
+        hess = value_hessian(W)  # d^2 J_hat / dz^2: constant in z (quadratic basis)
 
         # tracking error z_phi = chi_phi - chi_phi_d (section 2.1) and its measured rate
         zp1, zp2 = phi1 - phi1_d, phi2 - phi2_d
@@ -355,9 +400,9 @@ class SotcCore(ControllerCore):
         # eq. (4), first line, with the bound (5); z_v = dphi - chi_vd* - chi_vd^a solved jointly with (28)
         if self.backstepping:  # chi_vd^a = dphi_d - Lambda1 z_phi, so F_bar_phi = -Lambda1 z_phi in (6)
             ca1, ca2, chi_a_bounded = _limit(dphi1_d - lam11 * zp1, dphi2_d - lam12 * zp2, self.bound5, per_joint)
-            zv1, zv2 = self._solve_zv(zp1, zp2, dphi1 - ca1, dphi2 - ca2, 1.0, 1.0, W)
+            zv1, zv2, zv_res = self._solve_zv(zp1, zp2, dphi1 - ca1, dphi2 - ca2, 1.0, 1.0, W, hess)
         else:  # as printed, chi_vd^a = dphi_d + Lambda1 z_v: (I + Lambda1) z_v = dphi - dphi_d - chi_vd*
-            zv1, zv2 = self._solve_zv(zp1, zp2, dzp1, dzp2, 1.0 + lam11, 1.0 + lam12, W)
+            zv1, zv2, zv_res = self._solve_zv(zp1, zp2, dzp1, dzp2, 1.0 + lam11, 1.0 + lam12, W, hess)
             ca1, ca2, chi_a_bounded = _limit(dphi1_d + lam11 * zv1, dphi2_d + lam12 * zv2, self.bound5, per_joint)
         z = (zp1, zp2, zv1, zv2)
 
@@ -430,7 +475,7 @@ class SotcCore(ControllerCore):
         if self.chi_dot_form == "chain":
             # chi_vd* = -s tanh(x_phi), x_phi = grad_phi J_hat / (2 s r): the chain rule gives
             # dx_phi/dt = (Hess(J_hat) zdot + grad(zeta)^T dW/dt)_phi / (2 s r), zdot from (6)
-            h = value_hessian(W)
+            h = hess
             gd1, gd2, _, _ = value_gradient(z, wdot.tolist())
             hz1 = h[0][0] * zd1 + h[0][1] * zd2 + h[0][2] * zd3 + h[0][3] * zd4
             hz2 = h[1][0] * zd1 + h[1][1] * zd2 + h[1][2] * zd3 + h[1][3] * zd4
@@ -469,7 +514,7 @@ class SotcCore(ControllerCore):
             tau1, tau2, ts1, ts2, ta1, ta2, cs1, cs2, ca1, ca2, zp1, zp2, zv1, zv2, *W,
             J, e1, omega, rew, 31.0 if law31 else 30.0, float(self.stack.count), cl_min_eig,
             1.0 if pe_active else 0.0, pe, float(tau_a_bounded), float(chi_a_bounded), float(tau_limited),
-            math.hypot(tau1, tau2), tr1, tr2, dchi1, dchi2, math.sqrt(float(wdot @ wdot)),
+            math.hypot(tau1, tau2), tr1, tr2, dchi1, dchi2, math.sqrt(float(wdot @ wdot)), zv_res,
         ]
 
     # --- learning over [t, t + dt) ---------------------------------------------------------------------

@@ -1,4 +1,5 @@
-"""Closed-form maths of the SOTC paper: saturated cost, quadratic critic basis, probing signal.
+"""Closed-form maths of the SOTC paper: saturated cost, quadratic critic basis, probing signal, and
+the guess-free solver of the implicit z_v (``solve_tanh_system``).
 
 Reference: N. D. Dien, N. T. Luy, L. K. Lai, T. T. Hai, "Optimal tracking control for robot
 manipulators with input constraint based reinforcement learning", J. Computer Science and
@@ -171,6 +172,104 @@ def matrix_to_weights(S: np.ndarray) -> np.ndarray:
     """Inverse of ``weights_to_matrix`` for a symmetric S (e.g. an LQR Riccati solution)."""
     S = 0.5 * (np.asarray(S, dtype=float) + np.asarray(S, dtype=float).T)
     return np.array([S[i, i] if i == j else 2.0 * S[i, j] for i, j in BASIS_PAIRS])
+
+
+# --- the implicit z_v of (6)/(28): x = x0 + K tanh(x) without a starting guess ---------------------------
+
+
+def _bisect(f, lo: float, hi: float, f_lo: float) -> float:
+    """A point of [lo, hi] where the continuous f changes sign (f(lo) = f_lo and f(hi) of opposite
+    signs, zeros allowed), to about one ulp; at most 200 halvings, so it ends for any input."""
+    neg = f_lo < 0.0
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        if not lo < mid < hi or hi - lo <= 1e-16 * (abs(lo) + abs(hi)) + 1e-300:
+            break
+        f_mid = f(mid)
+        if f_mid == 0.0:
+            return mid
+        if (f_mid < 0.0) == neg:
+            lo = mid
+        else:
+            hi = mid
+    return 0.5 * (lo + hi)
+
+
+def _solve_tanh_1d(c: float, k: float) -> float:
+    """A root of x - k tanh(x) - c (one exists: the sign changes on [-b, b], b = |c| + |k| + 1)."""
+    b = abs(c) + abs(k) + 1.0
+    return _bisect(lambda x: x - k * math.tanh(x) - c, -b, b, -1.0)
+
+
+def _along_curve(a0: float, b0: float, kaa: float, kab: float, kba: float, kbb: float) -> tuple[float, float] | None:
+    """(tanh x_a, tanh x_b) solving x_a = a0 + kaa tanh x_a + kab tanh x_b and x_b = b0 + kba tanh x_a +
+    kbb tanh x_b, kab != 0, found on the curve where the first equation holds.
+
+    On that curve tanh x_b = h(x_a) / kab with h(x) = x - a0 - kaa tanh x, and the second equation becomes
+    phi(x_a) = t_b - tanh(b0 + kba tanh x_a + kbb t_b) = 0 with t_b in [-1, 1]. h is monotone on at
+    most three pieces (split where h' = 1 - kaa (1 - tanh^2 x) changes sign), so on each piece the part
+    of the curve inside |t_b| <= 1 is one interval, found by bisection. phi <= 0 where t_b = -1 and
+    phi >= 0 where t_b = +1, and the first stretch of the curve from t_b = -1 to t_b = +1 (it exists:
+    h runs from -inf to +inf) is a chain of such intervals, so one of them has a sign change of phi:
+    bisection on it gives a solution. None if rounding hides every sign change."""
+    K = abs(kab)
+
+    def h(x: float) -> float:
+        return x - a0 - kaa * math.tanh(x)
+
+    def t_b(x: float) -> float:
+        return min(1.0, max(-1.0, h(x) / kab))
+
+    def phi(x: float) -> float:
+        tb = t_b(x)
+        return tb - math.tanh(b0 + kba * math.tanh(x) + kbb * tb)
+
+    L = abs(a0) + abs(kaa) + K + 1.0  # |h(x)| > K for |x| >= L
+    if kaa > 1.0:
+        xs = math.atanh(math.sqrt(1.0 - 1.0 / kaa))
+        pieces = ((-L, -xs, 1.0), (-xs, xs, -1.0), (xs, L, 1.0))  # (from, to, direction of h)
+    else:
+        pieces = ((-L, L, 1.0),)
+    for p, q, direction in pieces:
+        hp, hq = direction * h(p), direction * h(q)  # increasing after the sign flip
+        if hp > K or hq < -K:
+            continue  # the curve leaves the box on this whole piece
+        lo = p if hp >= -K else _bisect(lambda x: direction * h(x) + K, p, q, hp + K)
+        hi = q if hq <= K else _bisect(lambda x: direction * h(x) - K, p, q, hp - K)
+        f_lo, f_hi = phi(lo), phi(hi)
+        if f_lo == 0.0:
+            return math.tanh(lo), t_b(lo)
+        if f_hi == 0.0:
+            return math.tanh(hi), t_b(hi)
+        if (f_lo < 0.0) != (f_hi < 0.0):
+            x = _bisect(phi, lo, hi, f_lo)
+            return math.tanh(x), t_b(x)
+    return None
+
+
+def solve_tanh_system(x01: float, x02: float, k11: float, k12: float, k21: float, k22: float) -> tuple[float, float]:
+    """(tanh x1, tanh x2) for a solution x of the 2x2 system x = x0 + K tanh(x), K = [[k11, k12], [k21, k22]].
+
+    This is the implicit definition of z_v in (6)/(28) written in the tanh arguments x of chi_vd*. A
+    solution exists for every x0 and K (u -> tanh(x0 + K u) maps [-1, 1]^2 into itself: Brouwer), but it
+    need not be unique, and Newton's method can stall for large K. This finds one without a starting
+    guess by bisection (``_along_curve``, eliminating the unknown with the larger coupling); for a
+    negligible coupling it solves the two equations one after the other, twice. Accuracy is that of
+    bisection (the elimination divides by the coupling): polish the result with Newton's method."""
+    scale = abs(x01) + abs(x02) + abs(k11) + abs(k22) + 1.0
+    if abs(k12) >= abs(k21) and abs(k12) > 1e-9 * scale:
+        sol = _along_curve(x01, x02, k11, k12, k21, k22)
+        if sol is not None:
+            return sol
+    elif abs(k21) > 1e-9 * scale:
+        sol = _along_curve(x02, x01, k22, k21, k12, k11)
+        if sol is not None:
+            return sol[1], sol[0]
+    t1 = t2 = 0.0
+    for _ in range(2):  # nearly decoupled: one equation at a time (Gauss-Seidel)
+        t1 = math.tanh(_solve_tanh_1d(x01 + k12 * t2, k11))
+        t2 = math.tanh(_solve_tanh_1d(x02 + k21 * t1, k22))
+    return t1, t2
 
 
 # --- probing signal of section 4 ------------------------------------------------------------------

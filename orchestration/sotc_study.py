@@ -23,18 +23,29 @@ import time
 import numpy as np
 import scipy.linalg
 
-from fmu_controller.sotc import SCENARIO_SETTINGS, SotcCore
+from fmu_controller.sotc import SotcCore
 from fmu_controller.sotc_math import matrix_to_weights, weights_to_matrix
 from fmu_plant.dynamics import ArmParameters, inertia_matrix
 from orchestration.metrics import weight_total_variation
 from orchestration.pure_loop import LoopResult, metrics, simulate
+from orchestration.scenario import available_scenarios, load_scenario
 
 PAPER_W = np.array([0.4303, -0.6671, -0.148, 0.0157, 1.14, -0.0216, 0.1913, 0.0074, 0.0284, 0.01572])
 TARGET = {"mse1": 0.00325, "mse2": 0.0109, "max_late_e1": 1.5e-3, "max_late_e2": 1.5e-3, "max_tau_norm": 4.0}
 
 
+def setting_params(setting: str) -> dict[str, float]:
+    """The SOTC parameters of a scenario file (orchestration/scenarios/<setting>.toml)."""
+    return dict(load_scenario(setting).instances["controller"].parameters)
+
+
+def sotc_settings() -> list[str]:
+    """The scenarios whose controller is the SOTC: paper, paper-long-pe, paper-pe-only."""
+    return [n for n in available_scenarios() if load_scenario(n).controller_fmu() == "SotcController"]
+
+
 def run(setting: str = "paper", stop_time: float = 100.0, **overrides: float) -> tuple[SotcCore, LoopResult]:
-    params = dict(SCENARIO_SETTINGS[setting])
+    params = setting_params(setting)
     params.update(overrides)
     ctrl = SotcCore(**params)
     return ctrl, simulate(ctrl, stop_time=stop_time)
@@ -84,7 +95,7 @@ def fmt(m: dict[str, float]) -> str:
 
 
 def cmd_settings(_: argparse.Namespace) -> None:
-    for name in SCENARIO_SETTINGS:
+    for name in sotc_settings():
         ctrl, res = run(name)
         m = metrics(res)
         print(f"{name:14s} {fmt(m)}")
@@ -154,7 +165,7 @@ def cmd_lqr(args: argparse.Namespace) -> None:
     mid = lqr_weights(float(np.mean(phi2s)), ctrl0)
     print(f"paper's W: eig S(W) = {np.round(np.linalg.eigvalsh(weights_to_matrix(PAPER_W)), 4).tolist()}"
           f"  ||W_paper - W_lqr(mid)|| = {np.linalg.norm(PAPER_W - mid):.3g} (||W_lqr|| = {np.linalg.norm(mid):.3g})")
-    for setting in SCENARIO_SETTINGS:
+    for setting in sotc_settings():
         for label, ov in [("", {}), ("stored replay", {"cl_replay": 1})]:
             ctrl, res = run(setting, **ov)
             W = np.array(ctrl.W)
@@ -259,8 +270,8 @@ def cmd_replay(_: argparse.Namespace) -> None:
 
 def cmd_timing(_: argparse.Namespace) -> None:
     ctrl, res = run("paper")
-    for setting in SCENARIO_SETTINGS:
-        c = SotcCore(**SCENARIO_SETTINGS[setting])
+    for setting in sotc_settings():
+        c = SotcCore(**setting_params(setting))
         ys, rs = res.y.tolist(), res.ref[:, :6].tolist()
         t0 = time.perf_counter()
         for k in range(len(ys) - 1):
@@ -275,10 +286,10 @@ def main(argv: list[str] | None = None) -> None:
     sub = ap.add_subparsers(dest="cmd", required=True)
     sub.add_parser("settings").set_defaults(fn=cmd_settings)
     p = sub.add_parser("readings")
-    p.add_argument("--setting", default="paper", choices=list(SCENARIO_SETTINGS))
+    p.add_argument("--setting", default="paper", choices=sotc_settings())
     p.set_defaults(fn=cmd_readings)
     p = sub.add_parser("stack")
-    p.add_argument("--setting", default="paper", choices=list(SCENARIO_SETTINGS))
+    p.add_argument("--setting", default="paper", choices=sotc_settings())
     p.add_argument("--stop", type=float, default=0.5)
     p.set_defaults(fn=cmd_stack)
     sub.add_parser("lqr").set_defaults(fn=cmd_lqr)
@@ -290,7 +301,7 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--set", nargs="*", default=[], metavar="NAME=VALUE", help="reading to perturb")
     p.set_defaults(fn=cmd_robust)
     p = sub.add_parser("weights")
-    p.add_argument("--setting", default="paper", choices=list(SCENARIO_SETTINGS))
+    p.add_argument("--setting", default="paper", choices=sotc_settings())
     p.add_argument("--set", nargs="*", default=[], metavar="NAME=VALUE", help="parameter overrides")
     p.set_defaults(fn=cmd_weights)
     p = sub.add_parser("euler")

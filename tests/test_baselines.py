@@ -11,16 +11,12 @@ import math
 import numpy as np
 import pytest
 
-from fmu_controller.computed_torque import CtCore, saturate_norm
+from fmu_controller.computed_torque import CtCore
 from fmu_controller.lqr import LqrCore, error_system, lqr_gain
-from fmu_controller.otc import (
-    BASIS_PAIRS,
-    OtcCore,
-    basis,
-    basis_gradient,
-    weights_from_quadratic,
-)
-from fmu_plant.dynamics import ArmParameters, forward_dynamics, inertia_matrix, rk4_step
+from fmu_controller.otc import OtcCore
+from fmu_controller.saturation import clip_box, saturate_norm
+from fmu_controller.sotc_math import basis, basis_jacobian, matrix_to_weights, probing_signal
+from fmu_plant.dynamics import forward_dynamics, inertia_matrix, inverse_dynamics
 from fmu_plant.parameters import ParameterError
 from fmu_plant.trajectory import CircleTrajectory
 from orchestration.metrics import tracking_metrics
@@ -124,6 +120,26 @@ def test_saturate_norm_passes_small_vectors():
     assert (t1, t2, n, sat) == (pytest.approx(2.4), pytest.approx(-3.2), 50.0, True)
 
 
+def test_saturation_holds_exactly_in_floating_point():
+    """The shared bounds (CT/LQR eq. (CT-4), the SOTC's bound (5) and actuator limit): the radial one
+    keeps the direction and lands on the circle with hypot(tau) <= bound exactly; the box clips."""
+    rng = np.random.default_rng(11)
+    for _ in range(5000):
+        v1, v2 = rng.normal(size=2) * 10.0 ** rng.uniform(-3, 6)
+        bound = 10.0 ** rng.uniform(-2, 3)
+        t1, t2, norm, sat = saturate_norm(v1, v2, bound)
+        assert norm == math.hypot(v1, v2) and sat == (norm > bound)
+        assert math.hypot(t1, t2) <= bound
+        if sat:
+            assert math.hypot(t1, t2) == pytest.approx(bound, rel=1e-15)
+            assert abs(t1 * v2 - t2 * v1) <= 1e-15 * bound * norm  # same direction
+        else:
+            assert (t1, t2) == (v1, v2)
+        c1, c2, changed = clip_box(v1, v2, bound)
+        assert (c1, c2) == (np.clip(v1, -bound, bound), np.clip(v2, -bound, bound))
+        assert changed == (max(abs(v1), abs(v2)) > bound)
+
+
 @pytest.mark.parametrize(
     "cls, params, name",
     [
@@ -150,23 +166,12 @@ def test_invalid_parameters_are_refused_by_name(cls, params, name):
 # --- OTC --------------------------------------------------------------------------------------
 
 
-def test_otc_basis_gradient_matches_finite_differences():
-    rng = np.random.default_rng(2)
-    z = rng.normal(size=4)
-    grad = basis_gradient(z)
-    h = 1e-6
-    for k in range(4):
-        dz = np.zeros(4)
-        dz[k] = h
-        np.testing.assert_allclose(grad[:, k], (basis(z + dz) - basis(z - dz)) / (2 * h), atol=1e-8)
-    assert len(BASIS_PAIRS) == 10 and BASIS_PAIRS[:4] == ((0, 0), (0, 1), (0, 2), (0, 3))
-
-
-def test_otc_weights_from_quadratic_represent_the_form():
+def test_otc_critic_weights_represent_the_quadratic_form():
+    """The OTC's critic uses the SOTC's basis (sotc_math): matrix_to_weights(P)' sigma(z) = z' P z."""
     rng = np.random.default_rng(3)
     m = rng.normal(size=(4, 4))
     p = m @ m.T
-    w = weights_from_quadratic(p)
+    w = matrix_to_weights(p)
     for _ in range(5):
         z = rng.normal(size=4)
         assert w @ basis(z) == pytest.approx(z @ p @ z, rel=1e-12)
@@ -202,7 +207,7 @@ def test_otc_riccati_initial_weights_solve_the_frozen_hjb():
     Hamiltonian residual vanishes and the actor is the LQR u = -R^-1 g' P z."""
     core = OtcCore(probe_amplitude=0.0, init_phi2=0.7)
     p = core.frozen_riccati(0.7)
-    np.testing.assert_allclose(core.wc, weights_from_quadratic(p))
+    np.testing.assert_allclose(core.wc, matrix_to_weights(p))
     np.testing.assert_allclose(core.wa, core.wc)
     y, r = _otc_point(core, 0.7)
     core.evaluate(0.0, y, r)
@@ -216,6 +221,49 @@ def test_otc_riccati_initial_weights_solve_the_frozen_hjb():
     u = -np.linalg.solve(np.diag([20.0, 100.0]), g.T @ p @ z)
     np.testing.assert_allclose([out["u1"], out["u2"]], u, rtol=1e-9, atol=1e-12)
     assert out["value"] == pytest.approx(z @ p @ z, rel=1e-12)
+
+
+def test_otc_matches_its_matrix_form():
+    """The scalar evaluate/advance equal (OTC-3)..(OTC-10) written with matrices."""
+    core = OtcCore(alpha_s=0.5)
+    rng = np.random.default_rng(7)
+    core.wa = core.wa + 0.01 * rng.normal(size=10)
+    checked_stab = 0
+    for t in (0.1, 0.2, 1.0, 3.0):
+        y, r = _random_point(rng)
+        core.evaluate(t, y, r)
+        out = dict(zip(core.output_names(), core.outputs))
+        lam, rd = np.array([200.0, 50.0]), np.array([20.0, 100.0])
+        e, de = np.array(y[:2]) - np.array(r[:2]), np.array(y[2:4]) - np.array(r[2:4])
+        z = np.concatenate([e, de + lam * e])
+        d = inertia_matrix(y[1], core.model)
+        g = np.zeros((4, 2))
+        g[2:, :] = np.linalg.inv(d)
+        grad = basis_jacobian(z)
+        u = -0.5 * (g.T @ grad.T @ core.wa) / rd
+        z_dot = np.concatenate([-lam * z[:2] + z[2:], np.zeros(2)]) + g @ u
+        omega = grad @ z_dot
+        cost = z @ z + u @ (rd * u)
+        tau_a = d @ (np.array(r[4:6]) - lam * de) + np.array(inverse_dynamics(y[1], y[2], y[3], 0.0, 0.0, core.model))
+        probe = probing_signal(t, 0.5) if t < 0.4 else 0.0
+        np.testing.assert_allclose([out["u1"], out["u2"]], u, rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose([out["tau_a1"], out["tau_a2"]], tau_a, rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose([out["tau1"], out["tau2"]], tau_a + u + probe, rtol=1e-12, atol=1e-12)
+        assert out["cost_rate"] == pytest.approx(cost, rel=1e-12)
+        assert out["bellman_residual"] == pytest.approx(omega @ core.wc + cost, rel=1e-9, abs=1e-9 * abs(cost))
+        assert out["value"] == pytest.approx(core.wc @ basis(z), rel=1e-12)
+        assert out["wc_norm"] == pytest.approx(np.linalg.norm(core.wc)) and out["wa_norm"] == pytest.approx(np.linalg.norm(core.wa))
+        wc0, wa0, dt = core.wc.copy(), core.wa.copy(), 0.01
+        ww = omega @ omega
+        wc1 = wc0 - omega * ((omega @ wc0 + cost) * (1.0 - math.exp(-0.5 * ww / (ww + 1.0) ** 2 * dt)) / ww)
+        wa1 = wc1 + (wa0 - wc1) * math.exp(-5.0 * dt)
+        if z @ z_dot > 0.0:
+            checked_stab += 1
+            wa1 = wa1 + 0.5 * 0.5 * dt * (grad @ (g @ ((g.T @ z) / rd)))
+        core.advance(t, dt)
+        np.testing.assert_allclose(core.wc, wc1, rtol=1e-12, atol=1e-15)
+        np.testing.assert_allclose(core.wa, wa1, rtol=1e-12, atol=1e-15)
+    assert checked_stab >= 1  # the stabilising term of (OTC-9) was exercised
 
 
 def test_otc_evaluate_is_pure_and_state_round_trips():
