@@ -14,6 +14,8 @@ from __future__ import annotations
 import math
 from typing import Any, ClassVar
 
+import numpy as np
+
 from fmu_controller.base import (
     INPUT_UNITS, MEASUREMENT_PORTS, MODEL_PARAMETER_SPECS, REFERENCE_PORTS, ControllerCore,
 )
@@ -92,7 +94,10 @@ class ControllerSlave(DescribedSlave):
                      Fmi2Status.warning)
             y, r = self._last_valid or ([0.0] * len(MEASUREMENT_PORTS), [0.0] * len(REFERENCE_PORTS))
         try:
-            self._core.evaluate(self._time, y, r)
+            # absurd (finite) inputs may overflow: the non-finite outputs are detected and logged below,
+            # so numpy's warnings would only add noise to the host's stderr
+            with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+                self._core.evaluate(self._time, y, r)
         except Exception as exc:  # e.g. an overflow for absurd inputs: refuse these inputs, keep running
             self._invalid_inputs = f"the controller cannot evaluate these inputs: {type(exc).__name__}: {exc}"
             self.log(f"{self.instance_name}: outputs are NaN: {self._invalid_inputs}", Fmi2Status.error)
