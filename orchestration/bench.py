@@ -99,19 +99,19 @@ class _TimedRecorder:
         self._timed(self.recorder.finish, result)
 
 
-def _timed_runs(block_sizes: list[int | None], repeats: int = 3, scenario_name: str = "paper") -> dict:
+def _timed_runs(block_sizes: list[int | None], fmu_dir, repeats: int = 3, scenario_name: str = "paper") -> dict:
     """Median wall time of a full run per block size (None: no recording), alternating the variants."""
     import statistics
     import tempfile
     from pathlib import Path
 
-    from orchestration.build import DEFAULT_FMU_DIR, ensure_built
+    from orchestration.build import ensure_built
     from orchestration.master import run
     from orchestration.recording import BLOCK_SIZE, RunRecorder
     from orchestration.scenario import load_scenario
 
     scenario = load_scenario(scenario_name)
-    paths = ensure_built(sorted({i.fmu for i in scenario.instances.values()}), DEFAULT_FMU_DIR)
+    paths = ensure_built(sorted({i.fmu for i in scenario.instances.values()}), fmu_dir)
     times: dict[int | None, list[float]] = {b: [] for b in block_sizes}
     own: dict[int | None, list[float]] = {b: [] for b in block_sizes if b is not None}
     sizes: dict[int | None, int] = {}
@@ -139,10 +139,10 @@ def _timed_runs(block_sizes: list[int | None], repeats: int = 3, scenario_name: 
             "own": {b: statistics.median(t) for b, t in own.items()}}
 
 
-def bench_recording() -> str:
+def bench_recording(fmu_dir) -> str:
     from orchestration.recording import BLOCK_SIZE
 
-    m = _timed_runs([None, BLOCK_SIZE])
+    m = _timed_runs([None, BLOCK_SIZE], fmu_dir)
     sc, base, rec = m["scenario"], m["median"][None], m["median"][BLOCK_SIZE]
     return "\n".join([
         f"Rerun recording overhead: scenario {sc.name} ({sc.controller_fmu()}), {sc.stop_time:g} s, {sc.steps + 1} samples,"
@@ -154,9 +154,9 @@ def bench_recording() -> str:
     ])
 
 
-def bench_recording_blocks() -> str:
+def bench_recording_blocks(fmu_dir) -> str:
     blocks = [250, 500, 1000, 2000, 5000]
-    m = _timed_runs([None, *blocks])
+    m = _timed_runs([None, *blocks], fmu_dir)
     base = m["median"][None]
     lines = [f"Recording overhead by block size: scenario {m['scenario'].name}, medians of 3 alternated runs",
              f"{'block':>8} {'wall s':>8} {'ratio':>7} {'recorder own s':>15}", f"{'none':>8} {base:8.3f} {1.0:7.3f}"]
@@ -164,4 +164,9 @@ def bench_recording_blocks() -> str:
     return "\n".join(lines)
 
 
-BENCHMARKS = {"integrator": bench_integrator, "recording": bench_recording, "recording-blocks": bench_recording_blocks}
+# name -> benchmark taking the folder where FMUs are built and found
+BENCHMARKS = {
+    "integrator": lambda fmu_dir: bench_integrator(),  # the plant core alone: no FMU
+    "recording": bench_recording,
+    "recording-blocks": bench_recording_blocks,
+}

@@ -172,8 +172,11 @@ def _cmd_export_ssp(args: argparse.Namespace) -> int:
 def _cmd_bench(args: argparse.Namespace) -> int:
     from orchestration.bench import BENCHMARKS
 
+    unknown = [n for n in args.names if n not in BENCHMARKS]
+    if unknown:
+        raise ScenarioError(f"no benchmark {unknown}; known: {', '.join(BENCHMARKS)}")
     for name in args.names or list(BENCHMARKS):
-        print(BENCHMARKS[name]())
+        print(BENCHMARKS[name](args.fmu_dir))
     return 0
 
 
@@ -229,6 +232,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("bench", help="measurements behind design choices (prints ratios measured side by side)")
     p.add_argument("names", nargs="*", metavar="NAME", help="benchmarks to run (default all)")
+    p.add_argument("--fmu-dir", type=Path, default=DEFAULT_FMU_DIR, help="where FMUs are built and found")
     p.set_defaults(func=_cmd_bench)
 
     p = sub.add_parser("validate", help="check FMUs: fmpy, fmutool -check and the project's invariants")
