@@ -180,6 +180,14 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     return 0
 
 
+def _add_fmu_dir(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--fmu-dir", type=Path, default=DEFAULT_FMU_DIR, help="where FMUs are built and found")
+
+
+def _add_stop_time(p: argparse.ArgumentParser, help: str) -> None:
+    p.add_argument("--stop-time", type=float, help=help)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="sotc-cosim", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
@@ -193,9 +201,9 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("run", help="run scenarios through the FMUs, print their metrics, record them for Rerun")
     p.add_argument("scenarios", nargs="*", metavar="SCENARIO",
                    help=f"scenario names or .toml paths (default {DEFAULT_SCENARIO})")
-    p.add_argument("--stop-time", type=float, help="override the scenario's stop time, s")
+    _add_stop_time(p, "override the scenario's stop time, s")
     p.add_argument("--summary", type=Path, help="write the run's summary as JSON to this path")
-    p.add_argument("--fmu-dir", type=Path, default=DEFAULT_FMU_DIR, help="where FMUs are built and found")
+    _add_fmu_dir(p)
     rec = p.add_mutually_exclusive_group()
     rec.add_argument("--recording", type=Path, metavar="PATH",
                      help="write the Rerun recording here (one scenario; default recordings/<scenario>.rrd)")
@@ -206,8 +214,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("scenarios", nargs="+", metavar="SCENARIO", help="scenario names or .toml paths")
     p.add_argument("--recording", type=Path, metavar="PATH", default=Path("recordings") / "compare.rrd",
                    help="where to write the recording (default recordings/compare.rrd)")
-    p.add_argument("--stop-time", type=float, help="override every scenario's stop time, s")
-    p.add_argument("--fmu-dir", type=Path, default=DEFAULT_FMU_DIR, help="where FMUs are built and found")
+    _add_stop_time(p, "override every scenario's stop time, s")
+    _add_fmu_dir(p)
     p.set_defaults(func=_cmd_compare)
 
     p = sub.add_parser("sweep", help="run a scenario over a grid of parameter values (Dask: local processes by default)")
@@ -217,42 +225,42 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--scheduler", default="processes",
                    help="processes (default, local), synchronous, or a dask.distributed address tcp://host:port")
     p.add_argument("--workers", type=int, help="local worker processes (default: one per core)")
-    p.add_argument("--stop-time", type=float, help="override the scenario's stop time, s")
+    _add_stop_time(p, "override the scenario's stop time, s")
     p.add_argument("--out", type=Path, help="CSV of the results (default recordings/sweep-<scenario>.csv; JSON beside it)")
-    p.add_argument("--fmu-dir", type=Path, default=DEFAULT_FMU_DIR, help="where FMUs are built and found")
+    _add_fmu_dir(p)
     p.set_defaults(func=_cmd_sweep)
 
     p = sub.add_parser("reproduce", help="run the paper's section 4 experiment and write Table 1 extended")
     p.add_argument("--out", type=Path, default=Path("recordings"), help="where table1.md/.csv go (default recordings/)")
     p.add_argument("--recording", type=Path, metavar="PATH", default=Path("recordings") / "reproduce.rrd",
                    help="the comparison recording of all runs (default recordings/reproduce.rrd)")
-    p.add_argument("--stop-time", type=float, help="override every scenario's stop time, s (default: the paper's 100 s)")
-    p.add_argument("--fmu-dir", type=Path, default=DEFAULT_FMU_DIR, help="where FMUs are built and found")
+    _add_stop_time(p, "override every scenario's stop time, s (default: the paper's 100 s)")
+    _add_fmu_dir(p)
     p.set_defaults(func=_cmd_reproduce)
 
     p = sub.add_parser("bench", help="measurements behind design choices (prints ratios measured side by side)")
     p.add_argument("names", nargs="*", metavar="NAME", help="benchmarks to run (default all)")
-    p.add_argument("--fmu-dir", type=Path, default=DEFAULT_FMU_DIR, help="where FMUs are built and found")
+    _add_fmu_dir(p)
     p.set_defaults(func=_cmd_bench)
 
     p = sub.add_parser("validate", help="check FMUs: fmpy, fmutool -check and the project's invariants")
     p.add_argument("fmus", nargs="*", metavar="FMU", help="model names or .fmu paths (default: every FMU)")
-    p.add_argument("--fmu-dir", type=Path, default=DEFAULT_FMU_DIR, help="where FMUs are built and found")
+    _add_fmu_dir(p)
     p.set_defaults(func=_cmd_validate)
 
     p = sub.add_parser("cross-check", help="write a reference run of every FMU in the FMI Cross-Check layout")
     p.add_argument("models", nargs="*", metavar="MODEL", help="FMUs to export (default all)")
     p.add_argument("--out", type=Path, required=True, help="folder that receives fmus/2.0/cs/<platform>/...")
     p.add_argument("--stop-time", type=float, default=5.0, help="length of each reference run, s (default 5)")
-    p.add_argument("--fmu-dir", type=Path, default=DEFAULT_FMU_DIR, help="where FMUs are built and found")
+    _add_fmu_dir(p)
     p.set_defaults(func=_cmd_cross_check)
 
     p = sub.add_parser("export-ssp", help="write a scenario (FMUs, connections, parameters) as an SSP 1.0 archive")
     p.add_argument("scenario", nargs="?", default=DEFAULT_SCENARIO, metavar="SCENARIO",
                    help=f"scenario name or .toml path (default {DEFAULT_SCENARIO})")
     p.add_argument("--out", type=Path, required=True, help="the .ssp file to write")
-    p.add_argument("--stop-time", type=float, help="override the scenario's stop time, s")
-    p.add_argument("--fmu-dir", type=Path, default=DEFAULT_FMU_DIR, help="where FMUs are built and found")
+    _add_stop_time(p, "override the scenario's stop time, s")
+    _add_fmu_dir(p)
     p.set_defaults(func=_cmd_export_ssp)
 
     p = sub.add_parser("scenarios", help="list the scenarios that ship with the package")
