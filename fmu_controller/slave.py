@@ -81,12 +81,12 @@ class ControllerSlave(DescribedSlave):
     def _inputs(self) -> tuple[list[float], list[float]]:
         return [getattr(self, n) for n in MEASUREMENT_PORTS], [getattr(self, n) for n in REFERENCE_PORTS]
 
-    def _evaluate(self) -> None:
+    def _evaluate(self, inputs_checked: bool = False) -> None:
         """Outputs for the current inputs. A bad input makes the input-dependent outputs NaN (logged),
         never a stale value; the state outputs are then evaluated at the last good inputs, which
         leaves them exact (they do not depend on the inputs) and the learning state untouched."""
         self._stale = False
-        self._invalid_inputs = self.input_problem()
+        self._invalid_inputs = None if inputs_checked else self.input_problem()
         if self._invalid_inputs is None:
             y, r = self._inputs()
         else:
@@ -128,9 +128,8 @@ class ControllerSlave(DescribedSlave):
         self._stale = True
 
     def step(self, current_time: float, step_size: float) -> bool:
-        # the base class has refused non-finite inputs already
         if self._stale:
-            self._evaluate()
+            self._evaluate(inputs_checked=True)  # the base class has refused bad inputs already
         if self._invalid_inputs is not None:
             return self.discard(f"{self._invalid_inputs}; the step is refused and the state is kept")
         bad = [n for n, v in zip(self.CORE.output_names(), self._core.outputs) if not math.isfinite(v)]
