@@ -13,12 +13,14 @@ from fmu_plant.dynamics import (
     ARM_PARAMETER_SPECS, MAX_SUBSTEPS, STEP_SIZE, ArmParameters, IntegrationError, integrate, substeps_needed,
 )
 from fmu_plant.kinematics import elbow_position, forward_kinematics
-from fmu_plant.parameters import ParameterError, ParameterSpec, any_real
+from fmu_plant.parameters import ParameterError, ParameterSpec
 from fmu_plant.slave_base import DescribedSlave as Fmi2Slave  # the name pythonfmu's binary looks for
 
 INITIAL_STATE_SPECS = (
-    any_real("phi1_0", 0.5, "rad", "Initial angle of joint 1 (paper: 0.5)"),
-    any_real("phi2_0", -0.5, "rad", "Initial angle of joint 2, relative to link 1 (paper: -0.5)"),
+    # |phi| <= 1e3 rad: any angle modulo 2 pi, far from where phi1 + phi2 of (49) could overflow
+    ParameterSpec("phi1_0", 0.5, "rad", "Initial angle of joint 1 (paper: 0.5)", low=-1e3, high=1e3),
+    ParameterSpec("phi2_0", -0.5, "rad", "Initial angle of joint 2, relative to link 1 (paper: -0.5)",
+                  low=-1e3, high=1e3),
     # |dphi| <= 1e3 rad/s (160 rev/s): beyond that no arm of the parameter box is integrable at T = 0.01 s
     ParameterSpec("dphi1_0", 0.0, "rad/s", "Initial velocity of joint 1", low=-1e3, high=1e3),
     ParameterSpec("dphi2_0", 0.0, "rad/s", "Initial velocity of joint 2", low=-1e3, high=1e3),

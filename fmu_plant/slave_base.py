@@ -460,7 +460,8 @@ class DescribedSlave(Fmi2Slave):
         model = type(self).__name__
         if not isinstance(state, dict) or state.get("model") != model:
             found = state.get("model") if isinstance(state, dict) else type(state).__name__
-            raise ValueError(f"not an FMU state of {model} (got {found!r}: corrupt or another model's state)")
+            raise ValueError(f"not an FMU state of {model} (field 'model' is {found!r}: corrupt or another "
+                             "model's state)")
         fields = {"model", "values", "mode", "initialized", "preview_stale", "time", "clock", "internal"}
         if set(state) != fields:
             raise ValueError(f"FMU state of {model} must have exactly the fields {sorted(fields)}, "
@@ -524,9 +525,10 @@ class DescribedSlave(Fmi2Slave):
             backup = self._snapshot()
             try:
                 self._restore(state)
-            except Exception:
+            except Exception as exc:
                 self._restore(backup)  # a state that cannot be applied leaves the instance as it was
-                raise
+                raise ValueError(f"FMU state field 'internal' (or a parameter combination) cannot be applied: "
+                                 f"{type(exc).__name__}: {exc}") from exc
 
     @staticmethod
     def _fmu_state_to_bytes(state: dict[str, Any]) -> bytes:
