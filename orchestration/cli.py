@@ -2,10 +2,12 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from pathlib import Path
 
 from orchestration.build import DEFAULT_FMU_DIR, FMU_SOURCES, BuildError, build_fmus, ensure_built
+from orchestration.paths import OutputPathError, check_output_file, check_output_folder
 from orchestration.scenario import ScenarioError, available_scenarios, load_scenario
 
 DEFAULT_SCENARIO = "paper"
@@ -23,11 +25,14 @@ def _cmd_scenarios(args: argparse.Namespace) -> int:
     return 0
 
 
-def _prepare(names: list[str], stop_time: float | None, fmu_dir: Path):
-    """Load the scenarios, apply --stop-time, and build the FMUs they need."""
+def _prepare(names: list[str], stop_time: float | None, fmu_dir: Path, check=None):
+    """Load the scenarios, apply --stop-time, call ``check(scenarios)`` (output paths: it raises
+    before anything is built or written), and build the FMUs they need."""
     scenarios = [load_scenario(name) for name in names]
     if stop_time is not None:
         scenarios = [s.with_stop_time(stop_time) for s in scenarios]
+    if check is not None:
+        check(scenarios)
     return scenarios, ensure_built(sorted({i.fmu for s in scenarios for i in s.instances.values()}), fmu_dir)
 
 
@@ -63,7 +68,18 @@ def _cmd_run(args: argparse.Namespace) -> int:
         raise ScenarioError("--summary takes one scenario; run them one by one")
     if args.recording and len(args.scenarios) > 1:
         raise ScenarioError("--recording takes one scenario; without it each run writes recordings/<scenario>.rrd")
-    scenarios, paths = _prepare(args.scenarios or [DEFAULT_SCENARIO], args.stop_time, args.fmu_dir)
+    def check(scenarios) -> None:
+        if args.summary:
+            check_output_file(args.summary, "--summary")
+        if args.recording:
+            check_output_file(args.recording, "--recording")
+        elif not args.no_recording:
+            from orchestration.recording import default_recording_path
+
+            for scenario in scenarios:
+                check_output_file(default_recording_path(scenario.name), "recording")
+
+    scenarios, paths = _prepare(args.scenarios or [DEFAULT_SCENARIO], args.stop_time, args.fmu_dir, check)
     written: list[Path] = []
 
     def recording_for(scenario):
@@ -90,7 +106,8 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     from orchestration.recording import record_comparison
     from orchestration.summary import format_table, summarize
 
-    results = _run_each(*_prepare(args.scenarios, args.stop_time, args.fmu_dir))
+    results = _run_each(*_prepare(args.scenarios, args.stop_time, args.fmu_dir,
+                                  lambda _: check_output_file(args.recording, "--recording")))
     summaries = [summarize(r) for r in results]
     print(format_table(summaries))
     print(f"recording: {record_comparison(results, args.recording)}")
@@ -102,7 +119,11 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
     from orchestration.reproduce import REPRODUCE_SCENARIOS, compact_table, write_table
     from orchestration.summary import summarize
 
-    results = _run_each(*_prepare(list(REPRODUCE_SCENARIOS), args.stop_time, args.fmu_dir))
+    def check(_) -> None:
+        check_output_folder(args.out, "--out")
+        check_output_file(args.recording, "--recording")
+
+    results = _run_each(*_prepare(list(REPRODUCE_SCENARIOS), args.stop_time, args.fmu_dir, check))
     summaries = [summarize(r) for r in results]
     md, cs, text = write_table(summaries, args.out)
     print(text)
@@ -117,13 +138,17 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     from orchestration.sweep import parse_assignments, run_sweep, write_results
 
     grid = parse_assignments(args.set)
-    (base,), paths = _prepare([args.scenario], args.stop_time, args.fmu_dir)
+    def check(scenarios) -> None:
+        out = check_output_file(args.out or Path("recordings") / f"sweep-{scenarios[0].name}.csv", "--out")
+        check_output_file(out.with_suffix(".json"), "--out (its .json)")
+
+    (base,), paths = _prepare([args.scenario], args.stop_time, args.fmu_dir, check)
+    out = args.out or Path("recordings") / f"sweep-{base.name}.csv"
     results = run_sweep(base, grid, paths, scheduler=args.scheduler, workers=args.workers)
     for r in results:
         if r["status"] != "ok":
             print(f"{r['scenario']} {r['parameters']}: FAILED: {r['error']}", file=sys.stderr)
     print(format_table(results))
-    out = args.out or Path("recordings") / f"sweep-{base.name}.csv"
     csv_path, json_path = write_results(results, out)
     print(f"wrote {csv_path} and {json_path}")
     return _exit_code(results)
@@ -135,6 +160,13 @@ def _fmu_files(names: list[str], fmu_dir: Path) -> list[Path]:
     unknown = [n for n in names if n not in FMU_SOURCES and not Path(n).is_file()]
     if unknown:
         raise BuildError(f"no FMU {unknown}: give a model ({', '.join(FMU_SOURCES)}) or a .fmu path")
+    from orchestration.validate import archive_problems
+
+    for name in names:
+        if name not in FMU_SOURCES:
+            problems = archive_problems(Path(name))
+            if problems:
+                raise BuildError(f"{name} is refused, nothing was extracted: {problems[0]}")
     built = ensure_built([n for n in names if n in FMU_SOURCES], fmu_dir)
     return [built[n] if n in FMU_SOURCES else Path(n) for n in names]
 
@@ -150,6 +182,7 @@ def _cmd_validate(args: argparse.Namespace) -> int:
 def _cmd_cross_check(args: argparse.Namespace) -> int:
     from orchestration.cross_check import SOURCE_SCENARIO, generate
 
+    check_output_folder(args.out, "--out")
     models = args.models or list(FMU_SOURCES)
     loop = sorted({i.fmu for i in load_scenario(SOURCE_SCENARIO).instances.values()})
     paths = ensure_built(sorted(set(models) | set(loop)), args.fmu_dir)
@@ -161,6 +194,7 @@ def _cmd_cross_check(args: argparse.Namespace) -> int:
 def _cmd_export_ssp(args: argparse.Namespace) -> int:
     from orchestration.ssp import export_ssp
 
+    check_output_file(args.out, "--out")
     scenario = load_scenario(args.scenario)
     if args.stop_time is not None:
         scenario = scenario.with_stop_time(args.stop_time)
@@ -180,16 +214,43 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     return 0
 
 
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number >= 1")
+    return value
+
+
+def _time(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value > 0.0):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a finite number of seconds > 0")
+    return value
+
+
 def _add_fmu_dir(p: argparse.ArgumentParser) -> None:
     p.add_argument("--fmu-dir", type=Path, default=DEFAULT_FMU_DIR, help="where FMUs are built and found")
 
 
 def _add_stop_time(p: argparse.ArgumentParser, help: str) -> None:
-    p.add_argument("--stop-time", type=float, help=help)
+    p.add_argument("--stop-time", type=_time, help=help)
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with its usage errors on one line (the usage itself is one ``-h`` away)."""
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} -h)\n")
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="sotc-cosim", description=__doc__)
+    parser = _Parser(prog="sotc-cosim", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
 
     p = sub.add_parser("build", help="build the FMUs (in a child process)")
@@ -224,7 +285,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="values of one parameter; several --set make a cartesian grid")
     p.add_argument("--scheduler", default="processes",
                    help="processes (default, local), synchronous, or a dask.distributed address tcp://host:port")
-    p.add_argument("--workers", type=int, help="local worker processes (default: one per core)")
+    p.add_argument("--workers", type=_positive_int, help="local worker processes (default: one per core)")
     _add_stop_time(p, "override the scenario's stop time, s")
     p.add_argument("--out", type=Path, help="CSV of the results (default recordings/sweep-<scenario>.csv; JSON beside it)")
     _add_fmu_dir(p)
@@ -251,7 +312,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("cross-check", help="write a reference run of every FMU in the FMI Cross-Check layout")
     p.add_argument("models", nargs="*", metavar="MODEL", help="FMUs to export (default all)")
     p.add_argument("--out", type=Path, required=True, help="folder that receives fmus/2.0/cs/<platform>/...")
-    p.add_argument("--stop-time", type=float, default=5.0, help="length of each reference run, s (default 5)")
+    p.add_argument("--stop-time", type=_time, default=5.0, help="length of each reference run, s (default 5)")
     _add_fmu_dir(p)
     p.set_defaults(func=_cmd_cross_check)
 
@@ -272,7 +333,7 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)
-    except (ScenarioError, BuildError) as exc:
+    except (ScenarioError, BuildError, OutputPathError) as exc:
         print(f"sotc-cosim: error: {exc}", file=sys.stderr)
         return 2
 

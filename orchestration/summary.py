@@ -35,7 +35,9 @@ def summarize(result: RunResult) -> dict[str, Any]:
         "error": result.error,
         "wall_time_s": result.wall_time_s,
     }
-    if result.samples == 0 or not {"plant", "reference", "controller"} <= set(result.outputs):
+    # a failed run reports no metrics: its last samples may already be diverged (or cut short), and a
+    # number computed from them would read like a result
+    if result.failed or result.samples == 0 or not {"plant", "reference", "controller"} <= set(result.outputs):
         return summary
     e, tau = error_and_torque(result)
     cost = _column(result, "controller", "cost_rate")
