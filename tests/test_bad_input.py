@@ -152,3 +152,20 @@ def test_sotc_with_tiny_sigma_and_rho_works_or_is_refused_in_bounded_time(fmu_pa
         pytest.fail(f"no answer within {HANG_SECONDS} s")
     assert done.returncode == 0, done.stderr
     assert "refused" in done.stdout and "'sigma'" in done.stdout or "read:" in done.stdout, done.stdout
+
+
+def test_a_failed_runs_summary_shows_no_metric_from_diverged_samples(fmu_dir, tmp_path, monkeypatch):
+    """The audit's failed run printed an MSE of 8e103. A CT loop with absurd gains (torque 1e8 N.m)
+    makes the plant refuse a step: the run fails, and its summary carries no metric."""
+    from orchestration.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "diverging.toml").write_text(
+        'extends = "paper-ct"\nname = "diverging"\nstop_time = 2.0\n'
+        "[instances.controller.parameters]\nkp = 1e6\nkd = 1e4\ntau_max = 1e9\n")
+    summary = tmp_path / "s.json"
+    assert main(["run", "diverging.toml", "--no-recording", "--summary", str(summary),
+                 "--fmu-dir", str(fmu_dir)]) == 1
+    s = json.loads(summary.read_text())
+    assert s["status"] == "failed" and "refused" in s["error"] and "plant" in s["error"]
+    assert not {"mse", "max_abs_error_last_half", "max_norm_tau", "max_abs_tau"} & set(s)
