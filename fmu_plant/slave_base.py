@@ -122,7 +122,7 @@ def _settle_binary_teardown(resources: str | None) -> None:
     except AttributeError:  # not a pythonfmu binary: nothing to settle
         pass
     finally:
-        _ctypes.dlclose(binary._handle)  # the host alone decides when the binary is unloaded
+        _ctypes.dlclose(binary._handle)  # only our own reference: unloading stays the host's affair
 
 
 class DescribedSlave(Fmi2Slave):
