@@ -15,6 +15,7 @@ DEFAULT_SCENARIO = "paper"
 
 
 def _cmd_build(args: argparse.Namespace) -> int:
+    check_output_folder(args.out, "--out")
     for path in build_fmus(args.models or None, args.out):
         print(path)
     return 0
@@ -338,6 +339,9 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     with interrupt.sigint_deferred():
         try:
+            fmu_dir = getattr(args, "fmu_dir", None)
+            if fmu_dir is not None and not fmu_dir.is_dir():  # an existing folder may be read-only: prebuilt
+                check_output_folder(fmu_dir, "--fmu-dir")
             code = args.func(args)
         except interrupt.Interrupted:
             code = interrupt.EXIT_CODE

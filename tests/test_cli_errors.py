@@ -190,3 +190,14 @@ def test_any_option_value_runs_nothing_or_is_refused_in_one_line(tmp_path, capsy
     assert code == 2
     _one_line_error(capsys.readouterr().err)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.toml"]
+
+
+@pytest.mark.parametrize("command", [["build", "--out", "{}"], ["run", "paper", "--no-recording", "--fmu-dir", "{}"],
+                                     ["validate", "--fmu-dir", "{}"]])
+def test_unusable_fmu_folder_is_refused_before_building(command, tmp_path, not_a_folder, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    before = sorted(tmp_path.iterdir())
+    for bad in (not_a_folder, not_a_folder / "fmus", Path("/proc/sotc-cosim-test-fmus")):
+        assert main([str(bad) if a == "{}" else a for a in command]) == 2
+        assert str(bad) in _one_line_error(capsys.readouterr().err)
+    assert sorted(tmp_path.iterdir()) == before
