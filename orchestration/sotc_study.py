@@ -113,9 +113,9 @@ READINGS: list[tuple[str, dict[str, float]]] = [
     ("chosen reading", {}),
     ("chi_a: as printed, +Lambda1 z_v", {"chi_a_form": 1}),
     ("F_v(z_phi, z_v) := 0", {"fv_error_form": 1}),
-    ("bound (5): radial (Euclidean proj.)", {"bound_form": 1}),
-    ("bound (5) per joint, |tau_i| <= rho", {"bound_form": 2, "actuator_form": 1}),
-    ("bound (5) per joint, ||tau|| <= rho", {"bound_form": 2}),
+    ("bound (5): radial (Euclidean proj.)", {"limit_handling": 0}),
+    ("bound (5) per joint, |tau_i| <= rho", {"limit_handling": 1, "actuator_form": 1}),
+    ("bound (5) per joint, ||tau|| <= rho", {"limit_handling": 1}),
     ("saturation level rho in (13)/(28)", {"saturation_form": 1}),
     ("dchi_vd/dt: d(chi_vd^a)/dt only", {"chi_dot_form": 1}),
     ("dchi_vd/dt: backward difference", {"chi_dot_form": 2}),
@@ -128,8 +128,8 @@ READINGS: list[tuple[str, dict[str, float]]] = [
     ("no CL", {"cl_enabled": 0}),
     ("no learning (alpha1 = alpha2 = 1e-9)", {"alpha1": 1e-9, "alpha2": 1e-9}),
     ("no learning, F_v(z_phi, z_v) := 0", {"alpha1": 1e-9, "alpha2": 1e-9, "fv_error_form": 1}),
-    ("no learning, bound (5) radial", {"alpha1": 1e-9, "alpha2": 1e-9, "bound_form": 1}),
-    ("as printed throughout", {"chi_a_form": 1, "bound_form": 1, "saturation_form": 1, "cl_selection": 1,
+    ("no learning, bound (5) radial", {"alpha1": 1e-9, "alpha2": 1e-9, "limit_handling": 0}),
+    ("as printed throughout", {"chi_a_form": 1, "limit_handling": 0, "saturation_form": 1, "cl_selection": 1,
                                "cl_replay": 1, "weight_integrator": 1}),
 ]
 
