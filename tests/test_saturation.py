@@ -90,7 +90,7 @@ def test_every_controller_declares_limit_handling_as_an_integer_code(core, defau
 
 @pytest.mark.parametrize("core", [CtCore, LqrCore, OtcCore])
 def test_baselines_honour_the_limit_under_every_handling(core):
-    y, r = (0.5, -0.5, 0.0, 0.0), (0.4, 1.2, 0.3, -0.3, 0.1, 0.2)
+    y, r = (2.5, -2.0, 3.0, -3.0), (0.4, 1.2, 0.3, -0.3, 0.1, 0.2)
     norms = {}
     for code in range(4):
         c = core(limit_handling=code)
