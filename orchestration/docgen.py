@@ -218,9 +218,10 @@ def render(name: str) -> str:
 def write(name: str, root: Path | None = None) -> bool:
     """Regenerate one block in place; True if it changed."""
     path = (root or ROOT) / BLOCKS[name].file
-    text = path.read_text()
     committed(name, root)
-    new = _pattern(name).sub(lambda m: m.group(1) + render(name) + m.group(3), text)
+    content = render(name)  # first: the file is read (and rewritten) only once the block is computed
+    text = path.read_text()
+    new = _pattern(name).sub(lambda m: m.group(1) + content + m.group(3), text)
     path.write_text(new)
     return new != text
 
