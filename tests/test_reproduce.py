@@ -1,11 +1,18 @@
 """`sotc-cosim reproduce`: Table 1 extended, every number from this invocation's runs."""
 import csv
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
 
 from rerun.chunk import RrdReader
 
 import orchestration.summary as summary_module
 from orchestration.cli import main
-from orchestration.reproduce import COLUMNS, PAPER_TABLE1, REPRODUCE_SCENARIOS
+from orchestration.comparison import run_metrics
+from orchestration.reproduce import COLUMNS, PAPER_TABLE1, REPRODUCE_RUNS, REPRODUCE_SCENARIOS
 
 
 def _read(path):
@@ -59,7 +66,30 @@ def test_reproduce_writes_the_table_from_its_own_runs(fmu_dir, tmp_path, monkeyp
     assert unclipped["samples_over_limit"] > 0 and all(
         s["samples_over_limit"] == 0 for s in captured if s["limit_handling"] != "none")
     assert "paper-otc-accel" in printed and "wrote" in printed
+    # the docs' tables come from the pure loop: it gives these FMU runs' numbers
+    by_name = {s["scenario"]: s for s in captured}
+    for scenario, code, name in REPRODUCE_RUNS:
+        pure = run_metrics(scenario, 3.0, **({} if code is None else {"limit_handling": code}))
+        fmu = by_name[name]
+        assert np.allclose(pure["mse"], fmu["mse"], rtol=1e-9, atol=0.0), name
+        assert pure["tracking_cost"] == pytest.approx(fmu["tracking_cost"], rel=1e-9), name
+        assert (pure["samples_over_limit"], pure["last_limit_time"]) == (fmu["samples_over_limit"], fmu["last_limit_time"])
     # the comparison recording overlays every run of this invocation (paper Figs 10-12)
     entities = {c.entity_path for c in RrdReader(rrd).stream().to_chunks()}
     for name in REPRODUCE_SCENARIOS:
         assert f"/{name}/fmu/plant" in entities, sorted(entities)[:20]
+
+
+@pytest.mark.slow
+def test_reproduce_console_script_in_a_fresh_interpreter_outside_the_repo(tmp_path):
+    """The installed ``sotc-cosim`` in its own process, from a folder outside the repository, building
+    every FMU afresh: all controllers run in one process and every limit handling is printed."""
+    exe = Path(sys.executable).with_name("sotc-cosim")
+    proc = subprocess.run([str(exe), "reproduce", "--stop-time", "2", "--fmu-dir", str(tmp_path / "fmus")],
+                          cwd=tmp_path, capture_output=True, text=True, timeout=900)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    for name in REPRODUCE_SCENARIOS:
+        assert f"\n{name} " in proc.stdout, name
+    for handling in ("radial", "joint", "accel", "none"):
+        assert handling in proc.stdout
+    assert (tmp_path / "recordings" / "table1.md").is_file() and (tmp_path / "recordings" / "reproduce.rrd").is_file()
