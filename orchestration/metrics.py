@@ -35,7 +35,7 @@ def limit_active(outputs: dict[str, np.ndarray], n: int) -> np.ndarray:
     return flags
 
 
-def _mse_from(t: np.ndarray, e: np.ndarray, mask: np.ndarray) -> list[float] | None:
+def _mse_from(e: np.ndarray, mask: np.ndarray) -> list[float] | None:
     return _per_joint(np.mean(e[mask] ** 2, axis=0)) if mask.any() else None
 
 
@@ -160,7 +160,7 @@ def tracking_metrics(
         "torque_limit": float(torque_limit),
     }
     late = t >= TRANSIENT_END - 1e-12
-    out["mse_after_5s"] = _mse_from(t, e, late)
+    out["mse_after_5s"] = _mse_from(e, late)
     out["last_limit_time"] = out["mse_after_limit"] = None
     if limit_flags is not None:
         flags = np.asarray(limit_flags, dtype=bool).reshape(-1)
@@ -169,7 +169,7 @@ def tracking_metrics(
         if len(hit):
             out["last_limit_time"] = float(t[hit[-1]])
             after[: hit[-1] + 1] = False
-        out["mse_after_limit"] = _mse_from(t, e, after)
+        out["mse_after_limit"] = _mse_from(e, after)
     out["tracking_cost"] = None
     if e_dot is not None:
         ed = np.asarray(e_dot, dtype=float).reshape(n, 2)

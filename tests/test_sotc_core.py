@@ -566,3 +566,39 @@ def test_learned_critic_is_a_valid_value_near_the_lqr_solution(paper_run):
     assert np.linalg.eigvalsh(sm.weights_to_matrix(PAPER_W))[0] < 0.0
     w_lqr = lqr_weights(1.39, ctrl)
     assert np.linalg.norm(np.array(ctrl.W) - w_lqr) < 0.4 * np.linalg.norm(w_lqr)
+
+
+def test_cl_start_time_keeps_the_cl_sum_out_until_then():
+    """cl_start_time = 0.4 (the paper's 'PE for 0.4 s, then CL'): until 0.4 s the weights move exactly as
+    without CL, although the stack fills from t = 0; from 0.4 s on the CL sum acts."""
+    from fmu_plant.dynamics import rk4_step
+    from fmu_plant.trajectory import CircleTrajectory
+
+    traj = CircleTrajectory()
+    late, none = SotcCore(cl_start_time=0.4), SotcCore(cl_enabled=0)
+    state = (0.5, -0.5, 0.0, 0.0)
+    for k in range(45):
+        t = k * T
+        for c in (late, none):
+            c.evaluate(t, state, traj.sample(t)[:6])
+        if t < 0.4:
+            assert late.W == none.W and late.outputs[:2] == none.outputs[:2]
+        state = rk4_step(state, late.outputs[0], late.outputs[1], T, 4, late.model)
+        for c in (late, none):
+            c.advance(t, T)
+    assert late.stack.count >= 20 and late.W != none.W
+
+
+def test_eta_form_printed_drops_exactly_the_coupling_terms_of_6():
+    from fmu_controller.sotc_math import basis_directional
+
+    g = rng(3)
+    W0 = random_weights(g, 1.0)
+    y, r = random_inputs(g, 1.0)
+    full, printed = SotcCore(**W0), SotcCore(eta_form=1, **W0)
+    full.evaluate(1.0, y, r)
+    printed.evaluate(1.0, y, r)
+    z = full._pending["z"]
+    coupling = basis_directional(z, (z[2], z[3], -z[0], -z[1]))  # grad(zeta) (+z_v, -z_phi)
+    assert np.allclose(printed._pending["eta"], full._pending["eta"] - np.array(coupling), atol=1e-12)
+    assert printed._pending["z"] == z  # same error state (the torque differs through dW/dt in the chain rule)
