@@ -97,3 +97,14 @@ def test_baselines_honour_the_limit_under_every_handling(core):
         c.evaluate(0.0, y, r)
         norms[code] = math.hypot(*c.outputs[:2])
     assert max(norms[0], norms[1], norms[2]) <= 4.0 + 1e-12 < norms[3]
+
+
+@pytest.mark.parametrize("model,default", [("SotcController", 2), ("CtController", 0), ("LqrController", 0),
+                                           ("OtcController", 3)])
+def test_each_controller_fmu_declares_limit_handling_as_an_fmi_integer(fmu_paths, model, default):
+    from fmpy import read_model_description
+
+    var = {v.name: v for v in read_model_description(str(fmu_paths[model])).modelVariables}["limit_handling"]
+    assert (var.type, var.causality, int(var.start)) == ("Integer", "parameter", default)
+    assert (int(var.min), int(var.max)) == (0, len(LIMIT_HANDLINGS) - 1)
+    assert all(f"{i} = " in var.description for i in range(len(LIMIT_HANDLINGS)))
