@@ -94,7 +94,7 @@ COLUMNS: list[tuple[str, str, Callable[[dict[str, Any]], str]]] = [
     ("energy int tau'tau", "N^2.m^2.s", _scalar("control_energy", ".1f")),
     ("TV(tau1)/s", "N.m/s", _joint("tau_total_variation_rate", 0, ".3f")),
     ("TV(tau2)/s", "N.m/s", _joint("tau_total_variation_rate", 1, ".3f")),
-    ("SOTC cost int", "", _scalar("cost_integral", ".3f")),
+    ("own cost int (cost_rate)", "", _scalar("cost_integral", ".3f")),
 ]
 
 
