@@ -98,7 +98,8 @@ def project_requirements() -> dict[str, str]:
     for line in lines:
         req = line.split(";")[0].split("#")[0].strip()
         name = re.match(r"[A-Za-z0-9_.-]+", req).group(0)
-        spec = ",".join(sorted(s.strip() for s in req[len(name):].split(",") if s.strip()))
+        spec = ",".join(sorted((s.strip() for s in req[len(name):].split(",") if s.strip()),
+                               key=lambda s: (not s.startswith((">", "=")), s)))  # lower bound first
         out[name.lower()] = f"{name}{spec}"
     return out
 
