@@ -184,6 +184,29 @@ def value_table() -> str:
     return table(VALUE_HEADER, rows)
 
 
+def learned_w_table() -> str:
+    """Section 3: W(100 s) of each CL / PE setting against the LQR value and the paper's W."""
+    from fmu_controller.sotc import SotcCore
+    from fmu_controller.sotc_math import weights_to_matrix
+    from orchestration.sotc_study import PAPER_W, lqr_weights, run, stack_min_eig
+
+    ref = lqr_weights(1.39, SotcCore())
+    norm = float(np.linalg.norm(ref))
+
+    def row(label: str, W: np.ndarray, min_eig: str) -> list[str]:
+        eig = np.linalg.eigvalsh(weights_to_matrix(W))
+        d = float(np.linalg.norm(W - ref))
+        return [label, "[" + ", ".join(f"{w:.3g}" for w in W) + "]", f"{d:.3g} ({100 * d / norm:.0f} %)",
+                ", ".join(f"{v:.2g}" for v in eig), min_eig]
+
+    rows = []
+    for setting in ("paper", "paper-long-pe", "paper-pe-only"):
+        ctrl, _ = run(setting)
+        rows.append(row(f"`{setting}`", np.array(ctrl.W), f"{stack_min_eig(ctrl):.2g}" if ctrl.stack.count else "(no stack)"))
+    rows.append(row("the paper's W", PAPER_W, ""))
+    return table(["setting", "W(100 s)", f"‖W - W_lqr‖ (‖W_lqr‖ = {norm:.3g})", "eig S(W)", "lambda_min(M)"], rows)
+
+
 def otc_table() -> str:
     rows = [[label, *metric_cells(run_metrics("paper-otc", **ov))] for label, ov in OTC_VARIANTS]
     return table(["OTC variant", *METRIC_HEADER], rows)
@@ -206,6 +229,7 @@ BLOCKS: dict[str, Block] = {
     "settings": Block("docs/paper-notes.md", settings_table, False),
     "readings": Block("docs/paper-notes.md", readings_table, True),
     "value": Block("docs/paper-notes.md", value_table, True),
+    "learned-w": Block("docs/paper-notes.md", learned_w_table, True),
 }
 
 

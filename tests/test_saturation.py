@@ -13,7 +13,7 @@ from fmu_controller.saturation import (
 from fmu_controller.sotc import SotcCore
 from fmu_plant.parameters import ParameterError
 
-D = (3.957, 0.434, 0.196)  # inertia entries at phi2 = 0 (paper's constants)
+D = (3.957, 0.438, 0.196)  # inertia entries (D11, D12, D22) at phi2 = 0 (paper's constants)
 
 
 @pytest.mark.parametrize("code", range(3))
