@@ -135,10 +135,16 @@ def results_verdict() -> str:
         lines.append("Given the same limit handling as the SOTC (accel), a baseline from the same small tuning search "
                      f"beats it on Table 1's metric: {'; '.join(beaten)}, against the SOTC's {_pair(chosen['mse'])} "
                      f"(t >= 5 s {_pair(chosen['mse_after_5s'], 3)}, cost {_g(chosen['tracking_cost'])}).")
-        cheaper = all(chosen["tracking_cost"] < best_tuning(sc, 2)[1]["tracking_cost"] for sc in TUNING_GRIDS)
-        if cheaper:
+        scenario, point, m = min(((sc, *best_tuning(sc, 2)) for sc in TUNING_GRIDS),
+                                 key=lambda best: best[2]["tracking_cost"])
+        if chosen["tracking_cost"] < m["tracking_cost"]:
             lines.append("The SOTC keeps the lowest realised cost of these under accel: its advantage is the cost it "
                          "optimises, not the MSE of Table 1.")
+        else:
+            fmu, _ = controller_of(scenario)
+            lines.append(f"Nor does the SOTC keep the lowest realised cost under accel: {LABELS[fmu]} "
+                         f"({_params_text(scenario, point)}) reaches {_g(m['tracking_cost'])} against its "
+                         f"{_g(chosen['tracking_cost'])}.")
     else:
         lines.append("Under the same limit handling (accel), no baseline of the tuning search beats the SOTC's MSE "
                      f"{_pair(chosen['mse'])}.")
