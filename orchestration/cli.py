@@ -27,10 +27,11 @@ def _cmd_scenarios(args: argparse.Namespace) -> int:
     return 0
 
 
-def _prepare(names: list[str], stop_time: float | None, fmu_dir: Path, check=None):
-    """Load the scenarios, apply --stop-time, call ``check(scenarios)`` (output paths: it raises
-    before anything is built or written), and build the FMUs they need."""
-    scenarios = [load_scenario(name) for name in names]
+def _prepare(names: list, stop_time: float | None, fmu_dir: Path, check=None):
+    """Load the scenarios (names, paths or Scenario objects), apply --stop-time, call
+    ``check(scenarios)`` (output paths: it raises before anything is built or written), and build the
+    FMUs they need."""
+    scenarios = [load_scenario(name) if isinstance(name, str) else name for name in names]
     if stop_time is not None:
         scenarios = [s.with_stop_time(stop_time) for s in scenarios]
     if check is not None:
@@ -122,20 +123,20 @@ def _cmd_compare(args: argparse.Namespace) -> int:
 
 def _cmd_reproduce(args: argparse.Namespace) -> int:
     from orchestration.recording import record_comparison
-    from orchestration.reproduce import REPRODUCE_SCENARIOS, compact_table, write_table
+    from orchestration.reproduce import compact_table, reproduce_scenarios, write_table
     from orchestration.summary import summarize
 
     def check(_) -> None:
         check_output_folder(args.out, "--out")
         check_output_file(args.recording, "--recording")
 
-    results = _run_each(*_prepare(list(REPRODUCE_SCENARIOS), args.stop_time, args.fmu_dir, check))
+    results = _run_each(*_prepare(reproduce_scenarios(), args.stop_time, args.fmu_dir, check))
     summaries = [summarize(r) for r in results]
     md, cs, text = write_table(summaries, args.out)
     print(text)
     print(compact_table(summaries))
     print(f"wrote {md} and {cs}")
-    print(f"recording: {record_comparison(results, args.recording)} (paper Figs 10-12: every controller overlaid)")
+    print(f"recording: {record_comparison(results, args.recording)} (paper Figs 10-12: every run overlaid)")
     return _exit_code(summaries)
 
 
