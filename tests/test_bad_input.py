@@ -140,7 +140,6 @@ HANG_CHILD = textwrap.dedent("""
 """)
 
 
-@pytest.mark.xfail(strict=False, reason="projection loop bound: issue 10 branch")
 def test_sotc_with_tiny_sigma_and_rho_works_or_is_refused_in_bounded_time(fmu_paths, tmp_path):
     """sigma and rho tiny but inside their declared ranges: the first output read walked the bound (5)
     projection down one ulp at a time. Run in a child process so a hang cannot stall the suite."""
