@@ -39,6 +39,7 @@ FMU_SOURCES: dict[str, FmuSource] = {
         FmuSource("SotcController", "fmu_controller/sotc_controller_fmu.py", ("fmu_plant", "fmu_controller")),
         FmuSource("OtcController", "fmu_controller/otc_controller_fmu.py", ("fmu_plant", "fmu_controller")),
         FmuSource("LqrController", "fmu_controller/lqr_controller_fmu.py", ("fmu_plant", "fmu_controller")),
+        *(FmuSource(m, f"fmu_plant/{s}_fmu.py", ("fmu_plant",)) for m, s in (("Disturbance", "disturbance"), ("MeasurementNoise", "measurement_noise"))),
     )
 }
 
