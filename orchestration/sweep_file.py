@@ -93,12 +93,16 @@ class Sweep:
     state_bound: float
     fixed: dict[str, float]
 
-    def points(self) -> list[Point]:
+    def groups(self) -> dict[str, list[Axis]]:
+        """The axes of the combination: group name (an ungrouped axis: its own name) -> its axes."""
         groups: dict[str, list[Axis]] = {}
         for axis in self.axes:
             groups.setdefault(axis.group or axis.name, []).append(axis)
-        rows = [list(zip(*(a.values for a in axes))) for axes in groups.values()]  # per group: value tuples
-        members = list(groups.values())
+        return groups
+
+    def points(self) -> list[Point]:
+        members = list(self.groups().values())
+        rows = [list(zip(*(a.values for a in axes))) for axes in members]  # per group: value tuples
         if self.combine == "grid":
             combos = [[(m, v) for m, v in zip(members, combo)] for combo in itertools.product(*rows)]
         elif self.combine == "paired":
@@ -205,9 +209,7 @@ def parse_sweep(raw: dict[str, Any], label: str, folder: Path | None = None, def
 
 
 def _check_shape(sweep: Sweep, where: str) -> None:
-    groups: dict[str, list[Axis]] = {}
-    for axis in sweep.axes:
-        groups.setdefault(axis.group or axis.name, []).append(axis)
+    groups = sweep.groups()
     for group, axes in groups.items():
         if len({len(a.values) for a in axes}) > 1:
             raise SweepError(f"{where}: the axes of group '{group}' must have as many values each: "

@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from orchestration.sweep_file import Sweep
+from orchestration.sweep_file import Axis, Sweep
 
 TABLE_METRICS = (  # (column, summary key, joint index or None)
     ("mse_1", "mse", 0), ("mse_2", "mse", 1),
@@ -132,30 +132,41 @@ def _fmt(value: float | None, spec: str = ".3g") -> str:
 
 
 def _value_text(value: Any) -> str:
+    if isinstance(value, tuple):
+        return ", ".join(_value_text(v) for v in value)
     return value if isinstance(value, str) else format(value, ".4g")
 
 
-def axis_groups(sweep: Sweep, rows: list[dict[str, Any]], label: str) -> list[tuple[str, str, list[dict[str, Any]]]]:
-    """(axis value, controller, rows) for every value of the axis that some point sets, split by
-    controller when the sweep has a controller axis; random axes with many values go in 4 bins."""
-    split = any(a.name == "controller" for a in sweep.axes) and label != "controller"
-    present = [r for r in rows if label in r["settings"]]
-    values = sorted({r["settings"][label] for r in present}, key=lambda v: (isinstance(v, str), v))
+def _controller(row: dict[str, Any]) -> str:
+    return str(metric(row, "controller") or row["settings"].get("controller", ""))
+
+
+def _group_value(row: dict[str, Any], axes: list[Axis]) -> Any:
+    values = tuple(row["settings"][a.label] for a in axes)
+    return values[0] if len(values) == 1 else values
+
+
+def group_rows(sweep: Sweep, rows: list[dict[str, Any]], axes: list[Axis]) -> list[tuple[str, str, list[dict[str, Any]]]]:
+    """(value, controller, rows) for every value of a combination axis (a group of axes varied
+    together) that some point sets, split by controller when the sweep also has a controller axis;
+    a single random axis with many values goes in 4 equal bins."""
+    split = any(a.name == "controller" for a in sweep.axes) and axes[0].name != "controller"
+    present = [r for r in rows if axes[0].label in r["settings"]]
+    values = sorted({_group_value(r, axes) for r in present}, key=lambda v: (isinstance(v, str), v))
     if len(values) > 8 and all(isinstance(v, float) for v in values):
         edges = np.linspace(values[0], values[-1], 5)
         bins = [(f"[{edges[i]:.4g}, {edges[i + 1]:.4g}{']' if i == 3 else ')'}",
                  lambda v, i=i: edges[i] <= v < edges[i + 1] or (i == 3 and v == edges[4])) for i in range(4)]
     else:
         bins = [(_value_text(v), lambda x, v=v: x == v) for v in values]
-    controllers = sorted({str(metric(r, "controller") or r["settings"].get("controller", "")) for r in present}) if split else [""]
-    groups = []
+    controllers = sorted({_controller(r) for r in present}) if split else [""]
+    out = []
     for text, member in bins:
         for ctrl in controllers:
-            chosen = [r for r in present if member(r["settings"][label])
-                      and (not split or str(metric(r, "controller") or r["settings"].get("controller", "")) == ctrl)]
+            chosen = [r for r in present if member(_group_value(r, axes)) and (not split or _controller(r) == ctrl)]
             if chosen:
-                groups.append((text, ctrl, chosen))
-    return groups
+                out.append((text, ctrl, chosen))
+    return out
 
 
 def summary_markdown(sweep: Sweep, rows: list[dict[str, Any]], total: int, heading: str = "#") -> str:
@@ -165,11 +176,12 @@ def summary_markdown(sweep: Sweep, rows: list[dict[str, Any]], total: int, headi
              f"`{sweep.base.name}`, {sweep.combine} combination, seed {sweep.seed}, stop time {sweep.base.stop_time:g} s "
              "(unless an axis sets it). Post-transient error = max over both joints of max |e| over the second "
              "half of the run; max ||tau|| against the torque limit rho; a failed point counts in 'failed' only.", ""]
-    for axis in sweep.axes:
-        lines += [f"{heading}# Axis `{axis.label}`", "",
+    for group, axes in sweep.groups().items():
+        title = f"`{axes[0].label}`" if len(axes) == 1 else f"{group} ({', '.join(f'`{a.label}`' for a in axes)})"
+        lines += [f"{heading}# Axis {title}", "",
                   "| value | controller | points | failed | mean post-transient max abs e [rad] | std | worst | worst max norm tau [N.m] | samples over limit |",
                   "|---|---|---:|---:|---:|---:|---:|---:|---:|"]
-        for text, ctrl, chosen in axis_groups(sweep, rows, axis.label):
+        for text, ctrl, chosen in group_rows(sweep, rows, axes):
             tails = [t for t in (tail_error(r) for r in chosen) if t is not None]
             taus = [metric(r, "max_norm_tau") for r in chosen if r["status"] == "ok" and metric(r, "max_norm_tau") is not None]
             over = sum(metric(r, "samples_over_limit") or 0 for r in chosen if r["status"] == "ok")
@@ -183,14 +195,15 @@ def summary_markdown(sweep: Sweep, rows: list[dict[str, Any]], total: int, headi
         lines += [f"{heading}# Failed points", "", "| index | settings | reason |", "|---:|---|---|"]
         for r in failed:
             settings = ", ".join(f"{k} = {_value_text(v)}" for k, v in r["settings"].items())
-            reason = (r.get("reason") or "").replace("|", "/").replace("\n", " ")
+            reason = " ".join((r.get("reason") or "").replace("|", "/").split())
             lines.append(f"| {r['index']} | {settings} | {reason[:300]} |")
         lines.append("")
     return "\n".join(lines)
 
 
 def write_plots(sweep: Sweep, rows: list[dict[str, Any]], folder: Path) -> list[Path]:
-    """Per axis: post-transient max |e| (log scale) and max ||tau|| per point, by controller."""
+    """Per combination axis: post-transient max |e| (log scale) and max ||tau|| per point, by
+    controller; a group of axes is plotted against its draw number (its values: summary.md)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -199,36 +212,35 @@ def write_plots(sweep: Sweep, rows: list[dict[str, Any]], folder: Path) -> list[
     folder.mkdir(parents=True, exist_ok=True)
     rho = sweep.base.torque_limit()
     written = []
-    for axis in sweep.axes:
-        present = [r for r in rows if axis.label in r["settings"]]
+    for group, axes in sweep.groups().items():
+        present = [r for r in rows if axes[0].label in r["settings"]]
         if not present:
             continue
-        categorical = any(isinstance(r["settings"][axis.label], str) for r in present)
-        cats = sorted({r["settings"][axis.label] for r in present}) if categorical else []
+        values = sorted({_group_value(r, axes) for r in present}, key=lambda v: (isinstance(v, str), v))
+        categorical = len(axes) > 1 or isinstance(values[0], str)
         fig, (top, bottom) = plt.subplots(2, 1, figsize=(7, 6), sharex=True)
-        ctrls = sorted({str(metric(r, "controller")) for r in present})
-        for n, ctrl in enumerate(ctrls):
-            mine = [r for r in present if str(metric(r, "controller")) == ctrl]
-            x = [cats.index(r["settings"][axis.label]) if categorical else r["settings"][axis.label] for r in mine]
+        for n, ctrl in enumerate(sorted({_controller(r) for r in present})):
+            mine = [r for r in present if _controller(r) == ctrl]
+            x = [values.index(_group_value(r, axes)) if categorical else _group_value(r, axes) for r in mine]
             ok = [(xi, r) for xi, r in zip(x, mine) if tail_error(r) is not None]
-            color = f"C{n}"
-            top.plot([xi for xi, _ in ok], [tail_error(r) for _, r in ok], "o", color=color, label=ctrl, alpha=0.8)
-            bottom.plot([xi for xi, _ in ok], [metric(r, "max_norm_tau") for _, r in ok], "o", color=color, alpha=0.8)
+            top.plot([xi for xi, _ in ok], [tail_error(r) for _, r in ok], "o", color=f"C{n}", label=ctrl, alpha=0.8)
+            bottom.plot([xi for xi, _ in ok], [metric(r, "max_norm_tau") for _, r in ok], "o", color=f"C{n}", alpha=0.8)
             bad = [xi for xi, r in zip(x, mine) if r["status"] != "ok"]
             if bad:
-                top.plot(bad, [1.0] * len(bad), "x", color=color, markersize=10, label=f"{ctrl}: failed")
+                top.plot(bad, [1.0] * len(bad), "x", color=f"C{n}", markersize=10, label=f"{ctrl}: failed")
         top.set_yscale("log")
         top.set_ylabel("post-transient max |e| [rad]")
         bottom.axhline(rho, color="grey", linestyle="--", label=f"rho = {rho:g} N.m")
         bottom.set_ylabel("max ||tau|| [N.m]")
-        bottom.set_xlabel(axis.label)
+        bottom.set_xlabel(axes[0].label if len(axes) == 1 else f"{group}: draw (values in summary.md)")
         if categorical:
-            bottom.set_xticks(range(len(cats)), cats, rotation=15)
+            bottom.set_xticks(range(len(values)), [v if isinstance(v, str) else str(i + 1) for i, v in enumerate(values)],
+                              rotation=15)
         top.legend(fontsize=7)
         bottom.legend(fontsize=7)
-        top.set_title(f"sweep {sweep.name}: {axis.label}")
+        top.set_title(f"sweep {sweep.name}: {group}")
         fig.tight_layout()
-        path = folder / f"{axis.label.replace(' ', '_').replace('/', '_').replace('[', '').replace(']', '')}.png"
+        path = folder / f"{''.join(c if c.isalnum() or c in '._-' else '_' for c in group)}.png"
         fig.savefig(path, dpi=80)
         plt.close(fig)
         written.append(path)
