@@ -8,10 +8,16 @@ one process, 3 times each; the ratio of the median wall times (target: at most 1
 time spent inside the recorder itself (less sensitive to other load on the machine).
 
 ``recording-blocks``: the same at several block sizes (how ``recording.BLOCK_SIZE`` was chosen).
+
+``sweep``: the same 12 sweep points (SOTC, 10 s each) as a plain loop in this process and as Dask
+tasks on a LocalCluster of 1 and of 2 workers, side by side in one run (each cluster warmed up
+with one point per worker first; cluster start-up reported apart): throughput, the 2-worker
+speed-up (target >= 1.7 on 2 cores) and the per-point overhead of Dask against the loop.
 """
 from __future__ import annotations
 
 import math
+import os
 import time
 
 import numpy as np
@@ -164,9 +170,59 @@ def bench_recording_blocks(fmu_dir) -> str:
     return "\n".join(lines)
 
 
+def bench_sweep(fmu_dir, points: int = 12, stop_time: float = 10.0) -> str:
+    from orchestration.sweep import _client, fmu_blobs, point_key, run_point
+    from orchestration.sweep_file import parse_sweep
+
+    values = [float(v) for v in np.linspace(30.0, 70.0, points)]
+    sweep = parse_sweep({"scenario": "paper", "stop_time": stop_time, "axis": [{"name": "controller.alpha1", "values": values}]},
+                        "bench")
+    blobs = fmu_blobs(sweep.model_names(), fmu_dir)
+    digests = {m: d for m, (d, _) in blobs.items()}
+    tasks = [{"point": p, "key": point_key(p.scenario, digests), "time_limit": 600.0, "state_bound": 1e3, "record": False}
+             for p in sweep.points()]
+
+    def check(rows):
+        bad = [r["reason"] for r in rows if r["status"] != "ok"]
+        if bad:
+            raise RuntimeError(f"benchmark point failed: {bad[0]}")
+
+    load = os.getloadavg()[0]
+    check([run_point(tasks[0], blobs)])  # warm-up: imports, FMU cache
+    t0 = time.perf_counter()
+    check([run_point(t, blobs) for t in tasks])
+    loop = time.perf_counter() - t0
+    timings = {}
+    for workers in (1, 2):
+        t0 = time.perf_counter()
+        client, cluster = _client(None, workers)
+        start = time.perf_counter() - t0
+        try:
+            [shared] = client.scatter([blobs], broadcast=True, hash=False)
+            check(client.gather([client.submit(run_point, t, shared, pure=False) for t in tasks[:workers]]))  # warm-up
+            t0 = time.perf_counter()
+            check(client.gather([client.submit(run_point, t, shared, pure=False) for t in tasks]))
+            timings[workers] = (time.perf_counter() - t0, start)
+        finally:
+            client.close()
+            cluster.close()
+    one, two = timings[1][0], timings[2][0]
+    return "\n".join([
+        f"Sweep throughput: {points} points of scenario paper (SotcController), {stop_time:g} s each, one run of each variant"
+        f" (load average before: {load:.1f} on {os.cpu_count()} cores: other load slows every variant)",
+        f"{'variant':>22} {'wall s':>8} {'points/s':>9} {'cluster start s':>16}",
+        f"{'plain loop':>22} {loop:8.2f} {points / loop:9.2f} {'-':>16}",
+        *(f"{f'Dask, {w} worker' + ('s' if w > 1 else ''):>22} {timings[w][0]:8.2f} {points / timings[w][0]:9.2f} {timings[w][1]:16.2f}"
+          for w in (1, 2)),
+        f"{'2 workers vs 1':>22} {one / two:8.2f}x  (target >= 1.7 on 2 cores)",
+        f"{'Dask overhead/point':>22} {(one - loop) / points * 1e3:8.1f} ms  (1 worker against the plain loop)",
+    ])
+
+
 # name -> benchmark taking the folder where FMUs are built and found
 BENCHMARKS = {
     "integrator": lambda fmu_dir: bench_integrator(),  # the plant core alone: no FMU
     "recording": bench_recording,
     "recording-blocks": bench_recording_blocks,
+    "sweep": bench_sweep,
 }

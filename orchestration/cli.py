@@ -32,11 +32,14 @@ def _prepare(names: list[str], stop_time: float | None, fmu_dir: Path):
     return scenarios, ensure_built(sorted({i.fmu for s in scenarios for i in s.instances.values()}), fmu_dir)
 
 
-def _run_each(scenarios, paths, recording_for=None) -> list:
+def _run_each(scenarios, paths, recording_for=None, progress_label: str | None = None) -> list:
     """Run every scenario (a failure is reported and the next one still runs); ``recording_for``
-    maps a scenario to the .rrd path its run streams to, or None for no recording."""
+    maps a scenario to the .rrd path its run streams to, or None for no recording;
+    ``progress_label``: show the progress under that label."""
     from orchestration.master import run
+    from orchestration.progress import Progress
 
+    progress = Progress(len(scenarios), progress_label) if progress_label else None
     results = []
     for scenario in scenarios:
         target = recording_for(scenario) if recording_for else None
@@ -50,6 +53,10 @@ def _run_each(scenarios, paths, recording_for=None) -> list:
         if result.failed:
             print(f"{scenario.name}: FAILED: {result.error}", file=sys.stderr)
         results.append(result)
+        if progress is not None:
+            progress.update(not result.failed, f"{scenario.name} {'FAILED' if result.failed else 'ok'}")
+    if progress is not None:
+        progress.close()
     return results
 
 
@@ -103,7 +110,7 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
     from orchestration.reproduce import REPRODUCE_SCENARIOS, compact_table, write_table
     from orchestration.summary import summarize
 
-    results = _run_each(*_prepare(list(REPRODUCE_SCENARIOS), args.stop_time, args.fmu_dir))
+    results = _run_each(*_prepare(list(REPRODUCE_SCENARIOS), args.stop_time, args.fmu_dir), progress_label="reproduce")
     summaries = [summarize(r) for r in results]
     md, cs, text = write_table(summaries, args.out)
     print(text)
