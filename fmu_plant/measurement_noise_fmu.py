@@ -32,7 +32,9 @@ class MeasurementNoise(Fmi2Slave):
     def _getter(self, name: str, index: int):
         def get() -> float:
             value = getattr(self, name)
-            if not self._initialized or not math.isfinite(value):
+            if not math.isfinite(value):
+                return math.nan  # a non-finite input never passes (doStep refuses it, naming it)
+            if not self._initialized:
                 return value
             return value + self._std[index] * float(self._noise.at(self._steps)[index])
         return get

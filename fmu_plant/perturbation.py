@@ -16,14 +16,20 @@ import math
 
 import numpy as np
 
-from fmu_plant.parameters import ParameterSpec, any_real, nonnegative
+from fmu_plant.parameters import ParameterSpec, nonnegative
 
+
+def _torque(name: str, description: str) -> ParameterSpec:
+    return ParameterSpec(name, 0.0, "N.m", description, low=-MAX_TORQUE, high=MAX_TORQUE)
+
+
+MAX_TORQUE = 1e3  # N.m: far beyond the arm's 4 N.m actuator, still a bound (no unbounded input)
 DISTURBANCE_PARAMETER_SPECS: tuple[ParameterSpec, ...] = (
-    any_real("step1", 0.0, "N.m", "Step disturbance torque on joint 1 from step_time on"),
-    any_real("step2", 0.0, "N.m", "Step disturbance torque on joint 2 from step_time on"),
+    _torque("step1", "Step disturbance torque on joint 1 from step_time on"),
+    _torque("step2", "Step disturbance torque on joint 2 from step_time on"),
     nonnegative("step_time", 0.0, "s", "When the step disturbances start"),
-    any_real("sin1", 0.0, "N.m", "Amplitude of the sinusoidal disturbance torque on joint 1"),
-    any_real("sin2", 0.0, "N.m", "Amplitude of the sinusoidal disturbance torque on joint 2"),
+    _torque("sin1", "Amplitude of the sinusoidal disturbance torque on joint 1"),
+    _torque("sin2", "Amplitude of the sinusoidal disturbance torque on joint 2"),
     nonnegative("omega", 1.0, "rad/s", "Angular frequency of the sinusoidal disturbances", high=1e4),
 )
 
@@ -32,7 +38,7 @@ NOISE_PARAMETER_SPECS: tuple[ParameterSpec, ...] = (
     nonnegative("std_dphi", 0.0, "rad/s", "Standard deviation of the noise on the measured velocities", high=100.0),
 )
 NOISE_BLOCK = 1024
-MAX_SEED = 2**31 - 1
+MAX_SEED = 999_999
 
 
 def disturbance_torque(t: float, step1: float, step2: float, step_time: float, sin1: float, sin2: float,
