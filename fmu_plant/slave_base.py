@@ -97,6 +97,7 @@ class DescribedSlave(Fmi2Slave):
 
     def __init__(self, **kwargs: Any):
         super().__init__(**kwargs)
+        self._forget_resources_path()
         self._meta: dict[str, VariableMeta] = {}
         self._input_ranges: list[tuple[str, float | None, float | None]] = []  # name, low, high
         self._mode = INSTANTIATED
@@ -108,6 +109,13 @@ class DescribedSlave(Fmi2Slave):
         self._start_time = 0.0
         self._steps = 0
         self._uniform_step: float | None = None  # h while uniform, nan once a step size changed
+
+    def _forget_resources_path(self) -> None:
+        """pythonfmu's binary inserts ``resources/`` at ``sys.path[0]`` at every fmi2Instantiate and
+        never removes it. Every module this FMU needs is imported by now, under names unique to its
+        build, so the entry is taken out again: the host's ``sys.path`` stays as it was."""
+        if self.resources and sys.path and sys.path[0] == self.resources:
+            del sys.path[0]
 
     # --- declaration -------------------------------------------------------------------------
 

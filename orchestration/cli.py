@@ -6,6 +6,7 @@ import os
 import sys
 from pathlib import Path
 
+from orchestration import interrupt
 from orchestration.build import DEFAULT_FMU_DIR, FMU_SOURCES, BuildError, build_fmus, ensure_built
 from orchestration.scenario import ScenarioError, available_scenarios, load_scenario
 
@@ -42,6 +43,8 @@ def _run_each(scenarios, paths, recording_for=None, progress_label: str | None =
     progress = Progress(len(scenarios), progress_label) if progress_label else None
     results = []
     for scenario in scenarios:
+        if interrupt.requested():  # Ctrl-C: no further scenario starts; the finished ones are kept
+            break
         target = recording_for(scenario) if recording_for else None
         if target is None:
             result = run(scenario, paths)
@@ -50,7 +53,7 @@ def _run_each(scenarios, paths, recording_for=None, progress_label: str | None =
 
             with RunRecorder(target) as recorder:
                 result = run(scenario, paths, observer=recorder, block_size=BLOCK_SIZE)
-        if result.failed:
+        if result.failed and not result.interrupted:
             print(f"{scenario.name}: FAILED: {result.error}", file=sys.stderr)
         results.append(result)
         if progress is not None:
@@ -61,6 +64,8 @@ def _run_each(scenarios, paths, recording_for=None, progress_label: str | None =
 
 
 def _exit_code(summaries: list[dict]) -> int:
+    if interrupt.requested():
+        return interrupt.EXIT_CODE
     return 1 if any(s["status"] != "ok" for s in summaries) else 0
 
 
@@ -321,14 +326,21 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    try:
-        return args.func(args)
-    except (ScenarioError, BuildError) as exc:
-        print(f"sotc-cosim: error: {exc}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print("sotc-cosim: interrupted", file=sys.stderr)
-        return 130
+    with interrupt.sigint_deferred():
+        try:
+            code = args.func(args)
+        except interrupt.Interrupted:
+            code = interrupt.EXIT_CODE
+        except (ScenarioError, BuildError) as exc:
+            if not interrupt.requested():
+                print(f"sotc-cosim: error: {exc}", file=sys.stderr)
+                return 2
+            code = interrupt.EXIT_CODE
+        if interrupt.requested():
+            print("sotc-cosim: interrupted (SIGINT): stopped between two steps; finished results were kept",
+                  file=sys.stderr)
+            return interrupt.EXIT_CODE
+        return code
 
 
 if __name__ == "__main__":

@@ -28,6 +28,7 @@ from fmpy import extract, read_model_description
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Slave, fmi2Real, fmi2ValueReference
 
+from orchestration import interrupt
 from orchestration.fmi_direct import forget_callbacks, make_callbacks
 from orchestration.scenario import Scenario, ScenarioError
 
@@ -52,6 +53,7 @@ class RunResult:
     wall_time_s: float
     failed: bool = False
     error: str | None = None
+    interrupted: bool = False  # stopped by SIGINT (``orchestration.interrupt``); ``failed`` is set too
     logs: list[LogRecord] = field(default_factory=list)
     # every parameter of every instance as the FMU holds it after initialization (defaults included)
     parameters: dict[str, dict[str, float]] = field(default_factory=dict)
@@ -224,8 +226,11 @@ def run(
     flushed = 0
     error: str | None = None
     observer_ok = True
+    interrupted = False
+    stop = interrupt.STATE
     started = time.perf_counter()
     try:
+        interrupt.check()  # SIGINT before the run: nothing is loaded
         for inst in scenario.instances.values():
             if inst.fmu not in fmu_paths:
                 raise ScenarioError(f"instance '{inst.name}': no built FMU for model '{inst.fmu}'")
@@ -258,11 +263,16 @@ def run(
                 flushed = k + 1
             if k == n_steps:
                 break
+            if stop.requested:  # SIGINT: stop here, between two steps, with every sample so far
+                interrupted = True
+                break
             t = times[k]
             for ld in loaded.values():
                 ld.fmu.doStep(currentCommunicationPoint=t, communicationStepSize=T)
     except ScenarioError:
         raise  # the scenario itself is wrong: nothing ran
+    except interrupt.Interrupted:
+        interrupted = True
     except Exception as exc:  # FMI status errors, fmpy's load/instantiate errors, observer errors
         error = _describe_failure(exc, k, times, logs)
         observer_ok = not isinstance(exc, _ObserverFailed)
@@ -275,8 +285,11 @@ def run(
         name: {v: records[name][:completed, i].copy() for i, v in enumerate(loaded[name].output_names)}
         for name in records
     }
+    if interrupted and error is None:
+        where = f"after t = {times[completed - 1]:.2f} s (sample {completed - 1})" if completed else "before the first sample"
+        error = f"interrupted by SIGINT {where}"
     result = RunResult(scenario, times[:completed], outputs, wall, failed=error is not None, error=error,
-                       logs=logs, parameters=parameters)
+                       interrupted=interrupted, logs=logs, parameters=parameters)
     if observer is not None:
         try:
             if observer_ok and completed > flushed:

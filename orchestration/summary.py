@@ -31,7 +31,7 @@ def summarize(result: RunResult) -> dict[str, Any]:
         "stop_time": sc.stop_time,
         "steps": max(result.samples - 1, 0),
         "samples": result.samples,
-        "status": "failed" if result.failed else "ok",
+        "status": "interrupted" if result.interrupted else "failed" if result.failed else "ok",
         "error": result.error,
         "wall_time_s": result.wall_time_s,
     }

@@ -37,11 +37,13 @@ from typing import Any
 
 import numpy as np
 
+from orchestration import interrupt
 from orchestration.build import ensure_built
 from orchestration.scenario import Scenario, ScenarioError
 from orchestration.sweep_file import Point, Sweep
 
 GUARD_BLOCK = 100  # samples between two checks of the time limit and the state bound
+POLL_S = 0.05  # how often the client looks for finished points and for Ctrl-C
 TRACE_POINTS = 2000  # at most this many samples of the tracking error go into the sweep recording
 STATES = ("phi1", "phi2", "dphi1", "dphi2")
 
@@ -248,13 +250,21 @@ def execute(
             futures = [client.submit(run_point, {**base, "point": p, "key": k}, shared, pure=False,
                                      key=f"point-{p.index}-{k[:12]}-{os.getpid()}-{time.time_ns()}")
                        for p, k in todo]
-            for future in as_completed(futures):
-                row = future.result()
-                store.add(row)
-                outcome.ran += 1
-                if listener is not None:
-                    listener.finished(row)
-        except KeyboardInterrupt:
+            pending = as_completed(futures)
+            while not pending.is_empty():
+                if interrupt.requested():  # Ctrl-C under the CLI sets a flag (orchestration.interrupt)
+                    outcome.interrupted = True
+                    break
+                ready = pending.next_batch(block=False)
+                for future in ready:
+                    row = future.result()
+                    store.add(row)
+                    outcome.ran += 1
+                    if listener is not None:
+                        listener.finished(row)
+                if not ready:
+                    time.sleep(POLL_S)
+        except KeyboardInterrupt:  # Ctrl-C where SIGINT is not deferred (a library caller)
             outcome.interrupted = True
         finally:
             _shutdown(client, cluster, futures, outcome.interrupted)
