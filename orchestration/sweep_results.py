@@ -201,6 +201,10 @@ def summary_markdown(sweep: Sweep, rows: list[dict[str, Any]], total: int, headi
     return "\n".join(lines)
 
 
+def plot_name(group: str) -> str:
+    return "".join(c if c.isalnum() or c in "._-" else "_" for c in group) + ".png"
+
+
 def write_plots(sweep: Sweep, rows: list[dict[str, Any]], folder: Path) -> list[Path]:
     """Per combination axis: post-transient max |e| (log scale) and max ||tau|| per point, by
     controller; a group of axes is plotted against its draw number (its values: summary.md)."""
@@ -240,7 +244,7 @@ def write_plots(sweep: Sweep, rows: list[dict[str, Any]], folder: Path) -> list[
         bottom.legend(fontsize=7)
         top.set_title(f"sweep {sweep.name}: {group}")
         fig.tight_layout()
-        path = folder / f"{''.join(c if c.isalnum() or c in '._-' else '_' for c in group)}.png"
+        path = folder / plot_name(group)
         fig.savefig(path, dpi=80)
         plt.close(fig)
         written.append(path)
