@@ -28,6 +28,7 @@ import hashlib
 import json
 import logging
 import os
+import socket
 import tempfile
 import time
 import traceback
@@ -145,7 +146,8 @@ def run_point(task: dict[str, Any], blobs: dict[str, tuple[str, bytes]]) -> dict
     scenario = point.scenario
     started = time.perf_counter()
     stride = max(1, int(np.ceil((scenario.steps + 1) / TRACE_POINTS)))
-    row: dict[str, Any] = {"index": point.index, "key": task["key"], "settings": point.settings}
+    row: dict[str, Any] = {"index": point.index, "key": task["key"], "settings": point.settings,
+                           "worker": f"{socket.gethostname()}:{os.getpid()}"}
     rrd_file = Path(tempfile.mkdtemp(prefix="sotc_point_")) / "point.rrd" if task["record"] else None
     guard = None
     try:
