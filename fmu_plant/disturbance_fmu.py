@@ -5,6 +5,7 @@ Outputs are a function of time only (no inputs): connect them to the plant's inp
 from __future__ import annotations
 
 from fmu_plant.perturbation import DISTURBANCE_PARAMETER_SPECS, disturbance_torque
+from fmu_plant.parameters import check_all
 from fmu_plant.slave_base import DescribedSlave as Fmi2Slave  # the name pythonfmu's binary looks for
 
 
@@ -20,8 +21,7 @@ class Disturbance(Fmi2Slave):
         self._values = {s.name: s.default for s in DISTURBANCE_PARAMETER_SPECS}
 
     def initialize(self) -> None:
-        self._values = {s.name: s.check(v) for s, v in
-                        zip(DISTURBANCE_PARAMETER_SPECS, self.parameter_values(DISTURBANCE_PARAMETER_SPECS).values())}
+        self._values = check_all(DISTURBANCE_PARAMETER_SPECS, self.parameter_values(DISTURBANCE_PARAMETER_SPECS))
         self.publish(self._time)
 
     def publish(self, t: float) -> None:

@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 
 from fmu_plant.perturbation import MAX_SEED, NOISE_PARAMETER_SPECS, NoiseSequence
+from fmu_plant.parameters import check_all
 from fmu_plant.slave_base import DescribedSlave as Fmi2Slave  # the name pythonfmu's binary looks for
 
 PORTS = (("phi1", "rad"), ("phi2", "rad"), ("dphi1", "rad/s"), ("dphi2", "rad/s"))
@@ -40,8 +41,7 @@ class MeasurementNoise(Fmi2Slave):
         return get
 
     def initialize(self) -> None:
-        values = {s.name: s.check(v) for s, v in
-                  zip(NOISE_PARAMETER_SPECS, self.parameter_values(NOISE_PARAMETER_SPECS).values())}
+        values = check_all(NOISE_PARAMETER_SPECS, self.parameter_values(NOISE_PARAMETER_SPECS))
         self._noise = NoiseSequence(self.seed)
         self._std = (values["std_phi"], values["std_phi"], values["std_dphi"], values["std_dphi"])
 
