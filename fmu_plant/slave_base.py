@@ -29,6 +29,11 @@ pythonfmu 0.7 facts this module is built around (measured, see docs/interop.md):
 - ``fmi2GetFMUstate`` hands the binary the dict ``_get_fmu_state`` returns; serialization calls the
   *class* methods ``_fmu_state_to_bytes``/``_fmu_state_from_bytes`` (JSON), where no instance can
   balance an exception, so those two never raise.
+- the binary keeps its interpreter keeper (``PyState``) in a file-static ``shared_ptr`` that both a
+  C++ static destructor and its unload hook ``finalizePythonInterpreter`` release. In a binary still
+  loaded at ``exit()`` the static destructor runs first and the hook then decrements a counter inside
+  the freed block: heap corruption that aborts some processes at exit. ``_settle_binary_teardown``
+  leaves both an empty pointer (see its docstring and docs/interop.md, "A non-Python host").
 
 FMI state machine kept by this class (``_mode``): instantiated -> initialization -> stepping ->
 terminated. Calls outside their state are refused with a logged Error naming the call and the state
@@ -45,12 +50,15 @@ terminated. Calls outside their state are refused with a logged Error naming the
 """
 from __future__ import annotations
 
+import _ctypes
 import copy
 import ctypes
 import json
 import math
+import os
 import sys
 from contextlib import contextmanager
+from pathlib import Path
 from typing import Any, Callable, ClassVar, Iterator, Sequence
 from xml.etree.ElementTree import Element
 
@@ -61,12 +69,63 @@ from fmu_plant.model_description import UNIT_BASES, VariableMeta, complete_model
 from fmu_plant.parameters import ParameterSpec
 
 STEP_SIZE = 0.01  # the paper's sampling period T, also each FMU's DefaultExperiment stepSize
+# in resources/: parameter start values of a parameterised copy of the FMU (``sotc-cosim export-ssp``
+# writes one per SSP component with parameters, so that every engine applies them)
+PARAMETER_STARTS = "parameter_starts.json"
 
 # FMI 2.0 co-simulation states (``DescribedSlave._mode``)
 INSTANTIATED = "instantiated"
 INITIALIZATION = "initialization mode"
 STEPPING = "stepping"
 TERMINATED = "terminated"
+
+
+_EXIT_CALL_REGISTERED: set[int] = set()  # dlopen handles of binaries whose keeper is released at exit
+
+
+def _settle_binary_teardown(resources: str | None) -> None:
+    """Release the pythonfmu binary's interpreter keeper before ``exit()`` frees it and writes into it.
+
+    The binary's ``finalizePythonInterpreter`` (its unload hook, exported) sets the file-static
+    ``shared_ptr<PyState>`` to null. Called by us first, the C++ static destructor and the hook both
+    find an empty pointer at exit, whatever the order glibc runs them in. When to call it depends on
+    who made the interpreter:
+
+    - the host did (any Python host; ``sys.orig_argv`` is never empty there): the keeper only holds a
+      thread that has already ended, so it is released at once. Every ``fmi2Instantiate`` makes a
+      new one, so this runs at every instantiation.
+    - the binary did (a C host: its worker thread ran ``Py_Initialize``, which leaves
+      ``sys.orig_argv`` empty): releasing now would finalize Python under this very call. The call is
+      registered with ``__cxa_atexit`` instead, which runs it before the static destructor (entries
+      run last-in first-out), and the binary is made ``RTLD_NODELETE`` so the address stays valid.
+
+    Nothing happens when the binary is not loaded (the class instantiated in Python by a builder or
+    a test) or not on Linux, where this was measured.
+    """
+    if sys.platform != "linux" or not resources:
+        return
+    binaries = sorted((Path(resources).parent / "binaries" / "linux64").glob("*.so"))
+    if len(binaries) != 1:
+        return
+    host_made_python = bool(sys.orig_argv)
+    mode = os.RTLD_NOLOAD | (0 if host_made_python else os.RTLD_NODELETE)
+    try:
+        binary = ctypes.PyDLL(str(binaries[0]), mode=mode)
+    except OSError:  # not loaded in this process
+        return
+    try:
+        finalize = binary.finalizePythonInterpreter
+        if host_made_python:
+            finalize()
+        elif binary._handle not in _EXIT_CALL_REGISTERED:
+            register = ctypes.CDLL(None)["__cxa_atexit"]
+            register.argtypes = (ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p)
+            if register(ctypes.cast(finalize, ctypes.c_void_p), None, None) == 0:
+                _EXIT_CALL_REGISTERED.add(binary._handle)
+    except AttributeError:  # not a pythonfmu binary: nothing to settle
+        pass
+    finally:
+        _ctypes.dlclose(binary._handle)  # only our own reference: unloading stays the host's affair
 
 
 class DescribedSlave(Fmi2Slave):
@@ -98,6 +157,8 @@ class DescribedSlave(Fmi2Slave):
     def __init__(self, **kwargs: Any):
         super().__init__(**kwargs)
         self._forget_resources_path()
+        _settle_binary_teardown(self.resources)
+        self._starts, self._starts_problem = self._read_parameter_starts()
         self._meta: dict[str, VariableMeta] = {}
         self._input_ranges: list[tuple[str, float | None, float | None]] = []  # name, low, high
         self._mode = INSTANTIATED
@@ -117,11 +178,27 @@ class DescribedSlave(Fmi2Slave):
         if self.resources and sys.path and sys.path[0] == self.resources:
             del sys.path[0]
 
+    def _read_parameter_starts(self) -> tuple[dict[str, Any], str | None]:
+        """Start values from ``resources/parameter_starts.json`` (absent: the declared defaults)."""
+        if not self.resources:
+            return {}, None
+        try:
+            with open(os.path.join(self.resources, PARAMETER_STARTS), encoding="utf-8") as f:
+                starts = json.load(f)
+        except FileNotFoundError:
+            return {}, None
+        except (OSError, ValueError) as exc:
+            return {}, f"{PARAMETER_STARTS} cannot be read: {exc}"
+        if not isinstance(starts, dict) or not all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                                                   for v in starts.values()):
+            return {}, f"{PARAMETER_STARTS} must map parameter names to numbers"
+        return starts, None
+
     # --- declaration -------------------------------------------------------------------------
 
     def declare_parameter(self, spec: ParameterSpec) -> None:
         """A fixed parameter whose value is checked against ``spec`` at initialization."""
-        setattr(self, spec.name, spec.default)
+        setattr(self, spec.name, float(self._starts.get(spec.name, spec.default)))
         self._register(
             Real(spec.name, causality=Fmi2Causality.parameter, variability=Fmi2Variability.fixed,
                  initial=Fmi2Initial.exact, description=f"{spec.description}; valid range {spec.range_text()}"),
@@ -130,7 +207,7 @@ class DescribedSlave(Fmi2Slave):
         )
 
     def declare_integer_parameter(self, name: str, default: int, low: int, high: int, description: str) -> None:
-        setattr(self, name, default)
+        setattr(self, name, int(self._starts.get(name, default)))
         self._register(
             Integer(name, causality=Fmi2Causality.parameter, variability=Fmi2Variability.fixed,
                     initial=Fmi2Initial.exact, description=f"{description}; valid range [{low}, {high}]"),
@@ -285,11 +362,18 @@ class DescribedSlave(Fmi2Slave):
     def exit_initialization_mode(self) -> None:
         with self._guarded("fmi2ExitInitializationMode (initialization refused)"):
             self._require_mode("fmi2ExitInitializationMode", INITIALIZATION)
+            self._check_parameter_starts()
             self._initialized = False
             self.initialize()  # raises naming the parameter; the instance stays in initialization mode
         self._initialized = True
         self._preview_stale = False
         self._mode = STEPPING
+
+    def _check_parameter_starts(self) -> None:
+        parameters = {v.name for v in self.vars.values() if v.causality == Fmi2Causality.parameter}
+        unknown = sorted(set(self._starts) - parameters)
+        if self._starts_problem or unknown:
+            raise ValueError(self._starts_problem or f"{PARAMETER_STARTS} names {unknown}, which are not parameters")
 
     def _preview(self) -> None:
         """Initialization mode: compute the initial outputs from the parameters set so far."""
