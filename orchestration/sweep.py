@@ -28,8 +28,10 @@ import hashlib
 import json
 import logging
 import os
+import signal
 import socket
 import tempfile
+import threading
 import time
 import traceback
 from dataclasses import dataclass, field
@@ -37,6 +39,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from distributed import WorkerPlugin
 
 from orchestration import interrupt
 from orchestration.build import ensure_built
@@ -211,12 +214,14 @@ def _client(scheduler: str | None, workers: int | None):
 
     if scheduler:
         try:
-            return Client(scheduler, timeout="20s"), None
+            return Client(scheduler, timeout="10s"), None
         except OSError as exc:
             raise ScenarioError(f"--scheduler {scheduler}: cannot reach a Dask scheduler there ({exc})") from None
     cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
                            dashboard_address=None, silence_logs=logging.ERROR)
-    return Client(cluster), cluster
+    client = Client(cluster)
+    client.register_plugin(IgnoreSigint())
+    return client, cluster
 
 
 def execute(
@@ -249,9 +254,9 @@ def execute(
 
             [shared] = client.scatter([blobs], broadcast=True, hash=False)
             base = {"time_limit": sweep.time_limit, "state_bound": sweep.state_bound, "record": record}
-            futures = [client.submit(run_point, {**base, "point": p, "key": k}, shared, pure=False,
-                                     key=f"point-{p.index}-{k[:12]}-{os.getpid()}-{time.time_ns()}")
-                       for p, k in todo]
+            todo_by_key = {f"point-{p.index}-{k[:12]}-{os.getpid()}-{time.time_ns()}": (p, k) for p, k in todo}
+            futures = [client.submit(run_point, {**base, "point": p, "key": k}, shared, pure=False, key=task_key)
+                       for task_key, (p, k) in todo_by_key.items()]
             pending = as_completed(futures)
             while not pending.is_empty():
                 if interrupt.requested():  # Ctrl-C under the CLI sets a flag (orchestration.interrupt)
@@ -259,7 +264,7 @@ def execute(
                     break
                 ready = pending.next_batch(block=False)
                 for future in ready:
-                    row = future.result()
+                    row = _row_of(future, todo_by_key[future.key])
                     store.add(row)
                     outcome.ran += 1
                     if listener is not None:
@@ -273,6 +278,30 @@ def execute(
     outcome.rows = store.rows(keys)
     outcome.failed = sum(r["status"] != "ok" for r in outcome.rows)
     return outcome
+
+
+def _row_of(future, point_and_key: tuple[Point, str]) -> dict[str, Any]:
+    """The task's row, or a failed row when the task itself could not finish (its worker process
+    died, e.g. killed or crashed inside an FMU, more often than Dask retries it)."""
+    if future.status == "finished":
+        return future.result()
+    point, key = point_and_key
+    exc = future.exception()
+    return {"index": point.index, "key": key, "settings": point.settings, "status": "failed",
+            "reason": f"the task did not finish: {type(exc).__name__}: {exc}", "summary": {}, "wall_time_s": None,
+            "trace": None, "rrd": None}
+
+
+class IgnoreSigint(WorkerPlugin):
+    """On local workers (also those the nanny restarts): the terminal's Ctrl-C reaches the whole
+    process group, but a worker must not be interrupted inside an FMU call; the client stops the
+    local workers itself."""
+
+    name = "sotc-cosim-ignore-sigint"
+
+    def setup(self, worker) -> None:
+        if threading.current_thread() is threading.main_thread():
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def _shutdown(client, cluster, futures, interrupted: bool) -> None:

@@ -188,3 +188,47 @@ def test_guard_keeps_every_stride_th_sample_across_blocks():
         g.block(t[lo:hi], {"plant": np.column_stack([t[lo:hi], -t[lo:hi]]), "reference": np.zeros((hi - lo, 2))})
     trace = np.concatenate(g.trace)
     assert np.allclose(trace[:, 0], t[::3]) and np.allclose(trace[:, 1], t[::3]) and np.allclose(trace[:, 2], -t[::3])
+
+
+def test_an_existing_scheduler_gets_the_fmus_with_the_tasks(fmu_dir, tmp_path):
+    from distributed import LocalCluster
+
+    (tmp_path / "s.toml").write_text('scenario = "paper-ct"\nstop_time = 0.5\n[[axis]]\nname = "controller.kp"\n'
+                                     'values = [25.0, 100.0]\n')
+    with LocalCluster(n_workers=1, threads_per_worker=1, dashboard_address=None) as cluster:
+        code = main(["sweep", str(tmp_path / "s.toml"), "--scheduler", cluster.scheduler_address,
+                     "--out", str(tmp_path / "out"), "--fmu-dir", str(fmu_dir)])
+    assert code == 0
+    lines = (tmp_path / "out" / "points.csv").read_text().splitlines()
+    assert [line.split(",")[2:4] for line in lines[1:]] == [["25.0", "ok"], ["100.0", "ok"]]
+
+
+class _Terminal:
+    def __init__(self):
+        self.text = ""
+
+    def isatty(self):
+        return True
+
+    def write(self, s):
+        self.text += s
+
+    def flush(self):
+        pass
+
+
+def test_progress_is_a_bar_on_a_terminal_and_plain_lines_otherwise(capsys):
+    from orchestration.progress import Progress
+
+    term = _Terminal()
+    bar = Progress(4, "sweep x", workers=2, skipped=1, skipped_failed=1, stream=term)
+    bar.update(True)
+    bar.update(False)
+    bar.close()
+    assert "sweep x" in term.text and "3/4" in term.text and "failed 2" in term.text
+    plain = Progress(3, "reproduce")
+    plain.update(True, "paper ok")
+    plain.update(False, "paper-ct FAILED")
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].startswith("reproduce: 1/3 done, 0 failed, 1 running, about ") and out[0].endswith("| paper ok")
+    assert out[1].startswith("reproduce: 2/3 done, 1 failed, 1 running")

@@ -87,7 +87,8 @@ def test_sweep_interrupt_resume_determinism_and_recordings(fmu_dir, tmp_path):
     summary = (first / "summary.md").read_text()
     assert "6 of 6 points stored, 4 ok, 2 failed" in summary and "## Axis `controller.kp`" in summary
     assert (first / "plots" / "controller.kp.png").stat().st_size > 0
-    assert (first / "sweep.rrd").is_file()
+    overlay = {c.entity_path for c in RrdReader(first / "sweep.rrd").stream().to_chunks()}
+    assert {f"/points/{i:04d}/e{j}" for i in (0, 3, 4, 5) for j in (1, 2)} <= overlay  # every finished point
 
     # 4. a per-point recording with a unique recording id and the point's parameters as properties
     stored = [json.loads(line) for line in after]
