@@ -15,8 +15,11 @@ Where the points run:
 
 Every point is a task that never raises: a point whose scenario is refused, whose FMU reports an
 error, whose state diverges (non-finite, or |phi|, |dphi| beyond ``state_bound``) or that runs
-longer than ``time_limit`` (checked between blocks of ``GUARD_BLOCK`` samples) comes back as a
-failed row with its reason. Rows are appended to ``points.jsonl`` in the output folder as they
+longer than ``time_limit`` (checked between blocks of ``GUARD_BLOCK`` samples, so a single FMU
+call that never returns is not caught) comes back as a failed row with its reason; so does a task
+whose worker process died. On Ctrl-C the local workers are ended at once; on an existing cluster
+the pending points are cancelled, and a point already running on a remote worker finishes there
+unseen (Dask cannot interrupt a running task). Rows are appended to ``points.jsonl`` in the output folder as they
 arrive; a point whose key (its full scenario and the digests of its FMUs, ``point_key``) is
 already there is not run again, so re-running the same command resumes, and a rebuilt FMU
 invalidates the points that used it. Results never depend on the order points finish in: the
@@ -240,7 +243,8 @@ def execute(
     todo = [(p, k) for p, k in zip(points, keys)
             if k not in stored or (retry_failed and stored[k]["status"] != "ok")]
     store.begin(sweep, keys)
-    skipped = [stored[k] for p, k in zip(points, keys) if k in stored and (p, k) not in todo]
+    to_run = {k for _, k in todo}
+    skipped = [stored[k] for k in keys if k in stored and k not in to_run]
     outcome = SweepOutcome(total=len(points), skipped=len(skipped), skipped_failed=sum(r["status"] != "ok" for r in skipped),
                            ran=0, failed=0)
     if listener is not None:
