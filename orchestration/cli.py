@@ -152,12 +152,12 @@ class _SweepListener:
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
     from orchestration.sweep import execute
-    from orchestration.sweep_file import load_sweep
+    from orchestration.sweep_file import grid_from_assignments, load_sweep
     from orchestration.sweep_results import SweepStore, write_doc, write_reports
 
     if args.workers is not None and args.workers < 1:
         raise ScenarioError(f"--workers {args.workers}: give at least 1")
-    sweep = load_sweep(args.sweep)
+    sweep = grid_from_assignments(args.sweep, args.set) if args.set else load_sweep(args.sweep)
     out = args.out or Path("recordings") / sweep.name
     store = SweepStore(out)
     listener = _SweepListener(sweep, out, args.workers, args.scheduler)
@@ -172,7 +172,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     for name, path in reports.items():
         print(f"{name}: {path}")
     if outcome.interrupted:
-        again = ["sotc-cosim", "sweep", args.sweep, "--out", str(out)]
+        again = ["sotc-cosim", "sweep", args.sweep, *(f"--set={item}" for item in args.set), "--out", str(out)]
         again += ["--workers", str(args.workers)] if args.workers else []
         again += ["--scheduler", args.scheduler] if args.scheduler else []
         again += ["--record"] if args.record else []
@@ -274,7 +274,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_compare)
 
     p = sub.add_parser("sweep", help="run a sweep file on Dask (a local cluster by default), resumable")
-    p.add_argument("sweep", metavar="FILE", help="sweep name (robustness, learning, controllers) or .toml path")
+    p.add_argument("sweep", metavar="FILE", help="sweep name (robustness, learning, controllers) or .toml path; "
+                   "with --set: a scenario name or path")
+    p.add_argument("--set", action="append", default=[], metavar="INSTANCE.PARAM=V1,V2,...",
+                   help="sweep FILE as a scenario over these values (several --set: a grid), without a sweep file")
     p.add_argument("--workers", type=int, help="worker processes of the local cluster (default: one per core)")
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="an existing dask.distributed scheduler, tcp://host:8786 (default: a local cluster)")

@@ -150,6 +150,23 @@ def available_sweeps() -> list[str]:
     return sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".toml"))
 
 
+def grid_from_assignments(scenario: str, items: list[str]) -> Sweep:
+    """The sweep of ``sotc-cosim sweep SCENARIO --set inst.param=v1,v2 [--set ...]``: a grid over
+    the given values of the scenario (a name or a .toml path)."""
+    axes = []
+    for item in items:
+        key, sep, values = item.partition("=")
+        if not sep or not key.strip() or not values:
+            raise SweepError(f"--set {item!r}: write instance.parameter=v1,v2,...")
+        try:
+            numbers = [float(v) for v in values.split(",")]
+        except ValueError:
+            raise SweepError(f"--set {item!r}: every value must be a number") from None
+        axes.append({"name": key.strip(), "values": numbers})
+    name = f"{Path(scenario).stem}-sweep"
+    return parse_sweep({"name": name, "scenario": scenario, "axis": axes}, f"{scenario} --set", Path.cwd())
+
+
 def load_sweep(name_or_path: str) -> Sweep:
     path = Path(name_or_path)
     if path.suffix == ".toml" and path.is_file():

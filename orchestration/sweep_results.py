@@ -175,7 +175,9 @@ def summary_markdown(sweep: Sweep, rows: list[dict[str, Any]], total: int, headi
              f"{len(rows)} of {total} points stored, {len(ok)} ok, {len(rows) - len(ok)} failed; base scenario "
              f"`{sweep.base.name}`, {sweep.combine} combination, seed {sweep.seed}, stop time {sweep.base.stop_time:g} s "
              "(unless an axis sets it). Post-transient error = max over both joints of max |e| over the second "
-             "half of the run; max ||tau|| against the torque limit rho; a failed point counts in 'failed' only.", ""]
+             "half of the run; max ||tau|| against the torque limit rho; a failed point counts in 'failed' only."
+             + (" Set for every point: " + ", ".join(f"`{k} = {v:g}`" for k, v in sweep.fixed.items()) + "." if sweep.fixed else ""),
+             ""]
     for group, axes in sweep.groups().items():
         title = f"`{axes[0].label}`" if len(axes) == 1 else f"{group} ({', '.join(f'`{a.label}`' for a in axes)})"
         lines += [f"{heading}# Axis {title}", "",

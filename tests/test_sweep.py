@@ -232,3 +232,19 @@ def test_progress_is_a_bar_on_a_terminal_and_plain_lines_otherwise(capsys):
     out = capsys.readouterr().out.splitlines()
     assert out[0].startswith("reproduce: 1/3 done, 0 failed, 1 running, about ") and out[0].endswith("| paper ok")
     assert out[1].startswith("reproduce: 2/3 done, 1 failed, 1 running")
+
+
+def test_set_makes_a_grid_over_a_scenario_without_a_sweep_file(fmu_dir, tmp_path, monkeypatch):
+    from orchestration.sweep_file import grid_from_assignments
+
+    s = grid_from_assignments("paper-ct", ["controller.kp=25,100", "plant.f1=8,9"])
+    assert s.name == "paper-ct-sweep" and [p.settings for p in s.points()][1] == {"controller.kp": 25.0, "plant.f1": 9.0}
+    for bad, message in (("kp=1", "instance.parameter"), ("controller.kp=a,b", "must be a number"),
+                         ("controller.kp=", "write instance.parameter"), ("controller.kp=1,nan", "nan is not finite")):
+        with pytest.raises(ValueError, match=message):
+            grid_from_assignments("paper-ct", [bad])
+    monkeypatch.chdir(tmp_path)
+    code = main(["sweep", "paper-ct", "--set", "controller.kp=25,-1", "--workers", "1", "--fmu-dir", str(fmu_dir)])
+    assert code == 1  # one point failed
+    lines = (tmp_path / "recordings" / "paper-ct-sweep" / "points.csv").read_text().splitlines()
+    assert [line.split(",")[2:4] for line in lines[1:]] == [["25.0", "ok"], ["-1.0", "failed"]]
