@@ -279,7 +279,7 @@ def execute(
             outcome.interrupted = True
         finally:
             _shutdown(client, cluster, futures, outcome.interrupted)
-    outcome.rows = store.rows(keys)
+    outcome.rows = store.rows()
     outcome.failed = sum(r["status"] != "ok" for r in outcome.rows)
     return outcome
 

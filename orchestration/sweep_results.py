@@ -16,6 +16,7 @@ import csv
 import io
 import json
 import math
+import time
 from pathlib import Path
 from typing import Any
 
@@ -23,6 +24,7 @@ import numpy as np
 
 from orchestration.sweep_file import Axis, Sweep
 
+TABLE_INTERVAL_S = 1.0
 TABLE_METRICS = (  # (column, summary key, joint index or None)
     ("mse_1", "mse", 0), ("mse_2", "mse", 1),
     ("tail_max_abs_e1", "max_abs_error_last_half", 0), ("tail_max_abs_e2", "max_abs_error_last_half", 1),
@@ -65,6 +67,8 @@ class SweepStore:
     def begin(self, sweep: Sweep, keys: list[str]) -> None:
         self.folder.mkdir(parents=True, exist_ok=True)
         self.sweep, self.keys = sweep, keys
+        self.stored = self.load()
+        self.table_written = 0.0
 
     def add(self, row: dict[str, Any]) -> None:
         """Store one finished point: its trace and recording, then its line (flushed, fsynced)."""
@@ -80,20 +84,18 @@ class SweepStore:
         with open(self.jsonl, "a") as f:
             f.write(json.dumps(row, sort_keys=True, allow_nan=False) + "\n")
             f.flush()
-        self.write_table()
+        self.stored[row["key"]] = row
+        if time.monotonic() - self.table_written > TABLE_INTERVAL_S:  # the table follows, at most once a second
+            self.write_table()
 
-    def rows(self, keys: list[str] | None = None) -> list[dict[str, Any]]:
+    def rows(self) -> list[dict[str, Any]]:
         """The stored rows of this sweep's points, by index (each with its current index)."""
-        stored = self.load()
-        out = []
-        for index, key in enumerate(keys if keys is not None else self.keys):
-            if key in stored:
-                out.append({**stored[key], "index": index})
-        return out
+        return [{**self.stored[key], "index": index} for index, key in enumerate(self.keys) if key in self.stored]
 
     def write_table(self) -> Path:
         path = self.folder / "points.csv"
         path.write_text(table_csv(self.sweep, self.rows()))
+        self.table_written = time.monotonic()
         return path
 
     def traces(self) -> list[tuple[str, np.ndarray]]:
@@ -253,7 +255,7 @@ def write_plots(sweep: Sweep, rows: list[dict[str, Any]], folder: Path) -> list[
     return written
 
 
-def write_reports(store: SweepStore, total: int, record_overlay: bool = True) -> dict[str, Path]:
+def write_reports(store: SweepStore, total: int) -> dict[str, Path]:
     """Every report of the folder from what is stored: table, summary, plots, sweep recording."""
     sweep, rows = store.sweep, store.rows()
     out = {"table": store.write_table()}
@@ -262,7 +264,7 @@ def write_reports(store: SweepStore, total: int, record_overlay: bool = True) ->
     write_plots(sweep, rows, store.folder / "plots")
     out["plots"] = store.folder / "plots"
     traces = store.traces()
-    if record_overlay and traces:
+    if traces:
         from orchestration.recording import record_sweep
 
         step = min(p.scenario.step_size for p in sweep.points())
