@@ -5,6 +5,7 @@ so the output stays readable and greppable.
 """
 from __future__ import annotations
 
+import shutil
 import sys
 import time
 from typing import TextIO
@@ -31,7 +32,9 @@ class Progress:
         if self.stream.isatty():
             from tqdm import tqdm
 
-            self.bar = tqdm(total=total, initial=skipped, desc=label, unit="pt", file=self.stream, dynamic_ncols=True)
+            # a terminal that reports no width (some ptys) would get an empty bar: fall back to 100 columns
+            width = shutil.get_terminal_size(fallback=(100, 24)).columns or 100
+            self.bar = tqdm(total=total, initial=skipped, desc=label, unit="pt", file=self.stream, ncols=width)
 
     def eta(self) -> float | None:
         computed = self.done - self.skipped
