@@ -29,12 +29,13 @@ class Progress:
         self.stream = stream or sys.stdout
         self.started = time.monotonic()
         self.bar = None
-        if self.stream.isatty():
+        if self.stream.isatty():  # tqdm hides a bar on a terminal without a size: give it one
             from tqdm import tqdm
 
-            # a terminal that reports no width (some ptys) would get an empty bar: fall back to 100 columns
-            width = shutil.get_terminal_size(fallback=(100, 24)).columns or 100
-            self.bar = tqdm(total=total, initial=skipped, desc=label, unit="pt", file=self.stream, ncols=width)
+            # a terminal that reports no size (some ptys) would hide the bar: fall back to 100 x 24
+            size = shutil.get_terminal_size(fallback=(100, 24))
+            self.bar = tqdm(total=total, initial=skipped, desc=label, unit="pt", file=self.stream,
+                            ncols=size.columns or 100, nrows=size.lines or 24)
 
     def eta(self) -> float | None:
         computed = self.done - self.skipped
