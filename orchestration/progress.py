@@ -29,7 +29,7 @@ class Progress:
         self.stream = stream or sys.stdout
         self.started = time.monotonic()
         self.bar = None
-        if self.stream.isatty():  # tqdm hides a bar on a terminal without a size: give it one
+        if self.stream.isatty():
             from tqdm import tqdm
 
             # a terminal that reports no size (some ptys) would hide the bar: fall back to 100 x 24
