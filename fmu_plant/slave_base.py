@@ -197,7 +197,11 @@ class DescribedSlave(Fmi2Slave):
     # --- declaration -------------------------------------------------------------------------
 
     def declare_parameter(self, spec: ParameterSpec) -> None:
-        """A fixed parameter whose value is checked against ``spec`` at initialization."""
+        """A fixed parameter whose value is checked against ``spec`` at initialization (an FMI
+        Integer when ``spec.integer``, else a Real)."""
+        if spec.integer:
+            self.declare_integer_parameter(spec.name, int(spec.default), int(spec.low), int(spec.high), spec.description)
+            return
         setattr(self, spec.name, float(self._starts.get(spec.name, spec.default)))
         self._register(
             Real(spec.name, causality=Fmi2Causality.parameter, variability=Fmi2Variability.fixed,

@@ -25,9 +25,9 @@ def _cmd_scenarios(args: argparse.Namespace) -> int:
     return 0
 
 
-def _prepare(names: list[str], stop_time: float | None, fmu_dir: Path):
-    """Load the scenarios, apply --stop-time, and build the FMUs they need."""
-    scenarios = [load_scenario(name) for name in names]
+def _prepare(names: list, stop_time: float | None, fmu_dir: Path):
+    """Load the scenarios (names, paths or Scenario objects), apply --stop-time, and build the FMUs they need."""
+    scenarios = [load_scenario(name) if isinstance(name, str) else name for name in names]
     if stop_time is not None:
         scenarios = [s.with_stop_time(stop_time) for s in scenarios]
     return scenarios, ensure_built(sorted({i.fmu for s in scenarios for i in s.instances.values()}), fmu_dir)
@@ -112,16 +112,16 @@ def _cmd_compare(args: argparse.Namespace) -> int:
 
 def _cmd_reproduce(args: argparse.Namespace) -> int:
     from orchestration.recording import record_comparison
-    from orchestration.reproduce import REPRODUCE_SCENARIOS, compact_table, write_table
+    from orchestration.reproduce import compact_table, reproduce_scenarios, write_table
     from orchestration.summary import summarize
 
-    results = _run_each(*_prepare(list(REPRODUCE_SCENARIOS), args.stop_time, args.fmu_dir), progress_label="reproduce")
+    results = _run_each(*_prepare(reproduce_scenarios(), args.stop_time, args.fmu_dir), progress_label="reproduce")
     summaries = [summarize(r) for r in results]
     md, cs, text = write_table(summaries, args.out)
     print(text)
     print(compact_table(summaries))
     print(f"wrote {md} and {cs}")
-    print(f"recording: {record_comparison(results, args.recording)} (paper Figs 10-12: every controller overlaid)")
+    print(f"recording: {record_comparison(results, args.recording)} (paper Figs 10-12: every run overlaid)")
     return _exit_code(summaries)
 
 

@@ -57,6 +57,8 @@ class RunResult:
     logs: list[LogRecord] = field(default_factory=list)
     # every parameter of every instance as the FMU holds it after initialization (defaults included)
     parameters: dict[str, dict[str, float]] = field(default_factory=dict)
+    # per instance, the identity of the FMU it ran: guid, version, generation_tool (modelDescription)
+    fmus: dict[str, dict[str, str]] = field(default_factory=dict)
 
     @property
     def samples(self) -> int:
@@ -215,6 +217,7 @@ def run(
     logs: list[LogRecord] = []
     clock = _Clock()
     parameters: dict[str, dict[str, float]] = {}
+    fmus: dict[str, dict[str, str]] = {}
     n_steps = scenario.steps
     T = scenario.step_size
     times = np.arange(n_steps + 1, dtype=float) * T
@@ -235,6 +238,9 @@ def run(
             if inst.fmu not in fmu_paths:
                 raise ScenarioError(f"instance '{inst.name}': no built FMU for model '{inst.fmu}'")
             loaded[inst.name] = _Loaded(inst.name, fmu_paths[inst.fmu], workdir, logs, clock)
+            md = loaded[inst.name].md
+            fmus[inst.name] = {"guid": md.guid or "", "version": md.version or "",
+                               "generation_tool": md.generationTool or ""}
         links = _resolve_links(scenario, loaded)
         order = _feedthrough_order(loaded, links)
         pushes = {name: [l for l in links if l.source.name == name] for name in order}
@@ -289,7 +295,7 @@ def run(
         where = f"after t = {times[completed - 1]:.2f} s (sample {completed - 1})" if completed else "before the first sample"
         error = f"interrupted by SIGINT {where}"
     result = RunResult(scenario, times[:completed], outputs, wall, failed=error is not None, error=error,
-                       interrupted=interrupted, logs=logs, parameters=parameters)
+                       interrupted=interrupted, logs=logs, parameters=parameters, fmus=fmus)
     if observer is not None:
         try:
             if observer_ok and completed > flushed:

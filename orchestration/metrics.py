@@ -20,6 +20,23 @@ import numpy as np
 # limit lands on it up to rounding)
 LIMIT_TOLERANCE = 1e-9
 SETTLE_BAND = 0.01  # rad
+TRANSIENT_END = 5.0  # s: "post-transient" metrics use t >= 5 s
+# controller outputs that flag a sample where the torque limit acts (SOTC: bound (5) on tau^a or
+# chi_vd^a, the actuator limit; CT/LQR: the limit handling; OTC: the torque before the limit is over it)
+LIMIT_FLAG_OUTPUTS = ("tau_a_bounded", "chi_a_bounded", "tau_limited", "saturated", "over_limit")
+
+
+def limit_active(outputs: dict[str, np.ndarray], n: int) -> np.ndarray:
+    """Per sample: does the torque limit act? (any of ``LIMIT_FLAG_OUTPUTS`` the controller has is nonzero)"""
+    flags = np.zeros(n, dtype=bool)
+    for name in LIMIT_FLAG_OUTPUTS:
+        if name in outputs:
+            flags |= np.asarray(outputs[name]) != 0.0
+    return flags
+
+
+def _mse_from(e: np.ndarray, mask: np.ndarray) -> list[float] | None:
+    return _per_joint(np.mean(e[mask] ** 2, axis=0)) if mask.any() else None
 
 
 def _trapezoid(y: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -61,6 +78,8 @@ def tracking_metrics(
     torque_limit: float = 4.0,
     cost_rate: np.ndarray | None = None,
     stop_time: float | None = None,
+    e_dot: np.ndarray | None = None,
+    limit_flags: np.ndarray | None = None,
 ) -> dict[str, Any]:
     """Metrics of one closed-loop run.
 
@@ -68,7 +87,9 @@ def tracking_metrics(
     in rad; ``tau`` (n, 2) commanded torque in N.m; ``torque_limit`` the bound on ||tau|| in N.m
     (the paper's rho = 4); ``cost_rate`` (n,) optional SOTC cost integrand z'Theta z + Omega(mu)
     per sample (eq. (12)); ``stop_time`` the run's stop time (default t[-1]), used for
-    ``max_abs_error_last_half``.
+    ``max_abs_error_last_half``; ``e_dot`` (n, 2) optional dphi - dphi_d in rad/s (for
+    ``tracking_cost``); ``limit_flags`` (n,) optional: True where the torque limit acts
+    (``limit_active``).
 
     Returned keys (per-joint values are [joint 1, joint 2]):
 
@@ -90,7 +111,16 @@ def tracking_metrics(
     - ``control_energy``: integral of tau' tau dt (N^2.m^2.s), exact for the sampled loop's
       zero-order hold: sum_k (t_{k+1} - t_k) ||tau_k||^2 (tau_k is held over [t_k, t_{k+1})).
     - ``tau_total_variation_rate``: sum_k |tau_i[k+1] - tau_i[k]| / duration, per joint (N.m/s).
-    - ``cost_integral``: integral of cost_rate dt, trapezoid, or None without cost_rate.
+    - ``cost_integral``: integral of cost_rate dt, trapezoid, or None without cost_rate (the
+      controller's own cost (12); only the SOTC has one).
+    - ``mse_after_5s``: MSE (50) over the samples with t >= 5 s, per joint (None if none).
+    - ``last_limit_time``: time of the last sample where the limit acts (None: never, or no flags).
+    - ``mse_after_limit``: MSE over the samples after that one (all samples if the limit never
+      acts; None without flags or if no sample follows).
+    - ``tracking_cost``: the realised cost (12) in coordinates every controller shares, integral of
+      z'z dt (trapezoid) with z = [e, e_dot + e]: Theta = I and Lambda_1 = I of section 4 with the
+      learned chi_vd* left out, and no input term (the controllers' inputs differ; see
+      ``control_energy``). None without e_dot.
     - ``torque_limit``: the limit used.
     """
     t = np.asarray(t, dtype=float).reshape(-1)
@@ -129,6 +159,22 @@ def tracking_metrics(
         "cost_integral": None,
         "torque_limit": float(torque_limit),
     }
+    late = t >= TRANSIENT_END - 1e-12
+    out["mse_after_5s"] = _mse_from(e, late)
+    out["last_limit_time"] = out["mse_after_limit"] = None
+    if limit_flags is not None:
+        flags = np.asarray(limit_flags, dtype=bool).reshape(-1)
+        hit = np.flatnonzero(flags)
+        after = np.ones(n, dtype=bool)
+        if len(hit):
+            out["last_limit_time"] = float(t[hit[-1]])
+            after[: hit[-1] + 1] = False
+        out["mse_after_limit"] = _mse_from(e, after)
+    out["tracking_cost"] = None
+    if e_dot is not None:
+        ed = np.asarray(e_dot, dtype=float).reshape(n, 2)
+        zz = np.sum(e**2, axis=1) + np.sum((ed + e) ** 2, axis=1)
+        out["tracking_cost"] = float(_trapezoid(zz, t))
     if cost_rate is not None:
         c = np.asarray(cost_rate, dtype=float).reshape(-1)
         if len(c) != n:

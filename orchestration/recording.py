@@ -38,7 +38,7 @@ import numpy as np
 import rerun as rr
 
 from orchestration.master import RunResult
-from orchestration.recording_blueprint import comparison_blueprint, run_blueprint
+from orchestration.recording_blueprint import VIEW_DESCRIPTIONS, comparison_blueprint, run_blueprint
 from orchestration.scenario import Scenario
 
 APPLICATION_ID = "sotc-cosim"
@@ -49,6 +49,7 @@ COMPARE_BLOCK = 10_000  # samples per send_columns when a finished run is writte
 
 JOINT_COLORS = ((31, 119, 180), (255, 127, 14), (120, 120, 120))  # joint 1, joint 2, norm
 ACTUAL, DESIRED, LIMIT = (220, 60, 40), (40, 110, 220), (150, 150, 150)
+DESIRED_DRAW_ORDER = 40.0  # above the runs' paths and arms (Rerun's default for 2D lines is 20)
 PALETTE = ((31, 119, 180), (255, 127, 14), (44, 160, 44), (214, 39, 40), (148, 103, 189),
            (140, 86, 75), (227, 119, 194), (127, 127, 127), (188, 189, 34), (23, 190, 207))
 
@@ -227,8 +228,12 @@ class RunWriter:
             log(f"{ws}/arm", rr.LineStrips2D.from_fields(colors=[(*self.arm_color, 110)], radii=[0.012]), static=True)
             log(f"{ws}/path/actual", rr.LineStrips2D.from_fields(colors=[self.arm_color], radii=[0.006]), static=True)
         if self.has_target:
-            log(f"{ws}/target", rr.Points2D.from_fields(colors=[DESIRED], radii=[0.04]), static=True)
-            log(f"{ws}/path/desired", rr.LineStrips2D.from_fields(colors=[DESIRED], radii=[0.004]), static=True)
+            # drawn above every run's path and arm (DrawOrder), thin, so that it stays visible where runs
+            # overlay it (Fig. 12)
+            log(f"{ws}/target", rr.Points2D.from_fields(colors=[DESIRED], radii=[0.04], draw_order=DESIRED_DRAW_ORDER + 1),
+                static=True)
+            log(f"{ws}/path/desired", rr.LineStrips2D.from_fields(colors=[DESIRED], radii=[0.004],
+                                                                   draw_order=DESIRED_DRAW_ORDER), static=True)
 
     def send_block(self, rows: dict[str, np.ndarray]) -> None:
         m = len(next(iter(rows.values()))) if rows else 0
@@ -308,10 +313,11 @@ _FMI_LEVELS = {"WARNING": "WARN", "DISCARD": "WARN", "ERROR": "ERROR", "FATAL": 
 
 def send_scenario_properties(
     stream: rr.RecordingStream, scenario: Scenario, parameters: dict[str, dict[str, float]] | None = None,
-    prefix: str = "",
+    prefix: str = "", fmus: dict[str, dict[str, str]] | None = None,
 ) -> None:
-    """The scenario, and per instance its FMU and every parameter value it ran with (read back from
-    the FMU, defaults included; the scenario's overrides where the run never got that far)."""
+    """The scenario, and per instance its FMU (name, and once the run has loaded it its GUID, version
+    and generation tool) and every parameter value it ran with (read back from the FMU, defaults
+    included; the scenario's overrides where the run never got that far)."""
     stream.send_property(f"{prefix}scenario", rr.AnyValues(
         name=scenario.name, description=scenario.description, stop_time=scenario.stop_time,
         step_size=scenario.step_size, steps=scenario.steps, controller=scenario.controller_fmu() or "",
@@ -321,7 +327,14 @@ def send_scenario_properties(
     ))
     for inst in scenario.instances.values():
         values = (parameters or {}).get(inst.name) or inst.parameters
-        stream.send_property(f"{prefix}{inst.name}", rr.AnyValues(fmu=inst.fmu, **values))
+        ids = (fmus or {}).get(inst.name, {})
+        stream.send_property(f"{prefix}{inst.name}", rr.AnyValues(fmu=inst.fmu, **{f"fmu_{k}": v for k, v in ids.items()},
+                                                                   **values))
+
+
+def send_view_properties(stream: rr.RecordingStream) -> None:
+    """What each default view shows (the view titles are kept short enough to read)."""
+    stream.send_property("views", rr.AnyValues(**VIEW_DESCRIPTIONS))
 
 
 def send_result_properties(stream: rr.RecordingStream, result: RunResult, prefix: str = "") -> None:
@@ -365,6 +378,7 @@ class RunRecorder:
         self.stream = self.writer.stream = _new_stream(self.path, run_blueprint(self.writer))
         self.stream.send_recording_name(scenario.name)
         send_scenario_properties(self.stream, scenario, parameters)
+        send_view_properties(self.stream)
         self.writer.send_static()
         self.stream.flush()
 
@@ -378,6 +392,7 @@ class RunRecorder:
         if self.stream is None:  # failed before the first sample: record why
             self.start(result.scenario, {}, result.parameters)
         self.writer.send_end(result)
+        send_scenario_properties(self.stream, result.scenario, result.parameters, fmus=result.fmus)
         send_result_properties(self.stream, result)
         self.close()
 
@@ -461,8 +476,9 @@ def record_comparison(results: Sequence[RunResult], path: str | Path) -> Path:
     stream = _new_stream(path, comparison_blueprint(labels, writers))
     try:
         stream.send_recording_name("compare: " + ", ".join(labels))
+        send_view_properties(stream)
         for r, label, writer in zip(results, labels, writers):
-            send_scenario_properties(stream, r.scenario, r.parameters, prefix=f"{label}_")
+            send_scenario_properties(stream, r.scenario, r.parameters, prefix=f"{label}_", fmus=r.fmus)
             send_result_properties(stream, r, prefix=f"{label}_")
             writer.stream = stream
             writer.send_static()

@@ -120,11 +120,11 @@ class Scenario:
         return resolved
 
     def torque_limit(self) -> float:
-        """The controller's torque bound as the scenario sets it (``rho`` or ``tau_max``), else the
+        """The controller's torque bound as the scenario sets it (``rho``, ``tau_max`` or ``tau_limit``), else the
         paper's rho = 4 N.m (section 4), which every controller FMU uses by default."""
         inst = self.instances.get("controller")
         params = inst.parameters if inst else {}
-        for key in ("rho", "tau_max"):
+        for key in ("rho", "tau_max", "tau_limit"):
             if key in params:
                 return float(params[key])
         return PAPER_TORQUE_LIMIT

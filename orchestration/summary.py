@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 
 from orchestration.master import RunResult
-from orchestration.metrics import tracking_metrics
+from orchestration.metrics import limit_active, tracking_metrics
 
 def _column(result: RunResult, instance: str, name: str) -> np.ndarray | None:
     return result.outputs.get(instance, {}).get(name)
@@ -22,11 +22,24 @@ def error_and_torque(result: RunResult) -> tuple[np.ndarray, np.ndarray]:
     return e, tau
 
 
+def _limit_handling(sc) -> str | None:
+    """The name of the controller's torque-limit handling as the scenario sets it (else its default)."""
+    from fmu_controller.saturation import LIMIT_HANDLINGS
+    from orchestration.comparison import CORES
+
+    inst = sc.instances.get("controller")
+    if inst is None or inst.fmu not in CORES:
+        return None
+    specs = {s.name: s for s in CORES[inst.fmu].PARAMETER_SPECS}
+    return LIMIT_HANDLINGS[int(inst.parameters.get("limit_handling", specs["limit_handling"].default))]
+
+
 def summarize(result: RunResult) -> dict[str, Any]:
     sc = result.scenario
     summary: dict[str, Any] = {
         "scenario": sc.name,
         "controller": sc.controller_fmu(),
+        "limit_handling": _limit_handling(sc),
         "step_size": sc.step_size,
         "stop_time": sc.stop_time,
         "steps": max(result.samples - 1, 0),
@@ -38,8 +51,12 @@ def summarize(result: RunResult) -> dict[str, Any]:
     if result.samples == 0 or not {"plant", "reference", "controller"} <= set(result.outputs):
         return summary
     e, tau = error_and_torque(result)
+    e_dot = np.column_stack([result.outputs["plant"][f"dphi{i}"] - result.outputs["reference"][f"dphi{i}_d"]
+                             for i in (1, 2)])
     cost = _column(result, "controller", "cost_rate")
-    metrics = tracking_metrics(result.time, e, tau, sc.torque_limit(), cost_rate=cost, stop_time=sc.stop_time)
+    flags = limit_active(result.outputs["controller"], len(result.time))
+    metrics = tracking_metrics(result.time, e, tau, sc.torque_limit(), cost_rate=cost, stop_time=sc.stop_time,
+                               e_dot=e_dot, limit_flags=flags)
     metrics["max_norm_tau"] = metrics.pop("max_tau_norm")
     summary.update(metrics)
     weights = [_column(result, "controller", f"W{i}") for i in range(1, 11)]
