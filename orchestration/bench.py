@@ -13,7 +13,8 @@ time spent inside the recorder itself (less sensitive to other load on the machi
 tasks on LocalClusters of 1 and of 2 workers, alternated in one run, best of 2 rounds (both
 clusters started and warmed with a point per worker first; start-up reported apart): throughput,
 the 2-worker speed-up (target >= 1.7 on 2 cores), the per-point overhead of Dask against the loop,
-and how many workers were busy on average (robust to other load on the machine).
+how many workers were busy on average (robust to other load on the machine), and as the ceiling the
+same measure for plain pure-Python work in 2 processes against 1 (no Dask, no FMU).
 """
 from __future__ import annotations
 
@@ -171,6 +172,31 @@ def bench_recording_blocks(fmu_dir) -> str:
     return "\n".join(lines)
 
 
+def _spin(n: int) -> int:
+    """A fixed amount of pure-Python work (the machine's own 2-process scaling reference)."""
+    acc = 0
+    for i in range(n):
+        acc = (acc + i * i) % 1_000_003
+    return acc
+
+
+def machine_scaling(units: int = 4, n: int = 3_000_000) -> float:
+    """Time of ``units`` pieces of pure-Python work in 1 process over the same work in 2 processes
+    (no Dask, no FMU): what 2 processes can gain on this machine right now."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    with ProcessPoolExecutor(2) as pool:
+        list(pool.map(_spin, [1000] * 2))  # start both processes
+        t0 = time.perf_counter()
+        for _ in range(units):
+            _spin(n)
+        one = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        list(pool.map(_spin, [n] * units))
+        two = time.perf_counter() - t0
+    return one / two
+
+
 def bench_sweep(fmu_dir, points: int = 8, stop_time: float = 10.0, rounds: int = 2) -> str:
     from orchestration.sweep import _client, fmu_blobs, point_key, run_point
     from orchestration.sweep_file import parse_sweep
@@ -231,6 +257,7 @@ def bench_sweep(fmu_dir, points: int = 8, stop_time: float = 10.0, rounds: int =
         lines.append(f"{name:>18} {wall:8.2f} {points / wall:9.2f} {busy / wall:13.2f} {start}")
     lines += [
         f"{'2 workers vs 1':>18} {one / two:8.2f}x  (target >= 1.7 on 2 otherwise idle cores)",
+        f"{'machine reference':>18} {machine_scaling():8.2f}x  (pure-Python work in 2 processes vs 1, no Dask: the ceiling now)",
         f"{'Dask overhead':>18} {(one - loop) / points * 1e3:8.1f} ms per point (1 worker against the plain loop)",
         "busy workers = sum of the points' own wall times / batch wall time (2 = both workers always running a point)",
     ]
