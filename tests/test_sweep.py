@@ -234,7 +234,7 @@ def test_progress_is_a_bar_on_a_terminal_and_plain_lines_otherwise(capsys):
     assert out[1].startswith("reproduce: 2/3 done, 1 failed, 1 running")
 
 
-def test_set_makes_a_grid_over_a_scenario_without_a_sweep_file(fmu_dir, tmp_path, monkeypatch):
+def test_set_makes_a_grid_over_a_scenario_without_a_sweep_file(fmu_dir, tmp_path, monkeypatch, capsys):
     from orchestration.sweep_file import grid_from_assignments
 
     s = grid_from_assignments("paper-ct", ["controller.kp=25,100", "plant.f1=8,9"])
@@ -248,3 +248,10 @@ def test_set_makes_a_grid_over_a_scenario_without_a_sweep_file(fmu_dir, tmp_path
     assert code == 1  # one point failed
     lines = (tmp_path / "recordings" / "paper-ct-sweep" / "points.csv").read_text().splitlines()
     assert [line.split(",")[2:4] for line in lines[1:]] == [["25.0", "ok"], ["-1.0", "failed"]]
+    capsys.readouterr()
+    # --retry-failed runs the failed point again and keeps the finished one
+    code = main(["sweep", "paper-ct", "--set", "controller.kp=25,-1", "--workers", "1", "--retry-failed",
+                 "--fmu-dir", str(fmu_dir)])
+    assert code == 1 and "2 points, 1 already in" in capsys.readouterr().out
+    jsonl = (tmp_path / "recordings" / "paper-ct-sweep" / "points.jsonl").read_text().splitlines()
+    assert len(jsonl) == 3  # the failed point has a second line; the last line of a key wins
