@@ -240,9 +240,11 @@ def write_plots(sweep: Sweep, rows: list[dict[str, Any]], folder: Path) -> list[
         top.set_ylabel("post-transient max |e| [rad]")
         bottom.axhline(rho, color="grey", linestyle="--", label=f"rho = {rho:g} N.m")
         bottom.set_ylabel("max ||tau|| [N.m]")
-        bottom.set_xlabel(axes[0].label if len(axes) == 1 else f"{group}: draw (values in summary.md)")
+        short = len(axes) <= 3  # a few axes: their values label the ticks; more: the draw number
+        bottom.set_xlabel(axes[0].label if len(axes) == 1 else
+                          f"{group}: " + (", ".join(a.label for a in axes) if short else "draw (values in summary.md)"))
         if categorical:
-            bottom.set_xticks(range(len(values)), [v if isinstance(v, str) else str(i + 1) for i, v in enumerate(values)],
+            bottom.set_xticks(range(len(values)), [_value_text(v) if short else str(i + 1) for i, v in enumerate(values)],
                               rotation=15)
         top.legend(fontsize=7)
         bottom.legend(fontsize=7)
