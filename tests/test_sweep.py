@@ -8,7 +8,7 @@ import pytest
 from orchestration.cli import main
 from orchestration.sweep import PointGuard, point_key, run_point
 from orchestration.sweep_file import load_sweep, parse_sweep
-from orchestration.sweep_results import doc_block, replace_block, summary_markdown, table_csv
+from orchestration.sweep_results import doc_block, summary_markdown, table_csv
 
 BASE = {"scenario": "paper-ct", "stop_time": 1.0}
 
@@ -153,11 +153,14 @@ def test_table_and_summary_are_written_from_the_rows():
 
 
 def test_doc_block_replaces_only_its_own_block():
+    from orchestration.docgen import replace_block
+
     s = sweep_of(name="tiny", axis=[{"name": "controller.kp", "values": [1, 2, 3]}])
     block = doc_block(s, _rows(s), 3, ["sweeps/tiny/controller.kp.png"])
-    text = replace_block("# Doc\n\nintro\n", "tiny", block)
-    assert text.startswith("# Doc\n\nintro\n\n<!-- BEGIN") and "![controller.kp](sweeps/tiny/controller.kp.png)" in text
-    again = replace_block(text + "\nafter\n", "tiny", block.replace("3.5", "9.9"))
+    text = replace_block("# Doc\n\nintro\n", "sweep-tiny", block)
+    assert text.startswith("# Doc\n\nintro\n\n<!-- BEGIN generated:sweep-tiny -->\n### Sweep `tiny`")
+    assert "![controller.kp](sweeps/tiny/controller.kp.png)" in text
+    again = replace_block(text + "\nafter\n", "sweep-tiny", block.replace("3.5", "9.9"))
     assert again.count("<!-- BEGIN") == 1 and again.endswith("\nafter\n") and "9.9" in again
 
 
