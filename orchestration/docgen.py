@@ -25,6 +25,7 @@ from orchestration.comparison import (
     COMPARED, LABELS, OTC_VARIANTS, TUNING_GRIDS, best_tuning, controller_of, handling_name, mse_sum, run_metrics, tuning,
 )
 from orchestration.reproduce import PAPER_TABLE1
+from orchestration.sweep_results import stored_sweep_block
 
 ROOT = Path(__file__).resolve().parent.parent
 LITERAL_SCENARIOS = ("paper-literal", "paper-near-literal")
@@ -236,6 +237,9 @@ BLOCKS: dict[str, Block] = {
     "readings": Block("docs/paper-notes.md", readings_table, True),
     "value": Block("docs/paper-notes.md", value_table, True),
     "learned-w": Block("docs/paper-notes.md", learned_w_table, True),
+    # the results of a shipped sweep, from its stored rows (rerun: sotc-cosim sweep NAME --doc docs/robustness.md)
+    "sweep-robustness": Block("docs/robustness.md", lambda: stored_sweep_block("robustness", ROOT / "docs"), False),
+    "sweep-controllers": Block("docs/robustness.md", lambda: stored_sweep_block("controllers", ROOT / "docs"), False),
 }
 
 
@@ -257,13 +261,21 @@ def render(name: str) -> str:
     return BLOCKS[name].make().rstrip("\n") + "\n"
 
 
+def replace_block(text: str, name: str, content: str) -> str:
+    """``text`` with block ``name`` holding ``content`` (the block is appended if ``text`` has none)."""
+    content = content.rstrip("\n") + "\n"
+    if _pattern(name).search(text) is None:
+        return text.rstrip("\n") + f"\n\n<!-- BEGIN generated:{name} -->\n{content}<!-- END generated:{name} -->\n"
+    return _pattern(name).sub(lambda m: m.group(1) + content + m.group(3), text)
+
+
 def write(name: str, root: Path | None = None) -> bool:
     """Regenerate one block in place; True if it changed."""
     path = (root or ROOT) / BLOCKS[name].file
     committed(name, root)
     content = render(name)  # first: the file is read (and rewritten) only once the block is computed
     text = path.read_text()
-    new = _pattern(name).sub(lambda m: m.group(1) + content + m.group(3), text)
+    new = replace_block(text, name, content)
     path.write_text(new)
     return new != text
 

@@ -411,6 +411,45 @@ class RunRecorder:
         self.close(exc)
 
 
+class PointRecorder(RunRecorder):
+    """The recording of one point of a sweep: a run recording whose properties also hold the
+    point's settings (``sweep_point``) and its resume key."""
+
+    def __init__(self, path: str | Path, settings: dict[str, object], key: str):
+        super().__init__(path)
+        self.settings, self.key = settings, key
+
+    def start(self, scenario: Scenario, columns: dict[str, list[str]],
+              parameters: dict[str, dict[str, float]] | None = None) -> None:
+        super().start(scenario, columns, parameters)
+        self.stream.send_property("sweep_point", rr.AnyValues(
+            key=self.key, **{name.replace(".", "/"): value for name, value in self.settings.items()}))
+
+
+def record_sweep(traces: Sequence[tuple[str, np.ndarray]], step_size: float, path: str | Path, title: str) -> Path:
+    """One file overlaying the tracking errors of every point of a sweep: ``/points/<label>/e1``
+    and ``.../e2``, each trace an array (m, 3) of [t, e1, e2] (thinned samples of a run)."""
+    path = Path(path)
+    from orchestration.recording_blueprint import sweep_blueprint
+
+    stream = _new_stream(path, sweep_blueprint())
+    try:
+        stream.send_recording_name(title)
+        ns = step_nanos(step_size)
+        for n, (label, trace) in enumerate(traces):
+            if not len(trace):
+                continue
+            color = PALETTE[1:][n % (len(PALETTE) - 1)]
+            steps = np.round(trace[:, 0] / step_size).astype(np.int64)
+            for j in (1, 2):
+                entity = f"/points/{label}/e{j}"
+                stream.log(entity, rr.SeriesLines(names=[f"{label}: e{j} [rad]"], colors=[color]), static=True)
+                stream.send_columns(entity, time_columns(steps, ns), rr.Scalars.columns(scalars=trace[:, j]))
+    finally:
+        _close(stream)
+    return path
+
+
 # --- comparison ---------------------------------------------------------------------------------
 
 def _labels(results: Sequence[RunResult]) -> list[str]:

@@ -125,3 +125,10 @@ def comparison_blueprint(labels: Sequence[str], writers: Sequence["RunWriter"]) 
                        column_shares=[3, 2]),
         rrb.TimePanel(timeline="sim_time"), collapse_panels=False,
     )
+
+
+def sweep_blueprint() -> rrb.Blueprint:
+    """A sweep: the tracking errors of every point overlaid, one view per joint."""
+    views = [rrb.TimeSeriesView(origin="/", contents=[f"/points/*/e{j}"], name=f"joint {j} tracking error e{j} of every point [rad]",
+                                axis_x=_whole_run()) for j in (1, 2)]
+    return rrb.Blueprint(rrb.Vertical(*views), rrb.TimePanel(timeline="sim_time"), collapse_panels=False)

@@ -107,6 +107,9 @@ class Scenario:
     def with_stop_time(self, stop_time: float) -> "Scenario":
         return _validated({**self.__dict__, "stop_time": stop_time})
 
+    def with_step_size(self, step_size: float) -> "Scenario":
+        return _validated({**self.__dict__, "step_size": step_size})
+
     def with_parameters(self, overrides: dict[str, float], name: str | None = None) -> "Scenario":
         """A copy with ``{"instance.parameter": value}`` overrides (an unknown parameter name is
         refused later, by the FMU's modelDescription, when the run loads it)."""

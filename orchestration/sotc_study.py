@@ -40,8 +40,11 @@ def setting_params(setting: str) -> dict[str, float]:
 
 
 def sotc_settings() -> list[str]:
-    """The scenarios whose controller is the SOTC: paper, paper-long-pe, paper-pe-only."""
-    return [n for n in available_scenarios() if load_scenario(n).controller_fmu() == "SotcController"]
+    """The scenarios whose controller is the SOTC in the plain paper loop (plant, reference,
+    controller; the pure loop has no place for e.g. paper-perturbed's disturbance and noise FMUs)."""
+    plain = {"plant", "reference", "controller"}
+    return [n for n in available_scenarios()
+            if (sc := load_scenario(n)).controller_fmu() == "SotcController" and set(sc.instances) == plain]
 
 
 def run(setting: str = "paper", stop_time: float = 100.0, **overrides: float) -> tuple[SotcCore, LoopResult]:

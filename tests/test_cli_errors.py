@@ -67,7 +67,6 @@ def _bad_paths(tmp_path: Path, plain: Path) -> list[Path]:
 @pytest.mark.parametrize("command", [
     ["run", "paper", "--summary", "{}", "--no-recording"],
     ["run", "paper", "--recording", "{}"],
-    ["sweep", "paper", "--set", "controller.rho=3,4", "--out", "{}"],
     ["export-ssp", "paper", "--out", "{}"],
     ["compare", "paper", "--recording", "{}"],
 ])
@@ -193,8 +192,9 @@ def test_any_option_value_runs_nothing_or_is_refused_in_one_line(tmp_path, capsy
 
 
 @pytest.mark.parametrize("command", [["build", "--out", "{}"], ["run", "paper", "--no-recording", "--fmu-dir", "{}"],
-                                     ["validate", "--fmu-dir", "{}"]])
-def test_unusable_fmu_folder_is_refused_before_building(command, tmp_path, not_a_folder, monkeypatch, capsys):
+                                     ["validate", "--fmu-dir", "{}"],
+                                     ["sweep", "paper", "--set", "controller.rho=3,4", "--out", "{}"]])
+def test_unusable_output_folder_is_refused_before_building(command, tmp_path, not_a_folder, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
     before = sorted(tmp_path.iterdir())
     for bad in (not_a_folder, not_a_folder / "fmus", Path("/proc/sotc-cosim-test-fmus")):
