@@ -5,9 +5,7 @@ Outputs at a communication point t are the reference at t; they depend on time o
 """
 from __future__ import annotations
 
-import math
-
-from fmu_plant.slave_base import DescribedSlave as Fmi2Slave  # the name pythonfmu's binary looks for
+from fmu_plant.slave_base import TimeFunctionSlave as Fmi2Slave  # the name pythonfmu's binary looks for
 from fmu_plant.trajectory import REFERENCE_SIGNALS, TRAJECTORY_PARAMETER_SPECS, CircleTrajectory
 
 SIGNAL_DOCS = {
@@ -24,6 +22,7 @@ SIGNAL_DOCS = {
 
 class ReferenceTrajectory(Fmi2Slave):
     description = "Circular end-effector path (47) and its joint-space reference (48)"
+    TIME_OUTPUTS = REFERENCE_SIGNALS
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
@@ -36,28 +35,10 @@ class ReferenceTrajectory(Fmi2Slave):
 
     def initialize(self) -> None:
         self._trajectory = CircleTrajectory(**self.parameter_values(TRAJECTORY_PARAMETER_SPECS))
-        problem = self._publish(self._time)
-        if problem:
-            raise ValueError(f"{problem}: parameters 'rate' = {self.rate!r}, 'radius' = {self.radius!r} give no "
-                             "finite reference")
+        self.publish_initial(("rate", "radius"))
 
-    def _publish(self, t: float) -> str | None:
-        """Set the outputs to the reference at t, or (leaving them) say which one is not finite."""
-        try:
-            values = self._trajectory.sample(t)
-        except (ValueError, OverflowError) as exc:
-            return f"the reference at t = {t!r} cannot be computed: {exc}"
-        for name, value in zip(REFERENCE_SIGNALS, values):
-            if not math.isfinite(value):
-                return f"output '{name}' would be {value!r} at t = {t!r}"
-        for name, value in zip(REFERENCE_SIGNALS, values):
-            setattr(self, name, value)
-        return None
-
-    def step(self, current_time: float, step_size: float) -> bool:
-        # the outputs follow time alone: the reference at the time this step reaches
-        problem = self._publish(self.next_time(current_time, step_size))
-        return self.discard(f"{problem}; the step is refused and the state is kept") if problem else True
+    def outputs_at(self, t: float) -> tuple[float, ...]:
+        return self._trajectory.sample(t)
 
     def restore_internal_state(self, state) -> None:
         if self._initialized:

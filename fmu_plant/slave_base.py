@@ -363,6 +363,7 @@ class DescribedSlave(Fmi2Slave):
             accepted.append((var, value))
         for var, value in accepted:
             var.setter(value)
+        self._output_problem = None  # outputs computed from the inputs are computed (and checked) again
         if self._mode == INITIALIZATION and any(v.causality == Fmi2Causality.parameter for v, _ in accepted):
             self._preview_stale = True  # the initial outputs follow the parameters
 
@@ -657,3 +658,38 @@ class DescribedSlave(Fmi2Slave):
 
     def restore_internal_state(self, state: dict[str, Any]) -> None:
         """Inverse of ``internal_state``."""
+
+
+class TimeFunctionSlave(DescribedSlave):
+    """An FMU whose outputs are a function of time and parameters alone (no inputs): subclasses list
+    them in ``TIME_OUTPUTS`` and give ``outputs_at(t)``. Every value is checked where it is computed:
+    a non-finite one refuses initialization (naming the output) or the step (Discard, state kept)."""
+
+    TIME_OUTPUTS: ClassVar[tuple[str, ...]] = ()
+
+    def outputs_at(self, t: float) -> Sequence[float]:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def _publish(self, t: float) -> str | None:
+        """Set the outputs to their values at t, or (leaving them) say which one is not finite."""
+        try:
+            values = self.outputs_at(t)
+        except (ValueError, OverflowError) as exc:
+            return f"the outputs at t = {t!r} cannot be computed: {exc}"
+        for name, value in zip(self.TIME_OUTPUTS, values):
+            if not math.isfinite(value):
+                return f"output '{name}' would be {value!r} at t = {t!r}"
+        for name, value in zip(self.TIME_OUTPUTS, values):
+            setattr(self, name, value)
+        return None
+
+    def publish_initial(self, parameters: Sequence[str]) -> None:
+        """At initialization: the outputs at the start time, or a refusal naming ``parameters``."""
+        problem = self._publish(self._time)
+        if problem:
+            values = ", ".join(f"'{n}' = {getattr(self, n)!r}" for n in parameters)
+            raise ValueError(f"{problem}: parameters {values} give no finite output")
+
+    def step(self, current_time: float, step_size: float) -> bool:
+        problem = self._publish(self.next_time(current_time, step_size))
+        return self.discard(f"{problem}; the step is refused and the state is kept") if problem else True
