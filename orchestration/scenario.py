@@ -288,6 +288,9 @@ def _validated(fields: dict[str, Any]) -> Scenario:
     if steps > MAX_STEPS:
         raise ScenarioError(f"scenario '{name}': stop_time / step_size = {steps:.6g} steps; at most {MAX_STEPS:,} "
                             "are allowed (every sample is held in memory)")
+    if round(steps) < 1:
+        raise ScenarioError(f"scenario '{name}': stop_time {fields['stop_time']!r} is shorter than one step of "
+                            f"{fields['step_size']!r}")
     if abs(steps - round(steps)) > 1e-9 * max(1.0, steps):
         raise ScenarioError(
             f"scenario '{name}': stop_time {fields['stop_time']} is not a whole number of steps of {fields['step_size']}"
