@@ -86,7 +86,8 @@ def test_unwritable_output_path_is_refused_before_anything_runs(command, tmp_pat
     (["run", "--stop-time", "nan"], "--stop-time"),
     (["run", "--stop-time", "-1"], "--stop-time"),
     (["run", "--stop-time", "1e12", "--no-recording"], "at most"),
-    (["run", "--stop-time", "0.005", "--no-recording"], "whole number of steps"),
+    (["run", "--stop-time", "0.005", "--no-recording"], "shorter than one step"),
+    (["run", "--stop-time", "0.015", "--no-recording"], "whole number of steps"),
 ])
 def test_bad_option_values_are_refused_in_one_line(argv, named, tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
