@@ -171,6 +171,19 @@ def group_rows(sweep: Sweep, rows: list[dict[str, Any]], axes: list[Axis]) -> li
     return out
 
 
+def _per_controller_text(sweep: Sweep) -> str:
+    """The sentence on ``controller_settings``: what each controller FMU's points get, and why."""
+    if not sweep.per_controller:
+        return ""
+    parts = []
+    for fmu, sets in sweep.controller_parameters().items():
+        how = ("the best point of its tuning search (`orchestration.comparison`, Table 1's metric on the "
+               "paper's loop) under the point's limit handling, " if sweep.per_controller[fmu].tuning == "best" else "")
+        values = " or ".join(", ".join(f"`{k} = {v:g}`" for k, v in params.items()) for params in sets)
+        parts.append(f"{fmu}: {how}{values or 'no point'}")
+    return " Per controller (`controller_settings`): " + "; ".join(parts) + "."
+
+
 def summary_markdown(sweep: Sweep, rows: list[dict[str, Any]], total: int, heading: str = "#") -> str:
     ok = [r for r in rows if r["status"] == "ok"]
     lines = [f"{heading} Sweep `{sweep.name}`", "", sweep.description, "",
@@ -178,7 +191,8 @@ def summary_markdown(sweep: Sweep, rows: list[dict[str, Any]], total: int, headi
              f"`{sweep.base.name}`, {sweep.combine} combination, seed {sweep.seed}, stop time {sweep.base.stop_time:g} s "
              "(unless an axis sets it). Post-transient error = max over both joints of max |e| over the second "
              "half of the run; max ||tau|| against the torque limit rho; a failed point counts in 'failed' only."
-             + (" Set for every point: " + ", ".join(f"`{k} = {v:g}`" for k, v in sweep.fixed.items()) + "." if sweep.fixed else ""),
+             + (" Set for every point: " + ", ".join(f"`{k} = {v:g}`" for k, v in sweep.fixed.items()) + "." if sweep.fixed else "")
+             + _per_controller_text(sweep),
              ""]
     for group, axes in sweep.groups().items():
         title = f"`{axes[0].label}`" if len(axes) == 1 else f"{group} ({', '.join(f'`{a.label}`' for a in axes)})"
