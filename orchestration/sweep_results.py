@@ -300,13 +300,28 @@ def _doc_plots(sweep: Sweep) -> list[str]:
     return [f"sweeps/{sweep.name}/{plot_name(group)}" for group in sweep.groups()]
 
 
-def stored_sweep_block(name: str, docs: Path) -> str:
-    """The block of shipped sweep ``name`` from the rows its last ``--doc`` run stored under ``docs``."""
+def stored_rows(name: str, docs: Path) -> tuple[Sweep, list[dict[str, Any]]]:
+    """Shipped sweep ``name`` and the rows its last ``--doc`` run stored under ``docs``."""
     from orchestration.sweep_file import load_sweep
 
-    sweep = load_sweep(name)
     rows = [json.loads(line) for line in (docs / "sweeps" / name / "points.jsonl").read_text().splitlines()]
+    return load_sweep(name), rows
+
+
+def stored_sweep_block(name: str, docs: Path) -> str:
+    """The block of shipped sweep ``name`` from the rows its last ``--doc`` run stored under ``docs``."""
+    sweep, rows = stored_rows(name, docs)
     return doc_block(sweep, rows, len(sweep.points()), _doc_plots(sweep))
+
+
+def paired_tail_errors(rows: list[dict[str, Any]]) -> dict[str, dict[tuple, float | None]]:
+    """Controller -> {the point's other axis settings: its post-transient error}: the controllers of a
+    sweep with a controller axis, each over the same points (None: the point failed)."""
+    out: dict[str, dict[tuple, float | None]] = {}
+    for r in rows:
+        where = tuple(sorted((k, v) for k, v in r["settings"].items() if k.partition(".")[0] != "controller"))
+        out.setdefault(_controller(r), {})[where] = tail_error(r)
+    return out
 
 
 def write_doc(store: SweepStore, total: int, doc: Path) -> Path:
