@@ -238,6 +238,19 @@ def test_table_and_summary_are_written_from_the_rows():
     assert "| 2 | - | 1 | 1 | - |" in md and "time limit of 5 s exceeded" in md
 
 
+def test_tail_errors_are_paired_by_the_points_other_settings():
+    from orchestration.sweep_results import paired_tail_errors
+
+    def row(ctrl, f1, e, status="ok", **tuned):
+        return {"settings": {"controller": ctrl, "plant.f1": f1, **tuned}, "status": status,
+                "summary": {"controller": ctrl, "max_abs_error_last_half": [e, e / 2]}}
+
+    rows = [row("SotcController", 8.0, 0.05), row("SotcController", 9.0, 0.06),
+            row("CtController", 9.0, 0.01, **{"controller.kp": 100.0}), row("CtController", 8.0, 0.2, status="failed")]
+    assert paired_tail_errors(rows) == {"SotcController": {(("plant.f1", 8.0),): 0.05, (("plant.f1", 9.0),): 0.06},
+                                        "CtController": {(("plant.f1", 9.0),): 0.01, (("plant.f1", 8.0),): None}}
+
+
 def test_doc_block_replaces_only_its_own_block():
     from orchestration.docgen import replace_block
 
