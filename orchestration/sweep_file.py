@@ -35,7 +35,7 @@ controller). ``tuning = "best"`` takes them from the one place the baselines' tu
 ``orchestration.comparison`` (``TUNING_GRIDS``; the point ``best_tuning`` picks, Table 1's metric on
 the paper's 100 s loop) under the point's own ``controller.limit_handling``: the tuning the README's
 results table reports. Only FMUs with a tuning grid have it (CT, LQR; not the SOTC or the OTC); it
-costs about a second of pure-loop runs per FMU and handling when the file is loaded. The parameters a
+costs a second or two of pure-loop runs per FMU and handling when the file is loaded. The parameters a
 point gets this way are part of its settings (and of its resume key). Random axes draw from
 ``numpy.random.default_rng([seed, axis number])``: the same file and seed give the same points.
 
@@ -277,7 +277,7 @@ def parse_sweep(raw: dict[str, Any], label: str, folder: Path | None = None, def
 
 
 def _controller_settings(raw: Any, base: Scenario, axes: tuple[Axis, ...], where: str) -> dict[str, ControllerSettings]:
-    """``[controller_settings.<fmu>]`` tables: every FMU one the sweep runs, every value a finite number
+    """``[controller_settings.<fmu>]`` tables: each FMU one that points of the sweep run, every value a finite number
     (or ``tuning``), no parameter that an axis varies or that the tuning search sets too."""
     from orchestration.comparison import CORES, tuned_parameter_names, tuned_scenarios
 
