@@ -277,7 +277,7 @@ def parse_sweep(raw: dict[str, Any], label: str, folder: Path | None = None, def
 
 
 def _controller_settings(raw: Any, base: Scenario, axes: tuple[Axis, ...], where: str) -> dict[str, ControllerSettings]:
-    """``[controller_settings.<fmu>]`` tables: each FMU one that points of the sweep run, every value a finite number
+    """``[controller_settings.<fmu>]`` tables: each FMU one that the sweep runs, every value a finite number
     (or ``tuning``), no parameter that an axis varies or that the tuning search sets too."""
     from orchestration.comparison import CORES, tuned_parameter_names, tuned_scenarios
 
