@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 from orchestration import interrupt
+from orchestration.parameter_check import check_scenarios
 from orchestration.build import DEFAULT_FMU_DIR, FMU_SOURCES, BuildError, build_fmus, ensure_built
 from orchestration.paths import OutputPathError, check_output_file, check_output_folder
 from orchestration.scenario import ScenarioError, available_scenarios, load_scenario
@@ -37,7 +38,9 @@ def _prepare(names: list, stop_time: float | None, fmu_dir: Path, check=None):
         scenarios = [s.with_stop_time(stop_time) for s in scenarios]
     if check is not None:
         check(scenarios)
-    return scenarios, ensure_built(sorted({i.fmu for s in scenarios for i in s.instances.values()}), fmu_dir)
+    paths = ensure_built(sorted({i.fmu for s in scenarios for i in s.instances.values()}), fmu_dir)
+    check_scenarios(scenarios, paths)  # a value the FMU would refuse: exit 2 before anything runs
+    return scenarios, paths
 
 
 def _run_each(scenarios, paths, recording_for=None, progress_label: str | None = None) -> list:
@@ -180,6 +183,8 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
 
     if args.workers is not None and args.workers < 1:
         raise ScenarioError(f"--workers {args.workers}: give at least 1")
+    if args.scheduler is not None and not args.scheduler.strip():
+        raise ScenarioError("--scheduler '': give a Dask scheduler address such as tcp://host:8786, or leave it out")
     sweep = grid_from_assignments(args.sweep, args.set) if args.set else load_sweep(args.sweep)
     out = check_output_folder(args.out or Path("recordings") / sweep.name, "--out")
     store = SweepStore(out)

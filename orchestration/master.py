@@ -30,6 +30,7 @@ from fmpy.fmi2 import FMU2Slave, fmi2Real, fmi2ValueReference
 
 from orchestration import interrupt
 from orchestration.fmi_direct import forget_callbacks, make_callbacks
+from orchestration.parameter_check import parameter_problem
 from orchestration.scenario import Scenario, ScenarioError
 
 STATUS_LABELS = ("OK", "WARNING", "DISCARD", "ERROR", "FATAL", "PENDING")
@@ -143,18 +144,14 @@ class _Loaded:
 
     def set_parameters(self, values: dict[str, float]) -> None:
         for pname, value in values.items():
-            var = self.vars.get(pname)
-            if var is None or var.causality != "parameter":
-                params = sorted(v.name for v in self.md.modelVariables if v.causality == "parameter")
-                raise ScenarioError(f"{self.name}: '{pname}' is not a parameter of {self.md.modelName}; known: {', '.join(params)}")
+            problem = parameter_problem(self.md, pname, value)
+            if problem:
+                raise ScenarioError(f"{self.name}: {problem}")
+            var = self.vars[pname]
             if var.type == "Real":
                 self.fmu.setReal([var.valueReference], [float(value)])
-            elif var.type == "Integer":
-                if float(value) != int(value):
-                    raise ScenarioError(f"{self.name}.{pname} must be a whole number, got {value!r}")
-                self.fmu.setInteger([var.valueReference], [int(value)])
             else:
-                raise ScenarioError(f"{self.name}.{pname}: parameters of type {var.type} are not supported")
+                self.fmu.setInteger([var.valueReference], [int(value)])
 
 
 class _Link:

@@ -129,14 +129,22 @@ def value_table(summaries: list[dict[str, Any]]) -> str:
     """The value-function measures (``orchestration.value_function``) of the W the ``paper`` run of
     this invocation learned, beside W = 0, the paper's W and the LQR weights (horizon: the stop time,
     at most 20 s)."""
+    from orchestration import interrupt
     from orchestration.value_function import HORIZON, VALUE_HEADER, value_rows
 
+    if interrupt.requested():  # Ctrl-C: write what finished now, not seconds of extra runs later
+        return "(no value-function table: the invocation was interrupted)\n"
     paper = next((s for s in summaries if s["scenario"] == "paper" and s.get("final_weights")), None)
     if paper is None:
         return "(no value-function table: the `paper` run did not finish)\n"
     rows = [[label, f"{ratio:.3g}", f"{cost:.4g}", f"{rel:.4g}", f"{below} of {n}"]
             for label, ratio, cost, rel, below, n in value_rows(paper["final_weights"], min(HORIZON, paper["stop_time"]))]
     return to_markdown(VALUE_HEADER, rows)
+
+
+def _stop_times(summaries: list[dict[str, Any]]) -> str:
+    times = sorted({s["stop_time"] for s in summaries})
+    return " / ".join(f"{t:g} s" for t in times) if times else "-"
 
 
 def write_table(summaries: list[dict[str, Any]], out_dir: Path) -> tuple[Path, Path, str]:
@@ -147,8 +155,9 @@ def write_table(summaries: list[dict[str, Any]], out_dir: Path) -> tuple[Path, P
     text = to_markdown(header, rows)
     md.write_text(
         "# Table 1 of the paper, extended\n\n"
-        "Rows 'paper Table 1' are the paper's numbers (it reports MSE only); rows 'this run' are measured\n"
-        "by this invocation of `sotc-cosim reproduce` (metrics defined in orchestration/metrics.py).\n\n" + text
+        "Rows 'paper Table 1' are the paper's numbers (it reports MSE only, over 100 s); rows 'this run' are\n"
+        "measured by this invocation of `sotc-cosim reproduce` (metrics defined in orchestration/metrics.py),\n"
+        f"stop time {_stop_times(summaries)}.\n\n" + text
         + "\n## The learned value function (docs/paper-notes.md, section 3.1)\n\n" + value_table(summaries)
     )
     cs.write_text(to_csv(header, rows))

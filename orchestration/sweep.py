@@ -46,6 +46,7 @@ from distributed import WorkerPlugin
 
 from orchestration import interrupt
 from orchestration.build import ensure_built
+from orchestration.parameter_check import check_scenarios
 from orchestration.scenario import Scenario, ScenarioError
 from orchestration.sweep_file import Point, Sweep
 
@@ -220,6 +221,9 @@ def _client(scheduler: str | None, workers: int | None):
             return Client(scheduler, timeout="10s"), None
         except OSError as exc:
             raise ScenarioError(f"--scheduler {scheduler}: cannot reach a Dask scheduler there ({exc})") from None
+        except (ValueError, TypeError) as exc:  # not an address: no port, a bad port, an unknown protocol
+            raise ScenarioError(f"--scheduler {scheduler}: not a Dask scheduler address such as tcp://host:8786 "
+                                f"({exc})") from None
     cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
                            dashboard_address=None, silence_logs=logging.ERROR)
     client = Client(cluster)
@@ -238,6 +242,8 @@ def execute(
     blobs = fmu_blobs(sweep.model_names(), fmu_dir)
     digests = {m: d for m, (d, _) in blobs.items()}
     points = sweep.points()
+    # a value an FMU would refuse is an error in the sweep, not a failed point: refused before any run
+    check_scenarios([p.scenario for p in points], ensure_built(sweep.model_names(), fmu_dir))
     keys = [point_key(p.scenario, digests) for p in points]
     stored = store.load()
     todo = [(p, k) for p, k in zip(points, keys)

@@ -212,7 +212,7 @@ def summary_markdown(sweep: Sweep, rows: list[dict[str, Any]], total: int, headi
     if failed:
         lines += [f"{heading}# Failed points", "", "| index | settings | reason |", "|---:|---|---|"]
         for r in failed:
-            settings = ", ".join(f"{k} = {_value_text(v)}" for k, v in r["settings"].items())
+            settings = ", ".join(f"{k} = {_value_text(v)}" for k, v in sorted(r["settings"].items()))
             reason = " ".join((r.get("reason") or "").replace("|", "/").split())
             lines.append(f"| {r['index']} | {settings} | {reason[:300]} |")
         lines.append("")

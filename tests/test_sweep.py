@@ -346,13 +346,18 @@ def test_set_makes_a_grid_over_a_scenario_without_a_sweep_file(fmu_dir, tmp_path
         with pytest.raises(ValueError, match=message):
             grid_from_assignments("paper-ct", [bad])
     monkeypatch.chdir(tmp_path)
-    code = main(["sweep", "paper-ct", "--set", "controller.kp=25,-1", "--workers", "1", "--fmu-dir", str(fmu_dir)])
+    # a value outside its declared range is refused before anything runs
+    assert main(["sweep", "paper-ct", "--set", "controller.kp=25,-1", "--workers", "1", "--fmu-dir", str(fmu_dir)]) == 2
+    assert "'kp' = -1.0 is outside its valid range" in capsys.readouterr().err
+    assert not (tmp_path / "recordings" / "paper-ct-sweep" / "points.csv").exists()
+    # inside the range, p3 = 1 makes the plant singular: the FMU refuses it, the point fails, the other runs
+    code = main(["sweep", "paper-ct", "--set", "plant.p3=0.242,1", "--workers", "1", "--fmu-dir", str(fmu_dir)])
     assert code == 1  # one point failed
     lines = (tmp_path / "recordings" / "paper-ct-sweep" / "points.csv").read_text().splitlines()
-    assert [line.split(",")[2:4] for line in lines[1:]] == [["25.0", "ok"], ["-1.0", "failed"]]
+    assert [line.split(",")[2:4] for line in lines[1:]] == [["0.242", "ok"], ["1.0", "failed"]]
     capsys.readouterr()
     # --retry-failed runs the failed point again and keeps the finished one
-    code = main(["sweep", "paper-ct", "--set", "controller.kp=25,-1", "--workers", "1", "--retry-failed",
+    code = main(["sweep", "paper-ct", "--set", "plant.p3=0.242,1", "--workers", "1", "--retry-failed",
                  "--fmu-dir", str(fmu_dir)])
     assert code == 1 and "2 points, 1 already in" in capsys.readouterr().out
     jsonl = (tmp_path / "recordings" / "paper-ct-sweep" / "points.jsonl").read_text().splitlines()

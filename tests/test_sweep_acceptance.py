@@ -20,7 +20,7 @@ from rerun.chunk import RrdReader
 
 SWEEP = """
 name = "tiny"
-description = "six short points: one refused (kp < 0), one over its time limit"
+description = "six short points: one refused at initialization (a singular plant), one over its time limit"
 scenario = "paper-ct"
 stop_time = 1.0
 combine = "paired"
@@ -28,11 +28,17 @@ time_limit = 4.0
 
 [[axis]]
 name = "controller.kp"
-values = [25.0, 50.0, -1.0, 100.0, 200.0, 400.0]
+values = [25.0, 50.0, 75.0, 100.0, 200.0, 400.0]
 
 [[axis]]
 name = "stop_time"
 values = [1.0, 5000.0, 1.0, 1.0, 2.0, 1.0]
+
+# each value inside its declared range, but with p3 = 1 the plant's D(phi) is singular for some phi:
+# the FMU refuses it at initialization (an out-of-range value would refuse the whole sweep up front)
+[[axis]]
+name = "plant.p3"
+values = [0.242, 0.242, 1.0, 0.242, 0.242, 0.242]
 """
 CLI = str(Path(sys.executable).with_name("sotc-cosim"))
 
@@ -80,9 +86,9 @@ def test_sweep_interrupt_resume_determinism_and_recordings(fmu_dir, tmp_path):
         rows = list(csv.DictReader(f))
     assert [r["index"] for r in rows] == [str(i) for i in range(6)]
     assert [r["status"] for r in rows] == ["ok", "failed", "failed", "ok", "ok", "ok"]
-    assert [float(r["controller.kp"]) for r in rows] == [25.0, 50.0, -1.0, 100.0, 200.0, 400.0]
+    assert [float(r["controller.kp"]) for r in rows] == [25.0, 50.0, 75.0, 100.0, 200.0, 400.0]
     assert rows[1]["reason"] == "time limit of 4 s exceeded" and rows[1]["mse_1"] == ""
-    assert "'kp'" in rows[2]["reason"] and "outside the valid range" in rows[2]["reason"]
+    assert "'p3'" in rows[2]["reason"] and "must exceed p3^2" in rows[2]["reason"]
     assert all(float(r["mse_1"]) > 0 and float(r["max_norm_tau"]) <= 4.0 + 1e-9 for r in rows if r["status"] == "ok")
     summary = (first / "summary.md").read_text()
     assert "6 of 6 points stored, 4 ok, 2 failed" in summary and "## Axis `controller.kp`" in summary
