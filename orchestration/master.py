@@ -26,7 +26,7 @@ from typing import Protocol
 import numpy as np
 from fmpy import extract, read_model_description
 from fmpy.fmi1 import FMICallException
-from fmpy.fmi2 import FMU2Slave, fmi2Real, fmi2ValueReference
+from fmpy.fmi2 import FMU2Slave, fmi2Real, fmi2True, fmi2ValueReference, fmi2Warning
 
 from orchestration.fmi_direct import forget_callbacks, make_callbacks
 from orchestration.scenario import Scenario, ScenarioError
@@ -125,8 +125,17 @@ class _Loaded:
         self.instantiated = True
         self.initialized = False
 
+        # fmpy's raw ctypes functions: its per-call wrapper costs more than the call (see _checked)
+        self.raw_get = self.fmu._functions["fmi2GetReal"]
+        self.raw_set = self.fmu._functions["fmi2SetReal"]
+        self.raw_step = self.fmu._functions["fmi2DoStep"]
+        self.n_out = len(self.output_names)
+
     def read_outputs(self) -> None:
-        self.fmu.fmi2GetReal(self.fmu.component, self.out_vr, len(self.output_names), self.out_buf)
+        _checked(self.raw_get(self.fmu.component, self.out_vr, self.n_out, self.out_buf), "fmi2GetReal")
+
+    def do_step(self, t: float, h: float) -> None:
+        _checked(self.raw_step(self.fmu.component, t, h, fmi2True), "fmi2DoStep")
 
     def parameter_values(self) -> dict[str, float]:
         """Every Real and Integer parameter as the instance holds it now."""
@@ -153,6 +162,12 @@ class _Loaded:
                 raise ScenarioError(f"{self.name}.{pname}: parameters of type {var.type} are not supported")
 
 
+def _checked(status: int, function: str) -> None:
+    """What fmpy's wrapper does with a status: anything worse than a warning raises."""
+    if status > fmi2Warning:
+        raise FMICallException(function=function, status=status)
+
+
 class _Link:
     """All connections from one source instance to one target instance, set with one fmi2SetReal."""
 
@@ -166,7 +181,7 @@ class _Link:
 
     def push(self) -> None:
         np.take(self.source.out_view, self.src_index, out=self.view)  # no per-step allocation
-        self.target.fmu.fmi2SetReal(self.target.fmu.component, self.vr, self.n, self.buf)
+        _checked(self.target.raw_set(self.target.fmu.component, self.vr, self.n, self.buf), "fmi2SetReal")
 
 
 def _resolve_links(scenario: Scenario, loaded: dict[str, _Loaded]) -> list[_Link]:
@@ -260,7 +275,7 @@ def run(
                 break
             t = times[k]
             for ld in loaded.values():
-                ld.fmu.doStep(currentCommunicationPoint=t, communicationStepSize=T)
+                ld.do_step(t, T)
     except ScenarioError:
         raise  # the scenario itself is wrong: nothing ran
     except Exception as exc:  # FMI status errors, fmpy's load/instantiate errors, observer errors
