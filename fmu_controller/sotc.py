@@ -29,6 +29,7 @@ import numpy as np
 
 from fmu_controller.base import ControllerCore, OutputSpec
 from fmu_controller.saturation import clip_box, saturate_norm, shrink_into_disc
+from fmu_controller.small_linalg import solve
 from fmu_controller.sotc_math import (
     N_BASIS,
     basis,
@@ -46,6 +47,7 @@ from fmu_plant.dynamics import ArmParameters, bias_torque, forward_dynamics, ine
 from fmu_plant.parameters import ParameterError, ParameterSpec, any_real, nonnegative, positive
 
 TANH1 = math.tanh(1.0)
+_DIAGONAL = np.diag_indices(N_BASIS)
 # the implicit z_v (``SotcCore._solve_zv``): plain and damped Newton iterations, step halvings, and
 # the residual (relative to 1 + |c| + s, rad/s) above which the next method is tried
 ZV_PLAIN_ITERATIONS = 30
@@ -535,13 +537,13 @@ class SotcCore(ControllerCore):
             raise ValueError(f"advance: step size {dt} must be positive and finite")
         Wv = pend["W"]
         if self.implicit:
-            G = np.outer(pend["xi"], pend["eta"])
+            G = pend["xi"][:, None] * pend["eta"]  # the outer product xi eta^T
             if pend["cl_M"] is not None:
                 G += pend["cl_M"]
             G *= dt * self.alpha1
             rhs = Wv + dt * pend["wdot"] + G @ Wv
-            G[np.diag_indices(N_BASIS)] += 1.0
-            self.W = np.linalg.solve(G, rhs).tolist()
+            G[_DIAGONAL] += 1.0
+            self.W = solve(G, rhs).tolist()
         else:
             self.W = (Wv + dt * pend["wdot"]).tolist()
         if self.chi_dot_form == "difference":

@@ -31,6 +31,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from fmu_controller.small_linalg import smallest_eigenvalue
 from fmu_controller.sotc_math import N_BASIS, basis_jacobian, omega_of_arg_rows
 
 SELECTIONS = ("maxeig", "fill", "fifo")
@@ -101,7 +102,7 @@ class CLStack:
         Xi = E * scale[:, None]
         self.M_rec = Xi.T @ E
         self.b_rec = Xi.T @ self.rew
-        self.min_eig_rec = float(np.linalg.eigvalsh(self.M_rec)[0]) if self.count else 0.0
+        self.min_eig_rec = smallest_eigenvalue(self.M_rec) if self.count else 0.0
         n = self.count
         Z, Di, Fe = self.z[:n], self.dinv[:n], self.fe[:n]
         s, r = self.s, self.r
@@ -140,7 +141,7 @@ class CLStack:
         scale = 1.0 / (1.0 + np.einsum("ij,ij->i", E, E)) ** 2
         Xi = E * scale[:, None]
         M = Xi.T @ E
-        return M, Xi.T @ rew, E, float(np.linalg.eigvalsh(M)[0])
+        return M, Xi.T @ rew, E, smallest_eigenvalue(M)
 
     # --- recording -------------------------------------------------------------------------------
 
