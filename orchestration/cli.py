@@ -31,25 +31,31 @@ def _prepare(names: list[str], stop_time: float | None, fmu_dir: Path):
     return scenarios, ensure_built(sorted({i.fmu for s in scenarios for i in s.instances.values()}), fmu_dir)
 
 
-def _run_each(scenarios, paths, recording_for=None) -> list:
+def _run_each(scenarios, paths, recording_for=None, keep_samples: bool = True, record_every: int = 1) -> list:
     """Run every scenario (a failure is reported and the next one still runs); ``recording_for``
-    maps a scenario to the .rrd path its run streams to, or None for no recording."""
+    maps a scenario to the .rrd path its run streams to, or None for no recording. Returns
+    (result, summary) pairs; ``keep_samples=False`` streams each run (bounded memory: the summary is
+    computed on the way and the result holds no samples)."""
     from orchestration.master import run
+    from orchestration.summary import SummaryObserver, summarize
 
-    results = []
+    out = []
     for scenario in scenarios:
         target = recording_for(scenario) if recording_for else None
+        summary = SummaryObserver()
+        observers = [] if keep_samples else [summary]
         if target is None:
-            result = run(scenario, paths)
+            result = run(scenario, paths, observer=observers or None, keep_samples=keep_samples)
         else:
             from orchestration.recording import BLOCK_SIZE, RunRecorder
 
-            with RunRecorder(target) as recorder:
-                result = run(scenario, paths, observer=recorder, block_size=BLOCK_SIZE)
+            with RunRecorder(target, every=record_every) as recorder:
+                result = run(scenario, paths, observer=[*observers, recorder], block_size=BLOCK_SIZE,
+                             keep_samples=keep_samples)
         if result.failed:
             print(f"{scenario.name}: FAILED: {result.error}", file=sys.stderr)
-        results.append(result)
-    return results
+        out.append((result, summarize(result) if keep_samples else summary.summary))
+    return out
 
 
 def _exit_code(summaries: list[dict]) -> int:
@@ -57,7 +63,7 @@ def _exit_code(summaries: list[dict]) -> int:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    from orchestration.summary import format_table, summarize, write_summary
+    from orchestration.summary import format_table, write_summary
 
     if args.summary and len(args.scenarios) > 1:
         raise ScenarioError("--summary takes one scenario; run them one by one")
@@ -77,7 +83,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
         written.append(target)
         return target
 
-    summaries = [summarize(r) for r in _run_each(scenarios, paths, recording_for)]
+    summaries = [s for _, s in _run_each(scenarios, paths, recording_for, keep_samples=False,
+                                          record_every=args.record_every)]
     if args.summary:
         write_summary(summaries[0], args.summary)
     print(format_table(summaries))
@@ -88,10 +95,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 def _cmd_compare(args: argparse.Namespace) -> int:
     from orchestration.recording import record_comparison
-    from orchestration.summary import format_table, summarize
+    from orchestration.summary import format_table
 
-    results = _run_each(*_prepare(args.scenarios, args.stop_time, args.fmu_dir))
-    summaries = [summarize(r) for r in results]
+    results, summaries = zip(*_run_each(*_prepare(args.scenarios, args.stop_time, args.fmu_dir)))
     print(format_table(summaries))
     print(f"recording: {record_comparison(results, args.recording)}")
     return _exit_code(summaries)
@@ -100,10 +106,8 @@ def _cmd_compare(args: argparse.Namespace) -> int:
 def _cmd_reproduce(args: argparse.Namespace) -> int:
     from orchestration.recording import record_comparison
     from orchestration.reproduce import REPRODUCE_SCENARIOS, compact_table, write_table
-    from orchestration.summary import summarize
 
-    results = _run_each(*_prepare(list(REPRODUCE_SCENARIOS), args.stop_time, args.fmu_dir))
-    summaries = [summarize(r) for r in results]
+    results, summaries = zip(*_run_each(*_prepare(list(REPRODUCE_SCENARIOS), args.stop_time, args.fmu_dir)))
     md, cs, text = write_table(summaries, args.out)
     print(text)
     print(compact_table(summaries))
@@ -180,6 +184,13 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     return 0
 
 
+def _positive_int(text: str) -> int:
+    value = int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be a whole number >= 1, got {text}")
+    return value
+
+
 def _add_fmu_dir(p: argparse.ArgumentParser) -> None:
     p.add_argument("--fmu-dir", type=Path, default=DEFAULT_FMU_DIR, help="where FMUs are built and found")
 
@@ -208,6 +219,8 @@ def build_parser() -> argparse.ArgumentParser:
     rec.add_argument("--recording", type=Path, metavar="PATH",
                      help="write the Rerun recording here (one scenario; default recordings/<scenario>.rrd)")
     rec.add_argument("--no-recording", action="store_true", help="do not write a Rerun recording")
+    p.add_argument("--record-every", type=_positive_int, default=1, metavar="N",
+                   help="record every N-th sample only (long runs: a 10,000 s run is about 960 MB at N = 1)")
     p.set_defaults(func=_cmd_run)
 
     p = sub.add_parser("compare", help="run scenarios and overlay them in one Rerun recording (paper Figs 10-12)")

@@ -21,7 +21,7 @@ import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Protocol
+from typing import Protocol, Sequence
 
 import numpy as np
 from fmpy import extract, read_model_description
@@ -44,7 +44,9 @@ class LogRecord:
 
 @dataclass
 class RunResult:
-    """Everything a run produced. ``outputs[instance][variable]`` has one value per stored sample."""
+    """Everything a run produced. With ``keep_samples`` (the default) ``outputs[instance][variable]``
+    has one value per sample and ``time`` every sample time; a streamed run (``keep_samples=False``)
+    leaves both empty: its observers saw every sample, and ``samples`` still counts them."""
 
     scenario: Scenario
     time: np.ndarray
@@ -55,10 +57,11 @@ class RunResult:
     logs: list[LogRecord] = field(default_factory=list)
     # every parameter of every instance as the FMU holds it after initialization (defaults included)
     parameters: dict[str, dict[str, float]] = field(default_factory=dict)
+    completed: int | None = None  # samples t_0 .. t_{completed-1} were produced (None: len(time))
 
     @property
     def samples(self) -> int:
-        return len(self.time)
+        return len(self.time) if self.completed is None else self.completed
 
 
 class RunObserver(Protocol):
@@ -211,11 +214,31 @@ def _feedthrough_order(loaded: dict[str, _Loaded], links: list[_Link]) -> list[s
     return order
 
 
+class _Fanout:
+    """Several observers as one, called in order."""
+
+    def __init__(self, observers: Sequence[RunObserver]):
+        self.observers = list(observers)
+
+    def start(self, scenario, columns, parameters) -> None:
+        for o in self.observers:
+            o.start(scenario, columns, parameters)
+
+    def block(self, time, rows) -> None:
+        for o in self.observers:
+            o.block(time, rows)
+
+    def finish(self, result) -> None:
+        for o in self.observers:
+            o.finish(result)
+
+
 def run(
     scenario: Scenario,
     fmu_paths: dict[str, Path],
-    observer: RunObserver | None = None,
+    observer: RunObserver | Sequence[RunObserver] | None = None,
     block_size: int = 1000,
+    keep_samples: bool = True,
 ) -> RunResult:
     """Run ``scenario`` with the FMUs at ``fmu_paths`` (model identifier -> .fmu file).
 
@@ -223,22 +246,40 @@ def run(
     loaded, or an observer that cannot write) ends the run early; the result then has
     ``failed=True``, the error, the FMUs' log messages and every sample recorded up to the failure.
     Instances are always freed. A ``ScenarioError`` (the scenario itself is wrong) is raised.
-    ``observer`` (optional) is handed the samples every ``block_size`` samples and at the end.
+    ``observer`` (optional, one or a list) is handed the samples every ``block_size`` samples and at
+    the end. ``keep_samples=False`` streams: the master then holds one block per instance, not the
+    run (memory bounded for any stop time), and the result carries no sample arrays.
     """
+    if block_size < 1:
+        raise ScenarioError(f"block_size must be >= 1, got {block_size}")
+    if observer is not None and not hasattr(observer, "block"):
+        observer = _Fanout(observer)
     logs: list[LogRecord] = []
     clock = _Clock()
     parameters: dict[str, dict[str, float]] = {}
     n_steps = scenario.steps
     T = scenario.step_size
-    times = np.arange(n_steps + 1, dtype=float) * T
+    rows = n_steps + 1 if keep_samples else min(block_size, n_steps + 1)  # rows held per instance
+    times = np.arange(n_steps + 1, dtype=float) * T if keep_samples else None
     workdir = Path(tempfile.mkdtemp(prefix="sotc_run_"))
     loaded: dict[str, _Loaded] = {}
     records: dict[str, np.ndarray] = {}
     k = -1
     recorded = 0  # samples t_0 .. t_{recorded-1} hold every output of every instance
-    flushed = 0
+    flushed = 0  # samples t_0 .. t_{flushed-1} were handed to the observer
     error: str | None = None
     observer_ok = True
+
+    def hand_over(upto: int) -> None:
+        """Give the observer samples flushed .. upto-1, then (streaming) reuse the buffer."""
+        nonlocal flushed
+        lo = flushed if keep_samples else 0
+        hi = lo + upto - flushed
+        if observer is not None:
+            block_t = times[flushed:upto] if keep_samples else np.arange(flushed, upto, dtype=float) * T
+            _call_observer(observer.block, block_t, {n: r[lo:hi] for n, r in records.items()})
+        flushed = upto
+
     started = time.perf_counter()
     try:
         for inst in scenario.instances.values():
@@ -247,7 +288,9 @@ def run(
             loaded[inst.name] = _Loaded(inst.name, fmu_paths[inst.fmu], workdir, logs, clock)
         links = _resolve_links(scenario, loaded)
         order = _feedthrough_order(loaded, links)
-        pushes = {name: [l for l in links if l.source.name == name] for name in order}
+        # per feedthrough position: the instance and the links it feeds (lists: no lookups per step)
+        plan = [(loaded[name], [l for l in links if l.source.name == name]) for name in order]
+        instances = list(loaded.values())
         for inst in scenario.instances.values():
             ld = loaded[inst.name]
             ld.set_parameters(inst.parameters)
@@ -256,46 +299,51 @@ def run(
             ld.fmu.exitInitializationMode()
             ld.initialized = True
             parameters[inst.name] = ld.parameter_values()
-            records[inst.name] = np.empty((n_steps + 1, len(ld.output_names)))
+            records[inst.name] = np.empty((rows, len(ld.output_names)))
+        targets = [(ld, records[ld.name], pushes) for ld, pushes in plan]
         if observer is not None:
             _call_observer(observer.start, scenario, {n: list(ld.output_names) for n, ld in loaded.items()}, parameters)
+        row = 0
         for k in range(n_steps + 1):
             clock.sample = k
-            for name in order:
-                ld = loaded[name]
+            for ld, record, pushes in targets:
                 ld.read_outputs()
-                records[name][k] = ld.out_view
-                for link in pushes[name]:
+                record[row] = ld.out_view
+                for link in pushes:
                     link.push()
             recorded = k + 1
-            if observer is not None and k + 1 - flushed >= block_size:
-                _call_observer(observer.block, times[flushed:k + 1], {n: r[flushed:k + 1] for n, r in records.items()})
-                flushed = k + 1
+            row += 1
+            if row == rows or (observer is not None and recorded - flushed >= block_size):
+                hand_over(recorded)
+                if not keep_samples:
+                    row = 0
             if k == n_steps:
                 break
-            t = times[k]
-            for ld in loaded.values():
+            t = k * T  # t_k = k T, the same double as np.arange(...) * T
+            for ld in instances:
                 ld.do_step(t, T)
     except ScenarioError:
         raise  # the scenario itself is wrong: nothing ran
     except Exception as exc:  # FMI status errors, fmpy's load/instantiate errors, observer errors
-        error = _describe_failure(exc, k, times, logs)
+        error = _describe_failure(exc, k, T, n_steps, logs)
         observer_ok = not isinstance(exc, _ObserverFailed)
     finally:
         wall = time.perf_counter() - started
         _free(loaded)
         shutil.rmtree(workdir, ignore_errors=True)
     completed = recorded
-    outputs = {
-        name: {v: records[name][:completed, i].copy() for i, v in enumerate(loaded[name].output_names)}
-        for name in records
-    }
-    result = RunResult(scenario, times[:completed], outputs, wall, failed=error is not None, error=error,
-                       logs=logs, parameters=parameters)
+    if keep_samples:  # views into the one array per instance: no second copy of the run
+        outputs = {name: {v: records[name][:completed, i] for i, v in enumerate(loaded[name].output_names)}
+                   for name in records}
+        result = RunResult(scenario, times[:completed], outputs, wall, failed=error is not None, error=error,
+                           logs=logs, parameters=parameters)
+    else:
+        result = RunResult(scenario, np.empty(0), {}, wall, failed=error is not None, error=error,
+                           logs=logs, parameters=parameters, completed=completed)
     if observer is not None:
         try:
             if observer_ok and completed > flushed:
-                _call_observer(observer.block, times[flushed:completed], {n: r[flushed:completed] for n, r in records.items()})
+                hand_over(completed)
         except _ObserverFailed as exc:  # the samples are in the result; say that the observer lost them
             result.failed, result.error = True, (result.error + "; " if result.error else "") + str(exc)
         observer.finish(result)
@@ -309,8 +357,8 @@ def _call_observer(method, *args) -> None:
         raise _ObserverFailed(f"observer failed: {type(exc).__name__}: {exc}") from exc
 
 
-def _describe_failure(exc: Exception, k: int, times: np.ndarray, logs: list[LogRecord]) -> str:
-    where = f"at t = {times[k]:.2f} s (sample {k})" if 0 <= k < len(times) else "during set-up"
+def _describe_failure(exc: Exception, k: int, step: float, n_steps: int, logs: list[LogRecord]) -> str:
+    where = f"at t = {k * step:.2f} s (sample {k})" if 0 <= k <= n_steps else "during set-up"
     what = str(exc) if isinstance(exc, FMICallException) else f"{type(exc).__name__}: {exc}"
     reasons = "; ".join(f"{r.instance}: {r.message}" for r in logs if r.status in ("DISCARD", "ERROR", "FATAL"))
     return f"{what} {where}" + (f" -- {reasons}" if reasons else "")

@@ -35,13 +35,6 @@ def _per_joint(x: np.ndarray) -> list[float]:
     return [float(v) for v in x]
 
 
-def _max_abs_after(t: np.ndarray, e: np.ndarray, t0: float) -> list[float] | None:
-    mask = t >= t0 - 1e-12
-    if not mask.any():
-        return None
-    return _per_joint(np.max(np.abs(e[mask]), axis=0))
-
-
 def settle_time(t: np.ndarray, err: np.ndarray, band: float = SETTLE_BAND) -> float | None:
     """First sample time after which |err| < band holds at every later sample; None if the last
     sample is outside the band (the signal never enters and stays)."""
@@ -94,53 +87,127 @@ def tracking_metrics(
     - ``torque_limit``: the limit used.
     """
     t = np.asarray(t, dtype=float).reshape(-1)
-    e = np.asarray(e, dtype=float).reshape(len(t), 2)
-    tau = np.asarray(tau, dtype=float).reshape(len(t), 2)
-    n = len(t)
-    if n == 0:
+    if len(t) == 0:
         raise ValueError("tracking_metrics needs at least one sample")
-    if n > 1 and np.any(np.diff(t) <= 0.0):
-        raise ValueError("t must be strictly increasing")
-    duration = float(t[-1] - t[0])
-    stop = float(t[-1]) if stop_time is None else float(stop_time)
+    acc = TrackingMetrics(torque_limit, float(t[-1]) if stop_time is None else float(stop_time), cost_rate is not None)
+    acc.add(t, e, tau, cost_rate)
+    return acc.result()
 
-    mse = np.mean(e**2, axis=0)
-    tau_norm = np.hypot(tau[:, 0], tau[:, 1])
-    tv = np.sum(np.abs(np.diff(tau, axis=0)), axis=0)
 
-    out: dict[str, Any] = {
-        "n_samples": int(n),
-        "duration": duration,
-        "mse": _per_joint(mse),
-        "rmse": _per_joint(np.sqrt(mse)),
-        "iae": _per_joint(_trapezoid(np.abs(e), t)),
-        "max_abs_error": _per_joint(np.max(np.abs(e), axis=0)),
-        "max_abs_error_after_20s": _max_abs_after(t, e, 20.0),
-        "max_abs_error_after_50s": _max_abs_after(t, e, 50.0),
-        "max_abs_error_last_half": _max_abs_after(t, e, stop / 2.0),
-        "settle_time_10mrad": [settle_time(t, e[:, 0]), settle_time(t, e[:, 1])],
-        "max_abs_tau": _per_joint(np.max(np.abs(tau), axis=0)),
-        "max_tau_norm": float(np.max(tau_norm)),
-        "samples_at_limit": int(np.sum(tau_norm >= torque_limit - LIMIT_TOLERANCE)),
-        "fraction_at_limit": float(np.sum(tau_norm >= torque_limit - LIMIT_TOLERANCE) / n),
-        "samples_over_limit": int(np.sum(tau_norm > torque_limit + LIMIT_TOLERANCE)),
-        "control_energy": float(np.dot(np.diff(t), tau_norm[:-1] ** 2)),
-        "tau_total_variation_rate": _per_joint(tv / duration) if duration > 0.0 else [0.0, 0.0],
-        "cost_integral": None,
-        "torque_limit": float(torque_limit),
-    }
-    if cost_rate is not None:
-        c = np.asarray(cost_rate, dtype=float).reshape(-1)
-        if len(c) != n:
-            raise ValueError(f"cost_rate has {len(c)} samples, t has {n}")
-        out["cost_integral"] = float(_trapezoid(c, t))
-    # floats must be finite for JSON; a diverged run reports None rather than NaN/inf
-    for key, value in out.items():
-        if isinstance(value, float) and not math.isfinite(value):
-            out[key] = None
-        elif isinstance(value, list):
-            out[key] = [None if isinstance(v, float) and not math.isfinite(v) else v for v in value]
-    return out
+class TrackingMetrics:
+    """``tracking_metrics`` over a run handed over in blocks of samples (``add``), holding O(1)
+    state: what the master streams is summarised without keeping the run. Fed the whole run as
+    one block it is ``tracking_metrics``; fed in blocks the sums differ only by rounding."""
+
+    def __init__(self, torque_limit: float, stop_time: float, with_cost: bool = False):
+        self.limit, self.stop, self.with_cost = float(torque_limit), float(stop_time), with_cost
+        self.n = 0
+        self.t0 = self.t_last = math.nan
+        self.e2 = np.zeros(2)  # sum of e^2
+        self.iae = np.zeros(2)
+        self.max_e = np.zeros(2)
+        self.max_after = {20.0: None, 50.0: None, self.stop / 2.0: None}  # t0 -> max |e| per joint
+        self.max_tau = np.zeros(2)
+        self.max_norm = -math.inf
+        self.at_limit = self.over_limit = 0
+        self.energy = 0.0
+        self.tv = np.zeros(2)
+        self.cost = 0.0
+        # settle time: per joint the time of the sample after the last one outside the band, or
+        # None while the latest sample is outside; "never outside" is t0 (resolved in result())
+        self.settle: list[float | None] = [math.nan, math.nan]
+        self.last: tuple[float, np.ndarray, np.ndarray, float, float] | None = None  # t, |e|, tau, norm, cost
+
+    def add(self, t: np.ndarray, e: np.ndarray, tau: np.ndarray, cost_rate: np.ndarray | None = None) -> None:
+        t = np.asarray(t, dtype=float).reshape(-1)
+        m = len(t)
+        if m == 0:
+            return
+        e = np.asarray(e, dtype=float).reshape(m, 2)
+        tau = np.asarray(tau, dtype=float).reshape(m, 2)
+        if self.with_cost:
+            if cost_rate is None:
+                raise ValueError("cost_rate is needed in every block (the accumulator was made with_cost)")
+            c = np.asarray(cost_rate, dtype=float).reshape(-1)
+            if len(c) != m:
+                raise ValueError(f"cost_rate has {len(c)} samples, t has {m}")
+        ae = np.abs(e)
+        norm = np.hypot(tau[:, 0], tau[:, 1])
+        if self.last is not None:  # the interval from the previous block's last sample
+            tp, aep, taup, normp, cp = self.last
+            t, ae, tau, norm = np.r_[tp, t], np.vstack([aep, ae]), np.vstack([taup, tau]), np.r_[normp, norm]
+            if self.with_cost:
+                c = np.r_[cp, c]
+        else:
+            self.t0 = float(t[0])
+        if len(t) > 1 and np.any(np.diff(t) <= 0.0):
+            raise ValueError("t must be strictly increasing")
+        new = slice(0 if self.last is None else 1, None)  # the samples of this block
+        self.n += m
+        self.e2 += np.sum(e * e, axis=0)
+        self.iae += _trapezoid(ae, t)
+        self.max_e = np.maximum(self.max_e, np.max(ae[new], axis=0))
+        tn = t[new]
+        for t_from in self.max_after:
+            mask = tn >= t_from - 1e-12
+            if mask.any():
+                peak = np.max(ae[new][mask], axis=0)
+                old = self.max_after[t_from]
+                self.max_after[t_from] = peak if old is None else np.maximum(old, peak)
+        for j in (0, 1):
+            outside = np.flatnonzero(ae[new][:, j] >= SETTLE_BAND)
+            if len(outside):
+                last = outside[-1]
+                self.settle[j] = float(tn[last + 1]) if last + 1 < len(tn) else None
+            elif self.settle[j] is None:
+                self.settle[j] = float(tn[0])  # the previous block ended outside; this one starts inside
+        self.max_tau = np.maximum(self.max_tau, np.max(np.abs(tau[new]), axis=0))
+        self.max_norm = max(self.max_norm, float(np.max(norm[new])))
+        self.at_limit += int(np.sum(norm[new] >= self.limit - LIMIT_TOLERANCE))
+        self.over_limit += int(np.sum(norm[new] > self.limit + LIMIT_TOLERANCE))
+        self.energy += float(np.dot(np.diff(t), norm[:-1] ** 2))
+        self.tv += np.sum(np.abs(np.diff(tau, axis=0)), axis=0)
+        if self.with_cost:
+            self.cost += float(_trapezoid(c, t))
+        self.t_last = float(t[-1])
+        self.last = (self.t_last, ae[-1].copy(), tau[-1].copy(), float(norm[-1]), float(c[-1]) if self.with_cost else 0.0)
+
+    def result(self) -> dict[str, Any]:
+        n = self.n
+        if n == 0:
+            raise ValueError("tracking_metrics needs at least one sample")
+        duration = self.t_last - self.t0
+        mse = self.e2 / n
+        settle = [self.t0 if s is not None and math.isnan(s) else s for s in self.settle]  # NaN: never outside
+        after = {k: None if v is None else _per_joint(v) for k, v in self.max_after.items()}
+        out: dict[str, Any] = {
+            "n_samples": int(n),
+            "duration": float(duration),
+            "mse": _per_joint(mse),
+            "rmse": _per_joint(np.sqrt(mse)),
+            "iae": _per_joint(self.iae),
+            "max_abs_error": _per_joint(self.max_e),
+            "max_abs_error_after_20s": after[20.0],
+            "max_abs_error_after_50s": after[50.0],
+            "max_abs_error_last_half": after[self.stop / 2.0],
+            "settle_time_10mrad": settle,
+            "max_abs_tau": _per_joint(self.max_tau),
+            "max_tau_norm": float(self.max_norm),
+            "samples_at_limit": self.at_limit,
+            "fraction_at_limit": float(self.at_limit / n),
+            "samples_over_limit": self.over_limit,
+            "control_energy": self.energy,
+            "tau_total_variation_rate": _per_joint(self.tv / duration) if duration > 0.0 else [0.0, 0.0],
+            "cost_integral": self.cost if self.with_cost else None,
+            "torque_limit": self.limit,
+        }
+        # floats must be finite for JSON; a diverged run reports None rather than NaN/inf
+        for key, value in out.items():
+            if isinstance(value, float) and not math.isfinite(value):
+                out[key] = None
+            elif isinstance(value, list):
+                out[key] = [None if isinstance(v, float) and not math.isfinite(v) else v for v in value]
+        return out
 
 
 def weight_total_variation(t: np.ndarray, weights: np.ndarray, t0: float, t1: float) -> float:

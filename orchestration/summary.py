@@ -4,50 +4,83 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
 from orchestration.master import RunResult
-from orchestration.metrics import tracking_metrics
+from orchestration.metrics import TrackingMetrics
+from orchestration.scenario import Scenario
 
-def _column(result: RunResult, instance: str, name: str) -> np.ndarray | None:
-    return result.outputs.get(instance, {}).get(name)
+CLOSED_LOOP = {"e": (("plant.phi1", "reference.phi1_d"), ("plant.phi2", "reference.phi2_d")),
+               "tau": ("controller.tau1", "controller.tau2")}
+WEIGHTS = tuple(f"controller.W{i}" for i in range(1, 11))
 
 
-def error_and_torque(result: RunResult) -> tuple[np.ndarray, np.ndarray]:
-    """e = phi - phi_d (n, 2) and the commanded torque (n, 2) of a closed-loop run."""
-    e = np.column_stack([result.outputs["plant"][f"phi{i}"] - result.outputs["reference"][f"phi{i}_d"] for i in (1, 2)])
-    tau = np.column_stack([result.outputs["controller"][f"tau{i}"] for i in (1, 2)])
-    return e, tau
+class SummaryObserver:
+    """The run summary, computed while the run streams (a ``RunObserver``): blocks of samples go
+    into ``TrackingMetrics`` and the last sample's weights are kept, so a run of any length is
+    summarised in bounded memory. ``summary`` is ready after ``finish``."""
+
+    def __init__(self) -> None:
+        self.metrics: TrackingMetrics | None = None
+        self.summary: dict[str, Any] | None = None
+        self.where: dict[str, tuple[str, int]] = {}
+        self.final: dict[str, float] = {}
+
+    def start(self, scenario: Scenario, columns: dict[str, list[str]], parameters=None) -> None:
+        self.where = {f"{inst}.{v}": (inst, i) for inst, names in columns.items() for i, v in enumerate(names)}
+        needed = [k for pair in CLOSED_LOOP["e"] for k in pair] + list(CLOSED_LOOP["tau"])
+        if {"plant", "reference", "controller"} <= set(columns) and all(k in self.where for k in needed):
+            self.metrics = TrackingMetrics(scenario.torque_limit(), scenario.stop_time,
+                                           with_cost="controller.cost_rate" in self.where)
+
+    def block(self, time: np.ndarray, rows: dict[str, np.ndarray]) -> None:
+        self.add(time, lambda key: rows[self.where[key][0]][:, self.where[key][1]])
+
+    def add(self, time: np.ndarray, column: Callable[[str], np.ndarray]) -> None:
+        """One block: its times and ``column(key)``, the samples of output "instance.variable"."""
+        if self.metrics is None or len(time) == 0:
+            return
+        e = np.column_stack([column(p) - column(r) for p, r in CLOSED_LOOP["e"]])
+        tau = np.column_stack([column(k) for k in CLOSED_LOOP["tau"]])
+        cost = column("controller.cost_rate") if self.metrics.with_cost else None
+        self.metrics.add(time, e, tau, cost)
+        self.final = {k: float(column(k)[-1]) for k in (*WEIGHTS, "controller.cl_stack_min_eig") if k in self.where}
+
+    def finish(self, result: RunResult) -> None:
+        self.summary = self.summarize(result)
+
+    def summarize(self, result: RunResult) -> dict[str, Any]:
+        sc = result.scenario
+        summary: dict[str, Any] = {
+            "scenario": sc.name,
+            "controller": sc.controller_fmu(),
+            "step_size": sc.step_size,
+            "stop_time": sc.stop_time,
+            "steps": max(result.samples - 1, 0),
+            "samples": result.samples,
+            "status": "failed" if result.failed else "ok",
+            "error": result.error,
+            "wall_time_s": result.wall_time_s,
+        }
+        if result.samples == 0 or self.metrics is None:
+            return summary
+        metrics = self.metrics.result()
+        metrics["max_norm_tau"] = metrics.pop("max_tau_norm")
+        summary.update(metrics)
+        if all(k in self.final for k in WEIGHTS):
+            summary["final_weights"] = [self.final[k] for k in WEIGHTS]
+            summary["cl_stack_min_eig"] = self.final.get("controller.cl_stack_min_eig")
+        return summary
 
 
 def summarize(result: RunResult) -> dict[str, Any]:
-    sc = result.scenario
-    summary: dict[str, Any] = {
-        "scenario": sc.name,
-        "controller": sc.controller_fmu(),
-        "step_size": sc.step_size,
-        "stop_time": sc.stop_time,
-        "steps": max(result.samples - 1, 0),
-        "samples": result.samples,
-        "status": "failed" if result.failed else "ok",
-        "error": result.error,
-        "wall_time_s": result.wall_time_s,
-    }
-    if result.samples == 0 or not {"plant", "reference", "controller"} <= set(result.outputs):
-        return summary
-    e, tau = error_and_torque(result)
-    cost = _column(result, "controller", "cost_rate")
-    metrics = tracking_metrics(result.time, e, tau, sc.torque_limit(), cost_rate=cost, stop_time=sc.stop_time)
-    metrics["max_norm_tau"] = metrics.pop("max_tau_norm")
-    summary.update(metrics)
-    weights = [_column(result, "controller", f"W{i}") for i in range(1, 11)]
-    if all(w is not None for w in weights):
-        summary["final_weights"] = [float(w[-1]) for w in weights]
-        eig = _column(result, "controller", "cl_stack_min_eig")
-        summary["cl_stack_min_eig"] = None if eig is None else float(eig[-1])
-    return summary
+    """The summary of a run that kept its samples (``run(..., keep_samples=True)``)."""
+    obs = SummaryObserver()
+    obs.start(result.scenario, {inst: list(outs) for inst, outs in result.outputs.items()})
+    obs.add(result.time, lambda key: result.outputs[obs.where[key][0]][key.split(".", 1)[1]])
+    return obs.summarize(result)
 
 
 def write_summary(summary: dict[str, Any], path: Path) -> None:

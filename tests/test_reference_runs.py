@@ -60,3 +60,14 @@ def test_summary_equals_the_reference_run(name, fmu_paths):
         assert not bad.any(), f"{key}: first differs at sample {idx[np.argmax(bad)]}: {got[bad][0]!r} != {want[bad][0]!r}"
         checked += 1
     assert checked == len(stored.files) - 1 >= 50
+
+
+@pytest.mark.slow
+def test_a_streamed_run_has_the_reference_summary_without_holding_its_samples(fmu_paths):
+    """What `sotc-cosim run` does: the master streams blocks to the summary, keeps no arrays."""
+    from orchestration.summary import SummaryObserver
+
+    obs = SummaryObserver()
+    result = run(load_scenario("paper"), fmu_paths, observer=obs, keep_samples=False)
+    assert result.samples == 10_001 and result.outputs == {} and len(result.time) == 0
+    assert_same(comparable_summary(obs.summary), REFERENCE["paper"], "paper (streamed)")
