@@ -23,6 +23,7 @@ One sample (``evaluate`` at t_k, then ``advance(t_k, T)``):
 from __future__ import annotations
 
 import math
+import operator
 from typing import Any, ClassVar, Sequence
 
 import numpy as np
@@ -511,7 +512,7 @@ class SotcCore(ControllerCore):
         }
         self._last_inputs = {"t": float(t), "y": [phi1, phi2, dphi1, dphi2],
                              "r": [phi1_d, phi2_d, dphi1_d, dphi2_d, ddphi1_d, ddphi2_d]}
-        J = math.fsum(w * b for w, b in zip(W, basis(z)))
+        J = math.fsum(map(operator.mul, W, basis(z)))
         self.outputs = [
             tau1, tau2, ts1, ts2, ta1, ta2, cs1, cs2, ca1, ca2, zp1, zp2, zv1, zv2, *W,
             J, e1, omega, rew, 31.0 if law31 else 30.0, float(self.stack.count), cl_min_eig,

@@ -100,6 +100,7 @@ class DescribedSlave(Fmi2Slave):
         super().__init__(**kwargs)
         self._meta: dict[str, VariableMeta] = {}
         self._input_ranges: list[tuple[str, float | None, float | None]] = []  # name, low, high
+        self._bounded_inputs = False  # some input declares a min or max
         self._mode = INSTANTIATED
         self._initialized = False  # ``initialize`` succeeded with the current parameter values
         self._preview_stale = True  # initialization mode: a parameter changed since the last preview
@@ -110,7 +111,7 @@ class DescribedSlave(Fmi2Slave):
         self._steps = 0
         self._uniform_step: float | None = None  # h while uniform, nan once a step size changed
         # value-reference lists seen by get_real/set_real -> their plans (``_read_plan``, ``_write_plan``)
-        self._read_plans: dict[tuple[int, ...], tuple[int, ...] | None] = {}
+        self._read_plans: dict[tuple[int, ...], tuple[int, ...] | slice | None] = {}
         self._write_plans: dict[tuple[int, ...], tuple[str, ...] | None] = {}
         self._outputs_by_vr: dict[int, int] | None = None  # output value reference -> index
         self._output_names: tuple[str, ...] = ()
@@ -147,6 +148,7 @@ class DescribedSlave(Fmi2Slave):
             VariableMeta(unit, low, high, None),
         )
         self._input_ranges.append((name, low, high))
+        self._bounded_inputs = self._bounded_inputs or low is not None or high is not None
 
     def declare_output(
         self, name: str, unit: str, description: str, depends_on: Sequence[str] = (),
@@ -237,9 +239,10 @@ class DescribedSlave(Fmi2Slave):
     # value-reference lists) go through plans: the checks of ``_variable`` are done once per list,
     # then a read is one ``output_values`` call and a list of indices, a write one setattr per input.
 
-    def _read_plan(self, vrs) -> tuple[int, ...] | None:
-        """Indices into ``output_values()`` for a list of output value references; None when the
-        list names anything but Real outputs (those reads take the general path)."""
+    def _read_plan(self, vrs) -> tuple[int, ...] | slice | None:
+        """Indices into ``output_values()`` for a list of output value references (a slice when it
+        is all of them in order); None when the list names anything but Real outputs (those reads
+        take the general path)."""
         key = tuple(vrs)
         plan = self._read_plans.get(key, False)
         if plan is False:
@@ -247,6 +250,8 @@ class DescribedSlave(Fmi2Slave):
                 self._variable(vr, Real)  # an unknown reference or a non-Real fails here, by name
             index = self._output_index()
             plan = tuple(index[vr] for vr in key) if all(vr in index for vr in key) else None
+            if plan == tuple(range(len(index))):
+                plan = slice(None)  # every output in declaration order (what a master asks): one copy
             if len(self._read_plans) < PLAN_CACHE:
                 self._read_plans[key] = plan
         return plan
@@ -297,7 +302,7 @@ class DescribedSlave(Fmi2Slave):
             if self._mode == INITIALIZATION and self._preview_stale:
                 self._preview()
             values = self.output_values()
-            return [values[i] for i in plan]
+            return values[plan] if type(plan) is slice else [values[i] for i in plan]
         except Exception as exc:
             self._failed("fmi2GetReal", exc)
             raise
@@ -407,7 +412,11 @@ class DescribedSlave(Fmi2Slave):
         return False
 
     def input_problem(self) -> str | None:
-        """Why the current inputs cannot be used (naming the first bad input), or None."""
+        """Why the current inputs cannot be used (naming the first bad input), or None. The usual
+        case costs one pass: a finite sum of the inputs and no declared range; otherwise each input
+        is looked at (a sum that overflows only sends it to the exact check)."""
+        if not self._bounded_inputs and math.isfinite(sum([getattr(self, n) for n, _, _ in self._input_ranges])):
+            return None
         for name, low, high in self._input_ranges:
             value = getattr(self, name)
             if not math.isfinite(value):

@@ -174,13 +174,40 @@ def _cmd_export_ssp(args: argparse.Namespace) -> int:
 
 
 def _cmd_bench(args: argparse.Namespace) -> int:
-    from orchestration.bench import BENCHMARKS
+    import json
 
-    unknown = [n for n in args.names if n not in BENCHMARKS]
+    from orchestration.bench import BENCHMARKS, DEFAULT_BENCHMARKS
+
+    names = args.names or list(DEFAULT_BENCHMARKS)
+    unknown = [n for n in names if n not in BENCHMARKS]
     if unknown:
         raise ScenarioError(f"no benchmark {unknown}; known: {', '.join(BENCHMARKS)}")
-    for name in args.names or list(BENCHMARKS):
-        print(BENCHMARKS[name](args.fmu_dir))
+    old = None
+    if args.compare is not None:
+        try:
+            old = json.loads(args.compare.read_text())
+        except (OSError, ValueError) as exc:
+            raise ScenarioError(f"--compare {args.compare}: cannot read the JSON of an earlier bench: {exc}") from exc
+    results = {}
+    for name in names:
+        text, results[name] = BENCHMARKS[name](args)
+        print(text)
+    if old is not None and "speed" in results:
+        from orchestration.bench_speed import compare
+
+        print(compare(old.get("speed", old), results["speed"]))
+    if args.json is not None:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(json.dumps(results, indent=1) + "\n")
+        print(f"wrote {args.json}")
+    if args.update_docs:
+        if "speed" not in results:
+            raise ScenarioError("--update-docs writes the speed benchmark's tables: run it (sotc-cosim bench speed)")
+        from orchestration.bench_speed import update_docs
+        from orchestration.build import PACKAGE_ROOT
+
+        for path in update_docs(results["speed"], PACKAGE_ROOT):
+            print(f"wrote {path}")
     return 0
 
 
@@ -189,6 +216,18 @@ def _positive_int(text: str) -> int:
     if value < 1:
         raise argparse.ArgumentTypeError(f"must be a whole number >= 1, got {text}")
     return value
+
+
+def _stop_times(text: str) -> list[float]:
+    if text.strip().lower() == "none":
+        return []
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected stop times like 1000,10000 or 'none', got {text!r}") from None
+    if not all(v > 0 for v in values):
+        raise argparse.ArgumentTypeError(f"stop times must be > 0, got {text!r}")
+    return values
 
 
 def _add_fmu_dir(p: argparse.ArgumentParser) -> None:
@@ -251,8 +290,18 @@ def build_parser() -> argparse.ArgumentParser:
     _add_fmu_dir(p)
     p.set_defaults(func=_cmd_reproduce)
 
-    p = sub.add_parser("bench", help="measurements behind design choices (prints ratios measured side by side)")
-    p.add_argument("names", nargs="*", metavar="NAME", help="benchmarks to run (default all)")
+    p = sub.add_parser("bench", help="measure speed and scaling (default), or the measurements behind design choices")
+    p.add_argument("names", nargs="*", metavar="NAME",
+                   help="benchmarks to run: speed (default), integrator, recording, recording-blocks")
+    p.add_argument("--repeats", type=_positive_int, default=3, help="alternated runs of each variant (default 3)")
+    p.add_argument("--long", type=_stop_times, default=[1000.0, 10000.0], metavar="S[,S...]",
+                   help="stop times of the long single runs, s (default 1000,10000; 'none' skips them)")
+    p.add_argument("--record-every", type=_positive_int, default=1, metavar="N",
+                   help="the long runs record every N-th sample (default 1: everything)")
+    p.add_argument("--json", type=Path, metavar="PATH", help="write the results as JSON (compare them later)")
+    p.add_argument("--compare", type=Path, metavar="OLD.json", help="print the change against an earlier --json")
+    p.add_argument("--update-docs", action="store_true",
+                   help="write docs/performance.json and the generated tables of docs/performance.md and README.md")
     _add_fmu_dir(p)
     p.set_defaults(func=_cmd_bench)
 

@@ -2,7 +2,8 @@
 
 Call order at each communication point t_k = k T (k = 0 .. N, computed as k * T, never summed):
 
-1. for each instance in feedthrough order: read all its outputs, then set the inputs they feed;
+1. for each instance in feedthrough order: read all its outputs, then set the inputs of every
+   instance whose sources have all been read now (one fmi2SetReal per target instance);
 2. record every output of every instance at t_k;
 3. (k < N) ``doStep(t_k, T)`` on every instance.
 
@@ -172,19 +173,48 @@ def _checked(status: int, function: str) -> None:
 
 
 class _Link:
-    """All connections from one source instance to one target instance, set with one fmi2SetReal."""
+    """All connections from one source instance to one target instance."""
 
     def __init__(self, source: _Loaded, target: _Loaded, pairs: list[tuple[str, str]]):
         self.source, self.target = source, target
         self.src_index = np.array([source.output_names.index(o) for o, _ in pairs], dtype=np.intp)
-        self.n = len(pairs)
-        self.vr = (fmi2ValueReference * self.n)(*(target.vars[i].valueReference for _, i in pairs))
+        self.target_vrs = [target.vars[i].valueReference for _, i in pairs]
+
+
+class _Inputs:
+    """Every connection into one target instance, set with one fmi2SetReal from preallocated buffers
+    once all its sources have been read at the communication point."""
+
+    def __init__(self, target: _Loaded, links: list[_Link]):
+        self.target = target
+        vrs = [vr for link in links for vr in link.target_vrs]
+        self.n = len(vrs)
+        self.vr = (fmi2ValueReference * self.n)(*vrs)
         self.buf = (fmi2Real * self.n)()
-        self.view = np.ctypeslib.as_array(self.buf)
+        view = np.ctypeslib.as_array(self.buf)
+        self.parts, lo = [], 0
+        for link in links:  # (source outputs, which of them, where they go in the buffer)
+            self.parts.append((link.source.out_view, link.src_index, view[lo:lo + len(link.src_index)]))
+            lo += len(link.src_index)
 
     def push(self) -> None:
-        np.take(self.source.out_view, self.src_index, out=self.view)  # no per-step allocation
+        for outputs, index, into in self.parts:
+            outputs.take(index, out=into)  # no per-step allocation
         _checked(self.target.raw_set(self.target.fmu.component, self.vr, self.n, self.buf), "fmi2SetReal")
+
+
+def _input_pushes(order: list[str], links: list[_Link]) -> dict[str, list[_Inputs]]:
+    """Per instance, the targets whose inputs are set right after it is read: those whose last
+    source (in ``order``) it is, so each target gets one fmi2SetReal per communication point."""
+    position = {name: i for i, name in enumerate(order)}
+    by_target: dict[str, list[_Link]] = {}
+    for link in links:
+        by_target.setdefault(link.target.name, []).append(link)
+    pushes: dict[str, list[_Inputs]] = {name: [] for name in order}
+    for target_links in by_target.values():
+        last = max((link.source.name for link in target_links), key=position.__getitem__)
+        pushes[last].append(_Inputs(target_links[0].target, target_links))
+    return pushes
 
 
 def _resolve_links(scenario: Scenario, loaded: dict[str, _Loaded]) -> list[_Link]:
@@ -288,8 +318,9 @@ def run(
             loaded[inst.name] = _Loaded(inst.name, fmu_paths[inst.fmu], workdir, logs, clock)
         links = _resolve_links(scenario, loaded)
         order = _feedthrough_order(loaded, links)
-        # per feedthrough position: the instance and the links it feeds (lists: no lookups per step)
-        plan = [(loaded[name], [l for l in links if l.source.name == name]) for name in order]
+        # per feedthrough position: the instance and the inputs set after it (lists: no lookups per step)
+        pushes = _input_pushes(order, links)
+        plan = [(loaded[name], pushes[name]) for name in order]
         instances = list(loaded.values())
         for inst in scenario.instances.values():
             ld = loaded[inst.name]
