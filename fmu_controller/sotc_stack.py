@@ -31,7 +31,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from fmu_controller.small_linalg import smallest_eigenvalue
+from fmu_controller.small_linalg import smallest_eigenvalue, smallest_eigenvalues
 from fmu_controller.sotc_math import N_BASIS, basis_jacobian, omega_of_arg_rows
 
 SELECTIONS = ("maxeig", "fill", "fifo")
@@ -167,7 +167,7 @@ class CLStack:
             sc = 1.0 / (1.0 + np.einsum("ij,ij->i", E, E)) ** 2
             cand = np.outer(eta, eta) * (1.0 / (1.0 + etaeta) ** 2)
             trial = M[None, :, :] - np.einsum("i,ij,ik->ijk", sc, E, E) + cand[None, :, :]
-            eigs = np.linalg.eigvalsh(trial)[:, 0]
+            eigs = smallest_eigenvalues(trial)
             row = int(np.argmax(eigs))
             if not eigs[row] > MAXEIG_GAIN * min_eig:
                 return False
