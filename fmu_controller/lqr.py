@@ -13,7 +13,7 @@ and v is the linear-quadratic regulator of (LQR-2) for the cost
 
     v = -K x,   K = R^-1 B' P,   A'P + PA - P B R^-1 B' P + Theta = 0                 (LQR-4)
 
-solved once at construction with ``scipy.linalg.solve_continuous_are``. Theta = I4 is the SOTC's
+solved once at construction (``fmu_controller.riccati.solve_care``). Theta = I4 is the SOTC's
 state weight (section 4); r = 1 is the SOTC's R = 1 (there R weights its bounded inputs mu, here
 the commanded acceleration v, so the numbers are analogous, not identical problems).
 
@@ -25,9 +25,9 @@ that, but the gain here comes from the Riccati solver, not from this formula.
 from __future__ import annotations
 
 import numpy as np
-from scipy.linalg import solve_continuous_are
 
 from fmu_controller.computed_torque import TAU_MAX_SPEC, LinearisingCore
+from fmu_controller.riccati import solve_care
 from fmu_plant.parameters import ParameterSpec
 
 
@@ -44,7 +44,7 @@ def lqr_gain(q: float, r: float) -> tuple[np.ndarray, np.ndarray]:
     """(K, P) of eq. (LQR-4) for Theta = q I4, R = r I2."""
     a, b = error_system()
     theta, rm = q * np.eye(4), r * np.eye(2)
-    p = solve_continuous_are(a, b, theta, rm)
+    p = solve_care(a, b, theta, rm)
     k = np.linalg.solve(rm, b.T @ p)
     return k, p
 

@@ -62,10 +62,10 @@ import operator
 from typing import Any, Sequence
 
 import numpy as np
-from scipy.linalg import solve_continuous_are
 
 from fmu_controller.base import ControllerCore, OutputSpec
 from fmu_controller.computed_torque import DEFAULT_TAU_MAX
+from fmu_controller.riccati import solve_care
 from fmu_controller.sotc_math import (
     N_BASIS,
     basis,
@@ -142,7 +142,7 @@ class OtcCore(ControllerCore):
         f[:2, 2:] = np.eye(2)
         g = np.zeros((4, 2))
         g[2:, :] = np.linalg.inv(inertia_matrix(phi2, self.model))
-        return solve_continuous_are(f, g, self.params["q"] * np.eye(4), np.diag(self.r_diag))
+        return solve_care(f, g, self.params["q"] * np.eye(4), np.diag(self.r_diag))
 
     # --- control law --------------------------------------------------------------------------
 

@@ -49,6 +49,7 @@ import copy
 import ctypes
 import json
 import math
+import os
 import sys
 from contextlib import contextmanager
 from typing import Any, Callable, ClassVar, Iterator, Sequence
@@ -62,6 +63,9 @@ from fmu_plant.parameters import ParameterSpec
 
 PLAN_CACHE = 64  # value-reference lists whose read/write plans are kept per instance
 STEP_SIZE = 0.01  # the paper's sampling period T, also each FMU's DefaultExperiment stepSize
+# in resources/: parameter start values of a parameterised copy of the FMU (``sotc-cosim export-ssp``
+# writes one per SSP component with parameters, so that every engine applies them)
+PARAMETER_STARTS = "parameter_starts.json"
 
 # FMI 2.0 co-simulation states (``DescribedSlave._mode``)
 INSTANTIATED = "instantiated"
@@ -98,6 +102,8 @@ class DescribedSlave(Fmi2Slave):
 
     def __init__(self, **kwargs: Any):
         super().__init__(**kwargs)
+        self._forget_resources_path()
+        self._starts, self._starts_problem = self._read_parameter_starts()
         self._meta: dict[str, VariableMeta] = {}
         self._input_ranges: list[tuple[str, float | None, float | None]] = []  # name, low, high
         self._bounded_inputs = False  # some input declares a min or max
@@ -116,11 +122,34 @@ class DescribedSlave(Fmi2Slave):
         self._outputs_by_vr: dict[int, int] | None = None  # output value reference -> index
         self._output_names: tuple[str, ...] = ()
 
+    def _forget_resources_path(self) -> None:
+        """pythonfmu's binary inserts ``resources/`` at ``sys.path[0]`` at every fmi2Instantiate and
+        never removes it. Every module this FMU needs is imported by now, under names unique to its
+        build, so the entry is taken out again: the host's ``sys.path`` stays as it was."""
+        if self.resources and sys.path and sys.path[0] == self.resources:
+            del sys.path[0]
+
+    def _read_parameter_starts(self) -> tuple[dict[str, Any], str | None]:
+        """Start values from ``resources/parameter_starts.json`` (absent: the declared defaults)."""
+        if not self.resources:
+            return {}, None
+        try:
+            with open(os.path.join(self.resources, PARAMETER_STARTS), encoding="utf-8") as f:
+                starts = json.load(f)
+        except FileNotFoundError:
+            return {}, None
+        except (OSError, ValueError) as exc:
+            return {}, f"{PARAMETER_STARTS} cannot be read: {exc}"
+        if not isinstance(starts, dict) or not all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                                                   for v in starts.values()):
+            return {}, f"{PARAMETER_STARTS} must map parameter names to numbers"
+        return starts, None
+
     # --- declaration -------------------------------------------------------------------------
 
     def declare_parameter(self, spec: ParameterSpec) -> None:
         """A fixed parameter whose value is checked against ``spec`` at initialization."""
-        setattr(self, spec.name, spec.default)
+        setattr(self, spec.name, float(self._starts.get(spec.name, spec.default)))
         self._register(
             Real(spec.name, causality=Fmi2Causality.parameter, variability=Fmi2Variability.fixed,
                  initial=Fmi2Initial.exact, description=f"{spec.description}; valid range {spec.range_text()}"),
@@ -129,7 +158,7 @@ class DescribedSlave(Fmi2Slave):
         )
 
     def declare_integer_parameter(self, name: str, default: int, low: int, high: int, description: str) -> None:
-        setattr(self, name, default)
+        setattr(self, name, int(self._starts.get(name, default)))
         self._register(
             Integer(name, causality=Fmi2Causality.parameter, variability=Fmi2Variability.fixed,
                     initial=Fmi2Initial.exact, description=f"{description}; valid range [{low}, {high}]"),
@@ -354,11 +383,18 @@ class DescribedSlave(Fmi2Slave):
     def exit_initialization_mode(self) -> None:
         with self._guarded("fmi2ExitInitializationMode (initialization refused)"):
             self._require_mode("fmi2ExitInitializationMode", INITIALIZATION)
+            self._check_parameter_starts()
             self._initialized = False
             self.initialize()  # raises naming the parameter; the instance stays in initialization mode
         self._initialized = True
         self._preview_stale = False
         self._mode = STEPPING
+
+    def _check_parameter_starts(self) -> None:
+        parameters = {v.name for v in self.vars.values() if v.causality == Fmi2Causality.parameter}
+        unknown = sorted(set(self._starts) - parameters)
+        if self._starts_problem or unknown:
+            raise ValueError(self._starts_problem or f"{PARAMETER_STARTS} names {unknown}, which are not parameters")
 
     def _preview(self) -> None:
         """Initialization mode: compute the initial outputs from the parameters set so far."""

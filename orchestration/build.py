@@ -2,22 +2,25 @@
 
 pythonfmu's builder imports the model script to write the modelDescription; if that happened in
 the process that later simulates, the simulation would silently run the already-imported source
-tree instead of the FMU. So ``build_fmus`` runs ``python -m orchestration.build`` as a subprocess.
+tree instead of the FMU. So ``build_fmus`` runs ``python -m orchestration.build`` as a subprocess,
+which packages each FMU with ``orchestration.fmu_package`` (every bundled module under a name unique
+to the model and build, so any mix of FMUs runs side by side in one interpreter).
 
-Each FMU is staged from clean copies of the packages it needs (``*.py`` only, no caches), and a
-``<Model>.sources.sha256`` file beside it records the sources it was built from, so ``ensure_built``
-rebuilds exactly the FMUs whose sources changed.
+A ``<Model>.sources.sha256`` file beside each FMU records the digest of what it was built from (its
+sources, pythonfmu's Python half, and this packaging code), so ``ensure_built`` rebuilds exactly
+the FMUs whose inputs changed. The digest also names the FMU's bundled modules.
 """
 from __future__ import annotations
 
 import argparse
 import hashlib
-import shutil
 import subprocess
 import sys
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
+
+from orchestration import fmu_package
 
 DEFAULT_FMU_DIR = Path("build") / "fmus"
 PACKAGE_ROOT = Path(__file__).resolve().parent.parent  # folder holding fmu_plant/, fmu_controller/
@@ -26,19 +29,26 @@ PACKAGE_ROOT = Path(__file__).resolve().parent.parent  # folder holding fmu_plan
 @dataclass(frozen=True)
 class FmuSource:
     model: str  # modelIdentifier == FMU file stem
-    script: str  # path relative to PACKAGE_ROOT; its stem is the FMU's Python module name
-    packages: tuple[str, ...]  # packages bundled under resources/
+    script: str  # path relative to PACKAGE_ROOT
+    packages: tuple[str, ...]  # packages bundled (renamed) under resources/
+    equations: tuple[str, ...] = ()  # modules whose docstrings summarise the FMU's equations
 
 
 FMU_SOURCES: dict[str, FmuSource] = {
     s.model: s
     for s in (
-        FmuSource("ArmPlant", "fmu_plant/arm_plant_fmu.py", ("fmu_plant",)),
-        FmuSource("ReferenceTrajectory", "fmu_plant/reference_trajectory_fmu.py", ("fmu_plant",)),
-        FmuSource("CtController", "fmu_controller/ct_controller_fmu.py", ("fmu_plant", "fmu_controller")),
-        FmuSource("SotcController", "fmu_controller/sotc_controller_fmu.py", ("fmu_plant", "fmu_controller")),
-        FmuSource("OtcController", "fmu_controller/otc_controller_fmu.py", ("fmu_plant", "fmu_controller")),
-        FmuSource("LqrController", "fmu_controller/lqr_controller_fmu.py", ("fmu_plant", "fmu_controller")),
+        FmuSource("ArmPlant", "fmu_plant/arm_plant_fmu.py", ("fmu_plant",),
+                  ("fmu_plant/dynamics.py", "fmu_plant/kinematics.py")),
+        FmuSource("ReferenceTrajectory", "fmu_plant/reference_trajectory_fmu.py", ("fmu_plant",),
+                  ("fmu_plant/trajectory.py", "fmu_plant/kinematics.py")),
+        FmuSource("CtController", "fmu_controller/ct_controller_fmu.py", ("fmu_plant", "fmu_controller"),
+                  ("fmu_controller/computed_torque.py",)),
+        FmuSource("SotcController", "fmu_controller/sotc_controller_fmu.py", ("fmu_plant", "fmu_controller"),
+                  ("fmu_controller/sotc.py",)),
+        FmuSource("OtcController", "fmu_controller/otc_controller_fmu.py", ("fmu_plant", "fmu_controller"),
+                  ("fmu_controller/otc.py",)),
+        FmuSource("LqrController", "fmu_controller/lqr_controller_fmu.py", ("fmu_plant", "fmu_controller"),
+                  ("fmu_controller/lqr.py",)),
     )
 }
 
@@ -48,16 +58,17 @@ class BuildError(RuntimeError):
 
 
 def _source_files(source: FmuSource) -> list[Path]:
-    files = [PACKAGE_ROOT / source.script]
+    files = [PACKAGE_ROOT / source.script, Path(__file__).resolve(), Path(fmu_package.__file__).resolve()]
     for pkg in source.packages:
         files += sorted((PACKAGE_ROOT / pkg).glob("*.py"))
-    return sorted(set(files))
+    return sorted(set(files)) + fmu_package.pythonfmu_sources()
 
 
 def source_digest(source: FmuSource) -> str:
-    h = hashlib.sha256()
+    """What the FMU is built from: its sources, pythonfmu's Python half and the packaging code."""
+    h = hashlib.sha256(source.model.encode())
     for f in _source_files(source):
-        h.update(f.relative_to(PACKAGE_ROOT).as_posix().encode())
+        h.update(f.name.encode())
         h.update(f.read_bytes())
     return h.hexdigest()
 
@@ -77,28 +88,13 @@ def is_current(model: str, out_dir: Path) -> bool:
 
 def _build_one(source: FmuSource, out_dir: Path) -> Path:
     """Runs in the child process only."""
-    from pythonfmu import FmuBuilder
-
     with tempfile.TemporaryDirectory(prefix="sotc_stage_") as tmp:
-        stage = Path(tmp)
-        # other FMUs' scripts stay out: each FMU carries the cores and its own script only
-        skip = shutil.ignore_patterns("__pycache__", "*.pyc", "*_fmu.py")
-        for pkg in source.packages:
-            shutil.copytree(PACKAGE_ROOT / pkg, stage / pkg, ignore=skip)
-        script = stage / source.script
-        shutil.copy2(PACKAGE_ROOT / source.script, script)
-        project = [stage / pkg for pkg in source.packages]
-        sys.path.insert(0, str(stage))
-        try:
-            built = FmuBuilder.build_FMU(script, dest=out_dir, project_files=project)
-        finally:
-            sys.path.remove(str(stage))
-            # forget the staged modules: the next FMU stages (and imports) its own copy
-            for name in list(sys.modules):
-                if name.split(".")[0] in source.packages or name == script.stem:
-                    del sys.modules[name]
-    (out_dir / f"{source.model}.sources.sha256").write_text(source_digest(source) + "\n")
-    return Path(built)
+        digest = source_digest(source)
+        built = fmu_package.package_fmu(
+            source.model, PACKAGE_ROOT / source.script, {pkg: PACKAGE_ROOT / pkg for pkg in source.packages},
+            [PACKAGE_ROOT / e for e in source.equations], digest, fmu_path(source.model, out_dir), Path(tmp))
+    (out_dir / f"{source.model}.sources.sha256").write_text(digest + "\n")
+    return built
 
 
 def build_fmus(models: list[str] | None = None, out_dir: Path = DEFAULT_FMU_DIR) -> list[Path]:

@@ -5,6 +5,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from orchestration import interrupt
 from orchestration.build import DEFAULT_FMU_DIR, FMU_SOURCES, BuildError, build_fmus, ensure_built
 from orchestration.scenario import ScenarioError, available_scenarios, load_scenario
 
@@ -41,6 +42,8 @@ def _run_each(scenarios, paths, recording_for=None, keep_samples: bool = True, r
 
     out = []
     for scenario in scenarios:
+        if interrupt.requested():  # Ctrl-C: no further scenario starts; the finished ones are kept
+            break
         target = recording_for(scenario) if recording_for else None
         summary = SummaryObserver()
         observers = [] if keep_samples else [summary]
@@ -52,13 +55,15 @@ def _run_each(scenarios, paths, recording_for=None, keep_samples: bool = True, r
             with RunRecorder(target, every=record_every) as recorder:
                 result = run(scenario, paths, observer=[*observers, recorder], block_size=BLOCK_SIZE,
                              keep_samples=keep_samples)
-        if result.failed:
+        if result.failed and not result.interrupted:
             print(f"{scenario.name}: FAILED: {result.error}", file=sys.stderr)
         out.append((result, summarize(result) if keep_samples else summary.summary))
     return out
 
 
 def _exit_code(summaries: list[dict]) -> int:
+    if interrupt.requested():
+        return interrupt.EXIT_CODE
     return 1 if any(s["status"] != "ok" for s in summaries) else 0
 
 
@@ -332,11 +337,21 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    try:
-        return args.func(args)
-    except (ScenarioError, BuildError) as exc:
-        print(f"sotc-cosim: error: {exc}", file=sys.stderr)
-        return 2
+    with interrupt.sigint_deferred():
+        try:
+            code = args.func(args)
+        except interrupt.Interrupted:
+            code = interrupt.EXIT_CODE
+        except (ScenarioError, BuildError) as exc:
+            if not interrupt.requested():
+                print(f"sotc-cosim: error: {exc}", file=sys.stderr)
+                return 2
+            code = interrupt.EXIT_CODE
+        if interrupt.requested():
+            print("sotc-cosim: interrupted (SIGINT): stopped between two steps; finished results were kept",
+                  file=sys.stderr)
+            return interrupt.EXIT_CODE
+        return code
 
 
 if __name__ == "__main__":

@@ -14,8 +14,8 @@ Step semantics (T = 0.01 s, t_k = k T):
 - fmpy.ssp.simulate_ssp (Jacobi, no initial propagation): every connector starts at 0, so over the
   first step the plant holds tau = 0 and the controller sees an all-zero measurement and reference;
   then the same one-step delay. It reports, at the row labelled t_k, the values after the step that
-  ends at t_{k+1}, does not apply the SSD's parameter bindings (``ssp.parameter_set_for_fmpy``
-  passes them explicitly), and loops ``while time < stop_time`` with time summed step by step, so
+  ends at t_{k+1}, does not apply the SSD's parameter bindings (the archive's parameterised FMU
+  copies carry the scenario's values as their own start values), and loops ``while time < stop_time`` with time summed step by step, so
   it may run one step past the stop time (3 s: 0.01 summed 300 times is 2.99999999999998).
 
 ``run_jacobi`` emulates both Jacobi variants with direct FMI calls; the tests check that each engine
@@ -72,13 +72,10 @@ def run_fmpy_ssp(ssp: Path, scenario: Scenario) -> EngineRun:
     """``fmpy.ssp.simulate_ssp``; its row labelled t_k holds the values at t_{k+1} and is stored so."""
     from fmpy.ssp.simulation import simulate_ssp
 
-    from orchestration.ssp import parameter_set_for_fmpy
-
     started = clock.perf_counter()
-    rows = simulate_ssp(str(ssp), stop_time=scenario.stop_time, step_size=scenario.step_size,
-                        parameter_set=parameter_set_for_fmpy(ssp))
+    rows = simulate_ssp(str(ssp), stop_time=scenario.stop_time, step_size=scenario.step_size)
     wall = clock.perf_counter() - started
-    notes = ["no sample at t_0; row k holds t_{k+1}; parameter bindings passed explicitly"]
+    notes = ["no sample at t_0; row k holds t_{k+1}"]
     if len(rows) > scenario.steps:  # ``while time < stop_time`` with time accumulated: 0.01 summed 300
         notes.append(f"ran {len(rows) - scenario.steps} step(s) past stop_time (accumulated time fell short)")
         rows = rows[:scenario.steps]

@@ -29,6 +29,7 @@ from fmpy import extract, read_model_description
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Slave, fmi2Real, fmi2True, fmi2ValueReference, fmi2Warning
 
+from orchestration import interrupt
 from orchestration.fmi_direct import forget_callbacks, make_callbacks
 from orchestration.scenario import Scenario, ScenarioError
 
@@ -55,6 +56,7 @@ class RunResult:
     wall_time_s: float
     failed: bool = False
     error: str | None = None
+    interrupted: bool = False  # stopped by SIGINT (``orchestration.interrupt``); ``failed`` is set too
     logs: list[LogRecord] = field(default_factory=list)
     # every parameter of every instance as the FMU holds it after initialization (defaults included)
     parameters: dict[str, dict[str, float]] = field(default_factory=dict)
@@ -310,8 +312,11 @@ def run(
             _call_observer(observer.block, block_t, {n: r[lo:hi] for n, r in records.items()})
         flushed = upto
 
+    interrupted = False
+    stop = interrupt.STATE
     started = time.perf_counter()
     try:
+        interrupt.check()  # SIGINT before the run: nothing is loaded
         for inst in scenario.instances.values():
             if inst.fmu not in fmu_paths:
                 raise ScenarioError(f"instance '{inst.name}': no built FMU for model '{inst.fmu}'")
@@ -350,11 +355,16 @@ def run(
                     row = 0
             if k == n_steps:
                 break
+            if stop.requested:  # SIGINT: stop here, between two steps, with every sample so far
+                interrupted = True
+                break
             t = k * T  # t_k = k T, the same double as np.arange(...) * T
             for ld in instances:
                 ld.do_step(t, T)
     except ScenarioError:
         raise  # the scenario itself is wrong: nothing ran
+    except interrupt.Interrupted:
+        interrupted = True
     except Exception as exc:  # FMI status errors, fmpy's load/instantiate errors, observer errors
         error = _describe_failure(exc, k, T, n_steps, logs)
         observer_ok = not isinstance(exc, _ObserverFailed)
@@ -363,14 +373,17 @@ def run(
         _free(loaded)
         shutil.rmtree(workdir, ignore_errors=True)
     completed = recorded
+    if interrupted and error is None:
+        where = f"after t = {(completed - 1) * T:.2f} s (sample {completed - 1})" if completed else "before the first sample"
+        error = f"interrupted by SIGINT {where}"
     if keep_samples:  # views into the one array per instance: no second copy of the run
         outputs = {name: {v: records[name][:completed, i] for i, v in enumerate(loaded[name].output_names)}
                    for name in records}
         result = RunResult(scenario, times[:completed], outputs, wall, failed=error is not None, error=error,
-                           logs=logs, parameters=parameters)
+                           interrupted=interrupted, logs=logs, parameters=parameters)
     else:
         result = RunResult(scenario, np.empty(0), {}, wall, failed=error is not None, error=error,
-                           logs=logs, parameters=parameters, completed=completed)
+                           interrupted=interrupted, logs=logs, parameters=parameters, completed=completed)
     if observer is not None:
         try:
             if observer_ok and completed > flushed:

@@ -334,7 +334,7 @@ def send_scenario_properties(
 
 def send_result_properties(stream: rr.RecordingStream, result: RunResult, prefix: str = "") -> None:
     stream.send_property(f"{prefix}result", rr.AnyValues(
-        status="failed" if result.failed else "ok", samples=result.samples, wall_time_s=result.wall_time_s,
+        status="interrupted" if result.interrupted else "failed" if result.failed else "ok", samples=result.samples, wall_time_s=result.wall_time_s,
         error=result.error or "",
     ))
 

@@ -9,10 +9,15 @@ The archive holds:
   same resolution as the master: ``[[connect]]`` links same-named ports), a DefaultExperiment with
   the scenario's start/stop time and, as an Open Simulation Platform annotation, a fixed-step
   algorithm with the scenario's step size;
-- ``resources/<Model>.fmu``: the FMUs, once each;
-- ``resources/<instance>.ssv``: the scenario's parameter values of each instance (an SSV parameter
-  set bound to its component; names are the FMU's variable names, as SSP 1.0 specifies for a
-  binding without prefix).
+- ``resources/<Model>.fmu``: the FMUs of the instances that keep every default, once each;
+- ``resources/<instance>.fmu``: for an instance with parameters, a *parameterised copy* of its FMU:
+  the scenario's values are its start values, in its modelDescription and in
+  ``resources/parameter_starts.json``, which the FMU reads when instantiated (``fmu_plant.slave_base``),
+  with a GUID of its own. SSP engines differ in how they apply parameters: ``fmpy.ssp.simulate_ssp``
+  ignores the SSD's bindings, ecospy applies a parameter set only when it is named at
+  initialisation. An FMU's own start values reach every engine;
+- the same values as an inline ``ssd:ParameterBinding`` of each component (SSP 1.0's own way, for
+  engines and tools that read bindings; they agree with the copies' start values).
 
 Inputs nothing feeds (the plant's disturbances) are left out of the connectors on purpose:
 fmpy 0.3.32's ``fmpy.ssp.ssd.get_connections`` keeps the source found for the previous input when an
@@ -24,6 +29,9 @@ names with their prefix. The SSD and the SSVs validate against the SSP 1.0 schem
 """
 from __future__ import annotations
 
+import io
+import json
+import uuid
 import zipfile
 from pathlib import Path
 from xml.etree import ElementTree as ET
@@ -56,7 +64,7 @@ def resolve_links(scenario: Scenario, model_descriptions: dict) -> list[Connecti
     )
 
 
-def _ssv(instance: str, values: dict[str, float], md) -> bytes:
+def _parameter_set(instance: str, values: dict[str, float], md) -> ET.Element:
     types = {v.name: v.type for v in md.modelVariables}
     root = ET.Element(_q("ssv:ParameterSet"), {"version": "1.0", "name": f"{instance}-parameters"})
     params = ET.SubElement(root, _q("ssv:Parameters"))
@@ -66,7 +74,36 @@ def _ssv(instance: str, values: dict[str, float], md) -> bytes:
             ET.SubElement(p, _q("ssv:Integer"), {"value": str(int(value))})
         else:
             ET.SubElement(p, _q("ssv:Real"), {"value": repr(float(value))})
-    return ET.tostring(root, encoding="utf-8", xml_declaration=True)
+    return root
+
+
+def parameterised_copy(fmu: Path, values: dict[str, float], md) -> bytes:
+    """The FMU with ``values`` as its parameters' start values (modelDescription and
+    ``resources/parameter_starts.json``) and a GUID derived from the original one and the values."""
+    from fmu_plant.slave_base import PARAMETER_STARTS
+
+    types = {v.name: v.type for v in md.modelVariables}
+    starts = {n: int(v) if types[n] == "Integer" else float(v) for n, v in values.items()}
+    guid = "{" + str(uuid.uuid5(uuid.NAMESPACE_OID, md.guid + json.dumps(starts, sort_keys=True))) + "}"
+    out = io.BytesIO()
+    with zipfile.ZipFile(fmu) as src, zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as dst:
+        for item in src.infolist():
+            data = src.read(item)
+            if item.filename == "modelDescription.xml":
+                root = ET.fromstring(data)
+                root.set("guid", guid)
+                for sv in root.iter("ScalarVariable"):
+                    if sv.get("name") in starts:
+                        next(iter(sv)).set("start", repr(starts[sv.get("name")]))
+                data = ET.tostring(root, encoding="utf-8", xml_declaration=True)
+            dst.writestr(item, data)
+        dst.writestr(f"resources/{PARAMETER_STARTS}", json.dumps(starts, indent=1))
+    return out.getvalue()
+
+
+def _source(inst) -> str:
+    """Where a component's FMU lies in the archive: its own copy if it has parameters."""
+    return f"resources/{inst.name}.fmu" if inst.parameters else f"resources/{inst.fmu}.fmu"
 
 
 def _ssd(scenario: Scenario, mds: dict, links: list[Connection]) -> bytes:
@@ -78,7 +115,7 @@ def _ssd(scenario: Scenario, mds: dict, links: list[Connection]) -> bytes:
     for inst in scenario.instances.values():
         md = mds[inst.name]
         comp = ET.SubElement(elements, _q("ssd:Component"), {
-            "name": inst.name, "type": "application/x-fmu-sharedlibrary", "source": f"resources/{inst.fmu}.fmu"})
+            "name": inst.name, "type": "application/x-fmu-sharedlibrary", "source": _source(inst)})
         connectors = ET.SubElement(comp, _q("ssd:Connectors"))
         fed = {link.input for link in links if link.target == inst.name}
         for v in md.modelVariables:
@@ -95,8 +132,8 @@ def _ssd(scenario: Scenario, mds: dict, links: list[Connection]) -> bytes:
                       if getattr(u.baseUnit, k, 0)} for u in md.unitDefinitions if u.name == v.unit), {}))
         if inst.parameters:
             bindings = ET.SubElement(comp, _q("ssd:ParameterBindings"))
-            ET.SubElement(bindings, _q("ssd:ParameterBinding"), {
-                "type": "application/x-ssp-parameter-set", "source": f"resources/{inst.name}.ssv"})
+            binding = ET.SubElement(bindings, _q("ssd:ParameterBinding"), {"type": "application/x-ssp-parameter-set"})
+            ET.SubElement(binding, _q("ssd:ParameterValues")).append(_parameter_set(inst.name, inst.parameters, md))
     connections = ET.SubElement(system, _q("ssd:Connections"))
     for link in links:
         ET.SubElement(connections, _q("ssd:Connection"), {
@@ -135,23 +172,9 @@ def export_ssp(scenario: Scenario, fmu_paths: dict[str, Path], out: Path) -> Pat
     out.parent.mkdir(parents=True, exist_ok=True)
     with zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as z:
         z.writestr("SystemStructure.ssd", _ssd(scenario, mds, links))
-        for model in sorted({i.fmu for i in scenario.instances.values()}):
+        for model in sorted({i.fmu for i in scenario.instances.values() if not i.parameters}):
             z.write(fmu_paths[model], f"resources/{model}.fmu")
         for inst in scenario.instances.values():
             if inst.parameters:
-                z.writestr(f"resources/{inst.name}.ssv", _ssv(inst.name, inst.parameters, mds[inst.name]))
+                z.writestr(_source(inst), parameterised_copy(fmu_paths[inst.fmu], inst.parameters, mds[inst.name]))
     return out
-
-
-def parameter_set_for_fmpy(ssp: Path):
-    """The SSD's component parameter bindings as the one prefixed ParameterSet ``fmpy.ssp.simulate_ssp``
-    takes: fmpy reads the bindings but never applies them, and expects names '<component>.<variable>'."""
-    from fmpy.ssp.ssd import Parameter, ParameterSet, find_components, read_ssd
-
-    merged = ParameterSet(name="bindings")
-    for component in find_components(read_ssd(str(ssp)).system):
-        for binding in component.parameterBindings:
-            for parameter_set in binding.parameterValues:
-                for p in parameter_set.parameters:
-                    merged.parameters.append(Parameter(name=f"{component.name}.{p.name}", type=p.type, value=p.value))
-    return merged

@@ -60,7 +60,7 @@ class SummaryObserver:
             "stop_time": sc.stop_time,
             "steps": max(result.samples - 1, 0),
             "samples": result.samples,
-            "status": "failed" if result.failed else "ok",
+            "status": "interrupted" if result.interrupted else "failed" if result.failed else "ok",
             "error": result.error,
             "wall_time_s": result.wall_time_s,
         }

@@ -19,8 +19,13 @@ Per FMU:
   output that does not declare that input exactly unchanged, restoring the input must restore the
   outputs, and each output that declares dependencies must change for some perturbation of them.
 
-Across the set: modelIdentifiers and script module names (``resources/slavemodule.txt``) are
-distinct, because every pythonfmu FMU in a process shares one interpreter and one ``sys.modules``.
+- ``standalone``: every pythonfmu FMU in a process shares one interpreter and one ``sys.modules``,
+  so the FMU's Python lives under names of its own: the script ``resources/<stem>.py`` named in
+  ``slavemodule.txt`` and the package ``resources/<stem>_lib/``, no other Python file, and every
+  import is of the standard library, of ``<stem>_lib`` or of a package in ``resources/requirements.txt``.
+
+Across the set: two FMUs whose script modules have the same name must bundle the same code (a copy
+of one build); otherwise the second would run the first one's modules.
 
 This module must not import ``fmu_plant``/``fmu_controller``: the FMUs it loads import their own
 bundled copies, and a source-tree copy already in ``sys.modules`` would be used instead.
@@ -30,6 +35,7 @@ from __future__ import annotations
 import fnmatch
 import logging
 import math
+import re
 import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -49,7 +55,8 @@ FREE_PARAMETERS: dict[str, str] = {
 # of PERTURBATIONS
 PROBE_STEPS = (0, 1, 10, 40)
 PERTURBATIONS = (0.05, -0.7, 3.0, -30.0)
-CHECKS = ("fmpy", "fmutool", "units", "starts", "descriptions", "step", "ranges", "state", "dependencies")
+CHECKS = ("fmpy", "fmutool", "units", "starts", "descriptions", "step", "ranges", "state", "standalone",
+          "dependencies")
 
 
 @dataclass
@@ -173,6 +180,45 @@ def _slave_module(path: Path) -> str | None:
             return None
 
 
+def _python_bundle(path: Path) -> dict[str, bytes]:
+    """Every Python file under resources/ (zip name -> bytes)."""
+    with zipfile.ZipFile(path) as z:
+        return {n: z.read(n) for n in z.namelist() if n.startswith("resources/") and n.endswith(".py")}
+
+
+def _standalone_problems(path: Path) -> list[str]:
+    import ast
+    import sys
+
+    stem = _slave_module(path)
+    if not stem:
+        return ["resources/slavemodule.txt is missing: not a pythonfmu FMU"]
+    lib = f"{stem}_lib"
+    with zipfile.ZipFile(path) as z:
+        try:
+            requirements = z.read("resources/requirements.txt").decode().split()
+        except KeyError:
+            return ["resources/requirements.txt is missing: a host cannot tell what to install"]
+    allowed = {lib, "__future__"} | {re.match(r"[A-Za-z0-9_.-]+", r).group(0).lower().replace("-", "_")
+                                     for r in requirements if r.strip()}
+    problems = []
+    for name, text in sorted(_python_bundle(path).items()):
+        if name != f"resources/{stem}.py" and not name.startswith(f"resources/{lib}/"):
+            problems.append(f"{name} lies outside {stem}.py and {lib}/: another FMU may bring the same module name")
+        try:
+            tree = ast.parse(text, name)
+        except SyntaxError as exc:
+            problems.append(f"{name} does not parse: {exc}")
+            continue
+        for node in ast.walk(tree):
+            tops = ([a.name for a in node.names] if isinstance(node, ast.Import) else
+                    [node.module] if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module else [])
+            for top in (t.split(".")[0] for t in tops):
+                if top not in allowed and top not in sys.stdlib_module_names:
+                    problems.append(f"{name} imports '{top}', which is neither bundled in {lib} nor in requirements.txt")
+    return problems
+
+
 # --- the dependency experiment ------------------------------------------------------------------
 
 def _same(a: float, b: float) -> bool:
@@ -279,6 +325,7 @@ def validate_fmu_file(path: Path) -> FmuReport:
         return report
     report.model = md.coSimulation.modelIdentifier if md.coSimulation else md.modelName
     _metadata_problems(md, report)
+    report.problems["standalone"] = _standalone_problems(path)
     report.problems["dependencies"] = _dependency_problems(path, md, report.problems["starts"])
     return report
 
@@ -286,15 +333,16 @@ def validate_fmu_file(path: Path) -> FmuReport:
 def validate_fmus(paths: list[Path]) -> ValidationReport:
     reports = [validate_fmu_file(Path(p)) for p in paths]
     set_problems = []
-    for what, key in (("modelIdentifier", lambda r: r.model), ("script module", lambda r: _slave_module(r.path))):
-        seen: dict[str, Path] = {}
-        for r in reports:
-            value = key(r)
-            if value is None:
-                continue
-            if value in seen:
-                set_problems.append(f"{what} '{value}' is used by both {seen[value].name} and {r.path.name}")
-            seen[value] = r.path
+    seen: dict[str, tuple[Path, dict[str, bytes]]] = {}
+    for r in reports:
+        stem = _slave_module(r.path)
+        if stem is None:
+            continue
+        bundle = _python_bundle(r.path)
+        if stem in seen and seen[stem][1] != bundle:
+            set_problems.append(f"script module '{stem}' of {r.path} bundles other code than {seen[stem][0]}: "
+                                "in one process the second would run the first one's modules")
+        seen.setdefault(stem, (r.path, bundle))
     return ValidationReport(reports, set_problems)
 
 
@@ -306,7 +354,7 @@ def format_report(report: ValidationReport, details: bool = True) -> str:
         cells = ["ok" if not r.problems[c] else f"FAIL({len(r.problems[c])})" for c in CHECKS]
         lines.append("  ".join([r.model.ljust(width)] + [x.ljust(w) for x, w in zip(cells, cols)]
                                + ["pass" if r.ok else "FAIL"]))
-    lines.append(f"set: {'distinct modelIdentifiers and script modules' if not report.set_problems else 'FAIL'}")
+    lines.append(f"set: {'every script module name stands for one bundle' if not report.set_problems else 'FAIL'}")
     if details:
         for r in report.fmus:
             for check in CHECKS:

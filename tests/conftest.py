@@ -19,3 +19,20 @@ def fmu_dir(tmp_path_factory) -> Path:
 @pytest.fixture(scope="session")
 def fmu_paths(fmu_dir) -> dict[str, Path]:
     return {m: fmu_dir / f"{m}.fmu" for m in FMU_SOURCES}
+
+
+@pytest.fixture(scope="session")
+def shipped(tmp_path_factory):
+    """The project installed from a wheel into a fresh virtualenv (``tests/shipped.py``)."""
+    from shipped import install
+
+    return install(tmp_path_factory.mktemp("shipped"))
+
+
+@pytest.fixture(scope="session")
+def shipped_fmu_dir(shipped) -> Path:
+    """The FMUs as the installed ``sotc-cosim build`` makes them."""
+    out = shipped.root / "fmus"
+    proc = shipped.cli("build", "--out", str(out), cwd=shipped.workdir("build"))
+    assert proc.returncode == 0, proc.stderr
+    return out

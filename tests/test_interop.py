@@ -59,7 +59,8 @@ def test_ssp_archive_layout_and_schema(engines):
 
     names = zipfile.ZipFile(engines["ssp"]).namelist()
     assert "SystemStructure.ssd" in names
-    assert {"resources/ArmPlant.fmu", "resources/ReferenceTrajectory.fmu", "resources/SotcController.fmu"} <= set(names)
+    # instances with parameters get a parameterised copy of their FMU; the reference keeps its defaults
+    assert {"resources/plant.fmu", "resources/ReferenceTrajectory.fmu", "resources/controller.fmu"} <= set(names)
     ssd = read_ssd(str(engines["ssp"]))  # validates the SSD and its SSVs against the SSP 1.0 schemas
     assert sorted(c.name for c in ssd.system.elements) == ["controller", "plant", "reference"]
     assert len(ssd.system.connections) == 2 + 10  # tau1, tau2; 4 measurement + 6 reference inputs
@@ -68,7 +69,7 @@ def test_ssp_archive_layout_and_schema(engines):
 def test_export_ssp_command(fmu_dir, tmp_path, capsys):
     out = tmp_path / "paper-ct.ssp"
     assert main(["export-ssp", "paper-ct", "--out", str(out), "--fmu-dir", str(fmu_dir)]) == 0
-    assert "resources/CtController.fmu" in zipfile.ZipFile(out).namelist()
+    assert {"resources/CtController.fmu", "resources/plant.fmu"} <= set(zipfile.ZipFile(out).namelist())
 
 
 @pytest.mark.parametrize("engine, emulation", [("libcosim", "jacobi-ns"), ("fmpy.ssp", "jacobi-zero")])
@@ -104,3 +105,84 @@ def test_jacobi_delay_is_measured_and_bounded(engines):
         return float(np.sqrt(np.mean(np.square(e))))
 
     assert abs(rms_error(cosim) / rms_error(master) - 1.0) < 0.02
+
+
+ECOSPY_RUN = """
+import json, sys
+from ecospy import EcosSimulation
+sim = EcosSimulation(float(sys.argv[2]), ssp_path=sys.argv[1])
+sim.init()
+sim.step_until(float(sys.argv[3]))
+print(json.dumps({n: sim.get_real(f"controller::{n}") for n in sys.argv[4:]}))
+sim.terminate()
+sim.free()
+"""
+
+
+def _ecospy(ssp, scenario, names):
+    """ecospy (a third SSP engine, needing Debian's libtbb12) in a child process; None if unavailable."""
+    import json
+    import subprocess
+    import sys
+
+    probe = subprocess.run([sys.executable, "-c", "import ecospy"], capture_output=True)
+    if probe.returncode != 0:
+        return None
+    proc = subprocess.run([sys.executable, "-c", ECOSPY_RUN, str(ssp), repr(scenario.step_size),
+                           repr(scenario.stop_time), *names], capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+def test_every_engine_applies_the_exported_parameters(fmu_paths, tmp_path):
+    """paper-pe-only keeps probing until 80 s without CL, where the defaults stop probing at 0.4 s
+    and fill the CL stack: at t = 1 s every engine must show the scenario's parameters."""
+    names = ("pe_active", "cl_stack_size")
+    defaults = run_master(load_scenario("paper").with_stop_time(1.0), fmu_paths)
+    assert defaults.outputs["controller"]["pe_active"][-1] == 0.0
+    assert defaults.outputs["controller"]["cl_stack_size"][-1] > 0
+    scenario = load_scenario("paper-pe-only").with_stop_time(1.0)
+    ssp = export_ssp(scenario, fmu_paths, tmp_path / "pe-only.ssp")
+    expected = {"pe_active": 1.0, "cl_stack_size": 0.0}
+    master = run_master(scenario, fmu_paths)
+    assert {n: master.outputs["controller"][n][-1] for n in names} == expected
+    fmpy_ssp = run_fmpy_ssp(ssp, scenario)
+    assert {n: fmpy_ssp.outputs["controller"][n][-1] for n in names} == expected
+    try:
+        import libcosimpy  # noqa: F401
+    except ImportError:
+        pass
+    else:
+        cosim = run_libcosim(ssp, scenario)
+        assert {n: cosim.outputs["controller"][n][-1] for n in names} == expected
+    ecos = _ecospy(ssp, scenario, names)
+    if ecos is not None:
+        assert ecos == expected
+
+
+def test_a_parameterised_copy_starts_from_its_values_and_refuses_unknown_names(fmu_paths, tmp_path):
+    from fmpy import read_model_description
+
+    from orchestration.fmi_direct import FmuInstance
+    from orchestration.ssp import parameterised_copy
+
+    source = fmu_paths["ArmPlant"]
+    md = read_model_description(str(source))
+    copy = tmp_path / "plant.fmu"
+    copy.write_bytes(parameterised_copy(source, {"phi1_0": 0.25, "substeps": 8}, md))
+    assert read_model_description(str(copy)).guid != md.guid
+    plant = FmuInstance(copy, "plant", tmp_path / "a")
+    assert plant.get("phi1_0") == [0.25] and plant.fmu.getInteger([plant.vars["substeps"].valueReference]) == [8]
+    plant.initialize()
+    assert plant.get("phi1") == [0.25]
+    plant.free()
+
+    bad = tmp_path / "bad.fmu"
+    bad.write_bytes(parameterised_copy(source, {"phi1_0": 0.25}, md))
+    with zipfile.ZipFile(bad, "a") as z:
+        z.writestr("resources/parameter_starts.json", '{"no_such_parameter": 1.0}')
+    plant = FmuInstance(bad, "plant", tmp_path / "b")
+    with pytest.raises(Exception):
+        plant.initialize()
+    assert "no_such_parameter" in plant.logged()
+    plant.free()

@@ -106,13 +106,39 @@ def test_hidden_feedthrough_is_caught_by_experiment(fmu_paths, tmp_path):
     assert any("'tau1' changes when input" in p for p in problems), problems
 
 
-def test_duplicate_identifiers_fail_the_set_and_the_cli_exits_non_zero(fmu_paths, tmp_path, capsys):
+def test_one_script_module_name_for_two_bundles_fails_the_set(fmu_paths, tmp_path, capsys):
     copy = tmp_path / "copy" / "ArmPlant.fmu"
     copy.parent.mkdir()
     shutil.copy(fmu_paths["ArmPlant"], copy)
-    report = validate_fmus([fmu_paths["ArmPlant"], copy])
-    assert any("modelIdentifier 'ArmPlant'" in p for p in report.set_problems)
-    assert any("script module 'arm_plant_fmu'" in p for p in report.set_problems)
+    assert validate_fmus([fmu_paths["ArmPlant"], copy]).set_problems == []  # a copy of one build is fine
+
+    def edit_code(fmu: Path) -> None:
+        with zipfile.ZipFile(fmu) as z:
+            entries = {n: z.read(n) for n in z.namelist()}
+        script = next(n for n in entries if n.startswith("resources/sotc_") and n.count("/") == 1)
+        entries[script] += b"\n# another build under the same module name\n"
+        with zipfile.ZipFile(fmu, "w") as z:
+            for n, data in entries.items():
+                z.writestr(n, data)
+
+    other = tmp_path / "other" / "ArmPlant.fmu"
+    other.parent.mkdir()
+    shutil.copy(fmu_paths["ArmPlant"], other)
+    edit_code(other)
+    report = validate_fmus([fmu_paths["ArmPlant"], other])
+    assert any("bundles other code" in p for p in report.set_problems), report.set_problems
+
+
+def test_a_module_outside_the_bundle_fails_standalone(fmu_paths, tmp_path):
+    fmu = tmp_path / "ArmPlant.fmu"
+    shutil.copy(fmu_paths["ArmPlant"], fmu)
+    with zipfile.ZipFile(fmu, "a") as z:
+        z.writestr("resources/fmu_plant/dynamics.py", "import fmu_plant\n")
+    problems = validate_fmu_file(fmu).problems["standalone"]
+    assert any("lies outside" in p for p in problems) and any("imports 'fmu_plant'" in p for p in problems), problems
+
+
+def test_validate_cli_exits_non_zero_on_a_broken_fmu(fmu_paths, tmp_path, capsys):
 
     broken = broken_copy(fmu_paths["ArmPlant"], tmp_path / "ArmPlant.fmu", _step_size)
     assert main(["validate", str(broken)]) == 1

@@ -1,0 +1,107 @@
+"""The project as a user gets it: a wheel built from this tree and installed into a fresh virtualenv.
+
+Tests of the shipped product run its ``sotc-cosim`` console script (or its Python) in subprocesses,
+from a temporary folder outside the repository, with no PYTHONPATH: nothing of the source tree is
+importable there, so a command that only worked because the source packages were on ``sys.path``
+fails here as it would for a user. The virtualenv gets the project's dependencies from the
+interpreter running the tests (a ``.pth`` line after its own site-packages), so the wheel's copy of
+the project always comes first and no test downloads anything but the build backend.
+"""
+from __future__ import annotations
+
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import sysconfig
+import time
+import venv
+from dataclasses import dataclass
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parent.parent
+# names a host without sotc-cosim does not have; ``BLOCK_PROJECT`` makes them unimportable
+PROJECT_MODULES = ("fmu_plant", "fmu_controller", "orchestration", "pythonfmu")
+BLOCK_PROJECT = f'''
+import importlib.abc, sys
+class _NotInstalled(importlib.abc.MetaPathFinder):
+    def find_spec(self, name, path=None, target=None):
+        if name.split(".")[0] in {PROJECT_MODULES!r}:
+            raise ModuleNotFoundError(f"{{name}} is not installed in this host", name=name)
+        return None
+sys.meta_path.insert(0, _NotInstalled())
+'''
+
+
+def _ignore(folder: str, names: list[str]) -> set[str]:
+    skip = {".git", ".venv", "venv", "build", "dist", "recordings", "__pycache__", ".pytest_cache", ".hypothesis"}
+    return {n for n in names if n in skip or n.endswith(".egg-info")}
+
+
+def copy_sources(dest: Path) -> Path:
+    shutil.copytree(REPO, dest, ignore=_ignore)
+    return dest
+
+
+@dataclass
+class Shipped:
+    """An installed copy of the project: its interpreter, its console script, a working folder."""
+
+    root: Path
+    python: Path
+    script: Path
+    src: Path  # a copy of the sources the wheel was built from (for variant builds)
+
+    def env(self, **extra: str) -> dict[str, str]:
+        env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "PYTHONHOME", "VIRTUAL_ENV")}
+        env["PATH"] = f"{self.python.parent}{os.pathsep}{env.get('PATH', '')}"
+        return env | extra
+
+    def workdir(self, name: str) -> Path:
+        folder = self.root / "work" / name
+        folder.mkdir(parents=True, exist_ok=True)
+        return folder
+
+    def cli(self, *args: str, cwd: Path, timeout: float = 600) -> subprocess.CompletedProcess:
+        return subprocess.run([str(self.script), *args], cwd=cwd, env=self.env(), capture_output=True,
+                              text=True, timeout=timeout)
+
+    def python_code(self, code: str, *args: str, cwd: Path, timeout: float = 600,
+                    block_project: bool = False) -> subprocess.CompletedProcess:
+        """Run ``code`` in a fresh interpreter of the installed project (``-I``: no cwd, no user site)."""
+        prefix = BLOCK_PROJECT if block_project else ""
+        return subprocess.run([str(self.python), "-I", "-c", prefix + code, *args], cwd=cwd, env=self.env(),
+                              capture_output=True, text=True, timeout=timeout)
+
+    def interrupt(self, args: list[str], cwd: Path, ready, timeout: float = 300) -> subprocess.CompletedProcess:
+        """Start the CLI, wait until ``ready()`` is true (polled), send SIGINT, and wait for it."""
+        proc = subprocess.Popen([str(self.script), *args], cwd=cwd, env=self.env(), stdout=subprocess.PIPE,
+                                stderr=subprocess.PIPE, text=True)
+        deadline = time.monotonic() + timeout
+        while not ready() and proc.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.02)
+        if proc.poll() is None:
+            proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=timeout)
+        return subprocess.CompletedProcess(proc.args, proc.returncode, out, err)
+
+
+def install(root: Path) -> Shipped:
+    """Build a wheel of this tree, install it into a new virtualenv under ``root``."""
+    src = copy_sources(root / "src")
+    wheels = root / "wheels"
+    subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(wheels), str(src)],
+                   check=True, capture_output=True, text=True)
+    env_dir = root / "venv"
+    venv.EnvBuilder(with_pip=True, clear=True).create(env_dir)
+    bindir = "Scripts" if sys.platform == "win32" else "bin"
+    python = env_dir / bindir / ("python.exe" if sys.platform == "win32" else "python")
+    site = Path(subprocess.run([str(python), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
+                               check=True, capture_output=True, text=True).stdout.strip())
+    # the dependencies: this interpreter's site-packages, searched after the venv's own
+    (site / "zz_test_dependencies.pth").write_text(sysconfig.get_paths()["purelib"] + "\n")
+    wheel = next(wheels.glob("sotc_cosim-*.whl"))
+    subprocess.run([str(python), "-m", "pip", "install", "--no-deps", "--no-index", "-q", str(wheel)],
+                   check=True, capture_output=True, text=True)
+    return Shipped(root, python, env_dir / bindir / "sotc-cosim", src)

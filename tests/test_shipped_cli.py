@@ -1,0 +1,147 @@
+"""Every command of the README, run as a user runs it: the installed console script, in a fresh
+process, from a folder outside the repository (``tests/shipped.py``). Several different FMUs run
+one after another in one process here, as they do for every user of reproduce, compare and sweep."""
+from __future__ import annotations
+
+import csv
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from orchestration.build import FMU_SOURCES
+
+RERUN = str(Path(sys.executable).with_name("rerun"))
+CONTROLLER_SCENARIOS = ("paper", "paper-otc", "paper-ct", "paper-lqr")
+
+
+def _ok(proc: subprocess.CompletedProcess) -> None:
+    assert proc.returncode == 0, f"exit {proc.returncode}\n{proc.stdout}\n{proc.stderr}"
+    assert "Traceback" not in proc.stderr, proc.stderr
+
+
+def _verify(*paths: Path) -> None:
+    proc = subprocess.run([RERUN, "rrd", "verify", *map(str, paths)], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+
+
+def test_the_source_tree_is_not_importable_where_the_commands_run(shipped):
+    proc = shipped.python_code("import orchestration, fmu_plant; print(orchestration.__file__); print(fmu_plant.__file__)",
+                               cwd=shipped.workdir("where"))
+    _ok(proc)
+    for line in proc.stdout.split():
+        assert str(shipped.src) not in line and "site-packages" in line, line
+        assert Path(line).resolve().is_relative_to(shipped.root / "venv"), line
+
+
+def test_reproduce_runs_every_controller_of_the_paper(shipped):
+    """Builds its FMUs on demand in the working folder, like a first-time user."""
+    work = shipped.workdir("reproduce")
+    proc = shipped.cli("reproduce", "--stop-time", "2", cwd=work)
+    _ok(proc)
+    with open(work / "recordings" / "table1.csv", newline="") as f:
+        rows = [r for r in csv.DictReader(f) if r["source"] == "this run"]
+    assert {r["controller"] for r in rows} >= {"SotcController", "OtcController", "CtController", "LqrController"}
+    assert rows and all(r["status"] == "ok" for r in rows), rows
+    _verify(work / "recordings" / "reproduce.rrd")
+
+
+def test_compare_overlays_all_four_controllers(shipped, shipped_fmu_dir):
+    work = shipped.workdir("compare")
+    proc = shipped.cli("compare", *CONTROLLER_SCENARIOS, "--stop-time", "2", "--fmu-dir", str(shipped_fmu_dir), cwd=work)
+    _ok(proc)
+    for name in CONTROLLER_SCENARIOS:
+        assert any(line.startswith(f"{name} ") and " ok " in line for line in proc.stdout.splitlines()), proc.stdout
+    _verify(work / "recordings" / "compare.rrd")
+
+
+def test_one_run_of_several_scenarios(shipped, shipped_fmu_dir):
+    work = shipped.workdir("run")
+    order = ("paper-ct", "paper-otc", "paper-lqr", "paper", "paper-ct")  # the first controller again, last
+    proc = shipped.cli("run", *order, "--stop-time", "2", "--no-recording", "--fmu-dir", str(shipped_fmu_dir), cwd=work)
+    _ok(proc)
+    rows = [line.split() for line in proc.stdout.splitlines() if line.split()[:1] and line.split()[0] in order]
+    assert [r[0] for r in rows] == list(order) and all(r[2] == "ok" for r in rows), proc.stdout
+
+
+def test_validate_passes_every_fmu(shipped):
+    work = shipped.workdir("validate")
+    proc = shipped.cli("validate", cwd=work)
+    _ok(proc)
+    assert "all FMUs pass" in proc.stdout
+    verdicts = {line.split()[0]: line.split()[-1] for line in proc.stdout.splitlines() if line.endswith(("pass", "FAIL"))}
+    assert {m: v for m, v in verdicts.items() if m != "all"} == dict.fromkeys(FMU_SOURCES, "pass"), proc.stdout
+
+
+def test_cross_check_writes_every_fmu(shipped, shipped_fmu_dir):
+    work = shipped.workdir("cross-check")
+    proc = shipped.cli("cross-check", "--out", "xc", "--stop-time", "1", "--fmu-dir", str(shipped_fmu_dir), cwd=work)
+    _ok(proc)
+    folders = [Path(work, line) for line in proc.stdout.split()]
+    assert len(folders) == 6
+    for folder in folders:
+        assert (folder / f"{folder.name}.fmu").is_file() and (folder / f"{folder.name}_ref.csv").is_file()
+
+
+SWEEP_ONE_WORKER = """
+import json, os, sys
+from pathlib import Path
+import dask
+from orchestration.build import ensure_built
+from orchestration.scenario import load_scenario
+from orchestration.sweep import run_variant
+
+def point(name, paths):
+    summary = run_variant({}, load_scenario(name).with_stop_time(1.0), paths)
+    return {"scenario": name, "status": summary["status"], "error": summary.get("error"), "pid": os.getpid()}
+
+names = sys.argv[1].split(",")
+paths = ensure_built(["ArmPlant", "ReferenceTrajectory", "SotcController", "OtcController", "CtController",
+                      "LqrController"], Path(sys.argv[2]))
+tasks = [dask.delayed(point)(n, paths) for n in names]
+print(json.dumps(dask.compute(*tasks, scheduler="processes", num_workers=1)))
+"""
+
+
+def test_a_sweep_over_controllers_reuses_one_worker_process(shipped, shipped_fmu_dir):
+    names = ("paper-otc", "paper-ct", "paper-lqr", "paper", "paper-otc")
+    proc = shipped.python_code(SWEEP_ONE_WORKER, ",".join(names), str(shipped_fmu_dir), cwd=shipped.workdir("sweep"))
+    _ok(proc)
+    points = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert [p["scenario"] for p in points] == list(names)
+    assert all(p["status"] == "ok" for p in points), points
+    assert len({p["pid"] for p in points}) == 1  # one worker process ran every controller
+
+
+def _grown(path: Path, size: int):
+    return lambda: path.is_file() and path.stat().st_size > size
+
+
+@pytest.mark.parametrize("after_bytes", [1, 2_000_000])
+def test_sigint_on_a_recorded_run_stops_cleanly(shipped, shipped_fmu_dir, after_bytes):
+    """SIGINT once the recording has its first block (or several): exit 130, no crash, every instance
+    freed, the recording finalised and readable."""
+    work = shipped.workdir(f"sigint-run-{after_bytes}")
+    rrd = work / "recordings" / "paper.rrd"
+    proc = shipped.interrupt(["run", "paper", "--stop-time", "1000", "--fmu-dir", str(shipped_fmu_dir)], work,
+                             _grown(rrd, after_bytes))
+    assert proc.returncode == 130, f"exit {proc.returncode}\n{proc.stdout}\n{proc.stderr}"
+    assert "Traceback" not in proc.stderr and "interrupted" in proc.stderr
+    assert any(line.startswith("paper ") and "interrupted" in line for line in proc.stdout.splitlines()), proc.stdout
+    _verify(rrd)
+
+
+def test_sigint_on_a_batch_keeps_finished_runs_and_starts_no_more(shipped, shipped_fmu_dir):
+    work = shipped.workdir("sigint-batch")
+    second = work / "recordings" / "paper-lqr.rrd"
+    proc = shipped.interrupt(["run", "paper-ct", "paper-lqr", "paper", "--stop-time", "300",
+                              "--fmu-dir", str(shipped_fmu_dir)], work, _grown(second, 1))
+    assert proc.returncode == 130, f"exit {proc.returncode}\n{proc.stdout}\n{proc.stderr}"
+    assert "Traceback" not in proc.stderr
+    status = {line.split()[0]: line.split()[2] for line in proc.stdout.splitlines()
+              if line.split()[:1] and line.split()[0] in ("paper-ct", "paper-lqr", "paper")}
+    assert status == {"paper-ct": "ok", "paper-lqr": "interrupted"}, proc.stdout
+    assert not (work / "recordings" / "paper.rrd").exists()
+    _verify(work / "recordings" / "paper-ct.rrd", second)
