@@ -169,7 +169,8 @@ def bench_recording_blocks(fmu_dir) -> str:
 def _speed(args) -> tuple[str, dict]:
     from orchestration.bench_speed import bench_speed, format_markdown
 
-    data = bench_speed(args.fmu_dir, repeats=args.repeats, long=tuple(args.long), record_every=args.record_every)
+    data = bench_speed(args.fmu_dir, repeats=args.repeats, long=tuple(args.long), record_every=args.record_every,
+                       stop_time=args.stop_time)
     return format_markdown(data), data
 
 

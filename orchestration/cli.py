@@ -187,6 +187,16 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     unknown = [n for n in names if n not in BENCHMARKS]
     if unknown:
         raise ScenarioError(f"no benchmark {unknown}; known: {', '.join(BENCHMARKS)}")
+    if args.update_docs:
+        from orchestration.bench_speed import DOC_FILES
+        from orchestration.build import PACKAGE_ROOT
+
+        if "speed" not in names:
+            raise ScenarioError("--update-docs writes the speed benchmark's tables: run it (sotc-cosim bench speed)")
+        missing = [f for f in DOC_FILES if not (PACKAGE_ROOT / f).is_file()]
+        if missing:
+            raise ScenarioError(f"--update-docs writes {', '.join(DOC_FILES)} of a source checkout; "
+                                f"not found next to {PACKAGE_ROOT / 'orchestration'}")
     old = None
     if args.compare is not None:
         try:
@@ -206,10 +216,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
         args.json.write_text(json.dumps(results, indent=1) + "\n")
         print(f"wrote {args.json}")
     if args.update_docs:
-        if "speed" not in results:
-            raise ScenarioError("--update-docs writes the speed benchmark's tables: run it (sotc-cosim bench speed)")
         from orchestration.bench_speed import update_docs
-        from orchestration.build import PACKAGE_ROOT
 
         for path in update_docs(results["speed"], PACKAGE_ROOT):
             print(f"wrote {path}")
@@ -305,6 +312,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="the long runs record every N-th sample (default 1: everything)")
     p.add_argument("--json", type=Path, metavar="PATH", help="write the results as JSON (compare them later)")
     p.add_argument("--compare", type=Path, metavar="OLD.json", help="print the change against an earlier --json")
+    _add_stop_time(p, "shorten the side-by-side runs of speed (default: the scenario's 100 s)")
     p.add_argument("--update-docs", action="store_true",
                    help="write docs/performance.json and the generated tables of docs/performance.md and README.md")
     _add_fmu_dir(p)
