@@ -29,6 +29,11 @@ pythonfmu 0.7 facts this module is built around (measured, see docs/interop.md):
 - ``fmi2GetFMUstate`` hands the binary the dict ``_get_fmu_state`` returns; serialization calls the
   *class* methods ``_fmu_state_to_bytes``/``_fmu_state_from_bytes`` (JSON), where no instance can
   balance an exception, so those two never raise.
+- the binary keeps its interpreter keeper (``PyState``) in a file-static ``shared_ptr`` that both a
+  C++ static destructor and its unload hook ``finalizePythonInterpreter`` release. In a binary still
+  loaded at ``exit()`` the static destructor runs first and the hook then decrements a counter inside
+  the freed block: heap corruption that aborts some processes at exit. ``_settle_binary_teardown``
+  leaves both an empty pointer (see its docstring and docs/interop.md, "A non-Python host").
 
 FMI state machine kept by this class (``_mode``): instantiated -> initialization -> stepping ->
 terminated. Calls outside their state are refused with a logged Error naming the call and the state
@@ -45,6 +50,7 @@ terminated. Calls outside their state are refused with a logged Error naming the
 """
 from __future__ import annotations
 
+import _ctypes
 import copy
 import ctypes
 import json
@@ -52,6 +58,7 @@ import math
 import os
 import sys
 from contextlib import contextmanager
+from pathlib import Path
 from typing import Any, Callable, ClassVar, Iterator, Sequence
 from xml.etree.ElementTree import Element
 
@@ -72,6 +79,54 @@ INSTANTIATED = "instantiated"
 INITIALIZATION = "initialization mode"
 STEPPING = "stepping"
 TERMINATED = "terminated"
+
+
+_EXIT_CALL_REGISTERED: set[int] = set()  # dlopen handles of binaries whose keeper is released at exit
+
+
+def _settle_binary_teardown(resources: str | None) -> None:
+    """Release the pythonfmu binary's interpreter keeper before ``exit()`` frees it and writes into it.
+
+    The binary's ``finalizePythonInterpreter`` (its unload hook, exported) sets the file-static
+    ``shared_ptr<PyState>`` to null. Called by us first, the C++ static destructor and the hook both
+    find an empty pointer at exit, whatever the order glibc runs them in. When to call it depends on
+    who made the interpreter:
+
+    - the host did (any Python host; ``sys.orig_argv`` is never empty there): the keeper only holds a
+      thread that has already ended, so it is released at once. Every ``fmi2Instantiate`` makes a
+      new one, so this runs at every instantiation.
+    - the binary did (a C host: its worker thread ran ``Py_Initialize``, which leaves
+      ``sys.orig_argv`` empty): releasing now would finalize Python under this very call. The call is
+      registered with ``__cxa_atexit`` instead, which runs it before the static destructor (entries
+      run last-in first-out), and the binary is made ``RTLD_NODELETE`` so the address stays valid.
+
+    Nothing happens when the binary is not loaded (the class instantiated in Python by a builder or
+    a test) or not on Linux, where this was measured.
+    """
+    if sys.platform != "linux" or not resources:
+        return
+    binaries = sorted((Path(resources).parent / "binaries" / "linux64").glob("*.so"))
+    if len(binaries) != 1:
+        return
+    host_made_python = bool(sys.orig_argv)
+    mode = os.RTLD_NOLOAD | (0 if host_made_python else os.RTLD_NODELETE)
+    try:
+        binary = ctypes.PyDLL(str(binaries[0]), mode=mode)
+    except OSError:  # not loaded in this process
+        return
+    try:
+        finalize = binary.finalizePythonInterpreter
+        if host_made_python:
+            finalize()
+        elif binary._handle not in _EXIT_CALL_REGISTERED:
+            register = ctypes.CDLL(None)["__cxa_atexit"]
+            register.argtypes = (ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p)
+            if register(ctypes.cast(finalize, ctypes.c_void_p), None, None) == 0:
+                _EXIT_CALL_REGISTERED.add(binary._handle)
+    except AttributeError:  # not a pythonfmu binary: nothing to settle
+        pass
+    finally:
+        _ctypes.dlclose(binary._handle)  # only our own reference: unloading stays the host's affair
 
 
 class DescribedSlave(Fmi2Slave):
@@ -103,6 +158,7 @@ class DescribedSlave(Fmi2Slave):
     def __init__(self, **kwargs: Any):
         super().__init__(**kwargs)
         self._forget_resources_path()
+        _settle_binary_teardown(self.resources)
         self._starts, self._starts_problem = self._read_parameter_starts()
         self._meta: dict[str, VariableMeta] = {}
         self._input_ranges: list[tuple[str, float | None, float | None]] = []  # name, low, high

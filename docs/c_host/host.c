@@ -11,6 +11,10 @@
  *   LD_PRELOAD=/path/to/libpython3.11.so.1.0 ./host ...
  * (see docs/interop.md, "A non-Python host"). Without them dlopen fails and this host says why.
  *
+ * Nothing here is specific to pythonfmu: the host frees the instance and returns from main. Our FMUs
+ * settle pythonfmu 0.7.0's exit-time use-after-free themselves; for other pythonfmu 0.7.0 FMUs a host
+ * calls the binary's finalizePythonInterpreter() after the last fmi2FreeInstance (same section).
+ *
  * Only the FMI 2.0 types this host uses are declared here, as the standard defines them.
  */
 #include <dlfcn.h>
