@@ -48,7 +48,6 @@ from fmu_plant.dynamics import ArmParameters, bias_torque, forward_dynamics, ine
 from fmu_plant.parameters import ParameterError, ParameterSpec, any_real, nonnegative, positive
 
 TANH1 = math.tanh(1.0)
-_DIAGONAL = np.diag_indices(N_BASIS)
 # the implicit z_v (``SotcCore._solve_zv``): plain and damped Newton iterations, step halvings, and
 # the residual (relative to 1 + |c| + s, rad/s) above which the next method is tried
 ZV_PLAIN_ITERATIONS = 30
@@ -543,7 +542,7 @@ class SotcCore(ControllerCore):
                 G += pend["cl_M"]
             G *= dt * self.alpha1
             rhs = Wv + dt * pend["wdot"] + G @ Wv
-            G[_DIAGONAL] += 1.0
+            G.ravel()[::N_BASIS + 1] += 1.0  # + I (a view of the diagonal: no index arrays)
             self.W = solve(G, rhs).tolist()
         else:
             self.W = (Wv + dt * pend["wdot"]).tolist()
