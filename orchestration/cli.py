@@ -10,6 +10,7 @@ from orchestration.build import DEFAULT_FMU_DIR, FMU_SOURCES, BuildError, build_
 from orchestration.scenario import ScenarioError, available_scenarios, load_scenario
 
 DEFAULT_SCENARIO = "paper"
+MAX_BLOCK = 20_000  # samples per block handed to the recorder at most (about 12 MB of buffers for paper)
 
 
 def _cmd_build(args: argparse.Namespace) -> int:
@@ -52,8 +53,11 @@ def _run_each(scenarios, paths, recording_for=None, keep_samples: bool = True, r
         else:
             from orchestration.recording import BLOCK_SIZE, RunRecorder
 
+            # a thinned recording gets proportionally longer blocks: chunks of the usual size, and
+            # fewer of them (the recording stream's bookkeeping grows with their number)
+            block = min(BLOCK_SIZE * record_every, MAX_BLOCK)
             with RunRecorder(target, every=record_every) as recorder:
-                result = run(scenario, paths, observer=[*observers, recorder], block_size=BLOCK_SIZE,
+                result = run(scenario, paths, observer=[*observers, recorder], block_size=block,
                              keep_samples=keep_samples)
         if result.failed and not result.interrupted:
             print(f"{scenario.name}: FAILED: {result.error}", file=sys.stderr)
