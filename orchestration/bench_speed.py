@@ -170,6 +170,22 @@ def _hosted_cores(timer: _Timer):
             setattr(owner, attr, original)
 
 
+def floor_cores(scenario) -> dict[str, float]:
+    """Microseconds per step of the same cores in the floor's loop (an instrumented pure loop)."""
+    from fmu_plant.trajectory import CircleTrajectory
+    from orchestration import pure_loop
+
+    make_core, start = floor_core(scenario)
+    timer = _Timer()
+    core = make_core()
+    core.evaluate = timer.wrap("controller evaluate", core.evaluate)
+    core.advance = timer.wrap("controller learn", core.advance)
+    with _patched(pure_loop, "rk4_step", timer.wrap("plant step", pure_loop.rk4_step)), \
+            _patched(CircleTrajectory, "sample", timer.wrap("reference", CircleTrajectory.sample)):
+        pure_loop.simulate(core, scenario.stop_time, scenario.step_size, **start)
+    return {label: s * 1e6 / scenario.steps for label, s in timer.seconds.items()}
+
+
 def cost_split(scenario, paths) -> dict:
     """Microseconds per step of each part of one recorded co-simulation step (see module doc)."""
     from orchestration import master
@@ -195,7 +211,8 @@ def cost_split(scenario, paths) -> dict:
     split["master's own work"] = (result.wall_time_s - fmi_s - recorder.seconds) * per_step
     split["recording"] = recorder.seconds * per_step
     return {"us_per_step": split, "total_us_per_step": result.wall_time_s * per_step,
-            "fmi_calls_us_per_step": {k: v * per_step for k, v in fmi.seconds.items()}}
+            "fmi_calls_us_per_step": {k: v * per_step for k, v in fmi.seconds.items()},
+            "floor_us_per_step": floor_cores(scenario)}
 
 
 def child_run(stop_time: float, fmu_dir: Path, record: Path, record_every: int) -> dict:
@@ -306,12 +323,15 @@ def format_markdown(data: dict) -> str:
         f"Recording overhead {data['ratios']['recording_overhead']:.2f}x; the recording of these "
         f"{meth['stop_time']:g} s is {data['rrd_mb']:.1f} MB.",
         "",
-        "| per step (one recorded run, instrumented) | us | share |",
-        "| --- | --- | --- |",
+        "| per step (one recorded run, instrumented) | us | share | the same core in the floor's loop, us |",
+        "| --- | --- | --- | --- |",
     ]
     split, total = data["split"]["us_per_step"], data["split"]["total_us_per_step"]
-    lines += [f"| {k} | {v:.1f} | {v / total:.0%} |" for k, v in split.items()]
-    lines.append(f"| total | {total:.1f} | 100% |")
+    floor = data["split"].get("floor_us_per_step", {})
+    for k, v in split.items():
+        same = floor.get(k.replace(" (core, inside the FMU)", ""))
+        lines.append(f"| {k} | {v:.1f} | {v / total:.0%} | {'' if same is None else f'{same:.1f}'} |")
+    lines.append(f"| total | {total:.1f} | 100% | {sum(floor.values()):.1f} |" if floor else f"| total | {total:.1f} | 100% | |")
     if data["long"]:
         lines += ["", "| single run, recorded (child process) | wall time | ms per simulated s | vs linear from 100 s "
                   "| peak RSS | recording |", "| --- | --- | --- | --- | --- | --- |"]

@@ -42,6 +42,7 @@ def test_the_cost_split_adds_up_to_the_instrumented_run(short_bench):
     assert all(parts[c] > 0 for c in cores) and parts["FMI get/set/doStep plumbing"] > 0
     assert math.isclose(sum(parts.values()), split["total_us_per_step"], rel_tol=1e-9)
     assert set(split["fmi_calls_us_per_step"]) == {"get", "set", "doStep"}
+    assert {f"{c} (core, inside the FMU)" for c in split["floor_us_per_step"]} == cores  # the same cores in the floor
 
 
 def test_compare_prints_each_figure_old_and_new(short_bench, fmu_dir, tmp_path, capsys):
