@@ -15,7 +15,9 @@ D (ddphi - v) = 0, i.e. the decoupled linear error dynamics e_ddot + Kd e_dot + 
 Saturation acts on the Euclidean norm, as the paper's constraint ||tau|| <= rho (section 2.1,
 rho = 4 N.m in section 4): the whole vector is scaled down, which keeps its direction. Clipping each
 joint to +-tau_max instead would allow ||tau|| up to sqrt(2) tau_max and so violate the paper's
-bound. (CT-4) is ``fmu_controller.saturation.saturate_norm``, shared with the LQR and the SOTC.
+bound. (CT-4) is ``fmu_controller.saturation.limit_torque``, shared with every controller; the
+parameter ``limit_handling`` selects radial scaling (0, the default and the formula above), per-joint
+clip then norm cap (1), the D^-2-metric projection the SOTC uses for its bound (5) (2), or none (3).
 
 Default gains: kp = 25 1/s^2, kd = 10 1/s, i.e. a critically damped double pole at -5 rad/s per
 joint (kd = 2 sqrt(kp)). kd T = 0.1 at T = 0.01 s, far from the sampling limit kd T ~ 2, and the
@@ -25,17 +27,20 @@ transient. Measured on the paper's scenario (docs/baselines.md).
 """
 from __future__ import annotations
 
+import math
 from typing import Sequence
 
 from fmu_controller.base import ControllerCore, OutputSpec
-from fmu_controller.saturation import saturate_norm
-from fmu_plant.dynamics import inverse_dynamics
+from fmu_controller.saturation import ACCEL, limit_handling_spec, limit_torque
+from fmu_plant.dynamics import inertia_entries, inverse_dynamics
 from fmu_plant.parameters import ParameterSpec, positive
 
 # the paper's torque bound rho, section 4
 DEFAULT_TAU_MAX = 4.0
 
 TAU_MAX_SPEC = positive("tau_max", DEFAULT_TAU_MAX, "N.m", "Bound on the torque norm ||tau|| (the paper's rho), eq. (CT-4)")
+# (CT-4) by default: radial scaling; every other handling of fmu_controller.saturation is selectable
+LIMIT_SPEC = limit_handling_spec(0, "the computed torque tau_raw, eq. (CT-4)")
 
 
 class LinearisingCore(ControllerCore):
@@ -47,7 +52,7 @@ class LinearisingCore(ControllerCore):
 
     EXTRA_OUTPUTS = (
         OutputSpec("tau_norm_raw", "N.m", "||tau|| before saturation, eq. (CT-3)"),
-        OutputSpec("saturated", "1", "1 when the norm bound (CT-4) scaled the torque down, else 0"),
+        OutputSpec("saturated", "1", "1 when the limit handling (CT-4) changed the torque, else 0"),
         OutputSpec("v1", "rad/s2", "Error-feedback acceleration w_1 of joint 1 (added to ddphi1_d)"),
         OutputSpec("v2", "rad/s2", "Error-feedback acceleration w_2 of joint 2 (added to ddphi2_d)"),
     )
@@ -60,8 +65,10 @@ class LinearisingCore(ControllerCore):
         q1d, q2d, dq1d, dq2d, ddq1d, ddq2d = (float(v) for v in r[:6])
         w1, w2 = self.feedback(phi1 - q1d, phi2 - q2d, dphi1 - dq1d, dphi2 - dq2d)  # eq. (CT-1)
         raw1, raw2 = inverse_dynamics(phi2, dphi1, dphi2, ddq1d + w1, ddq2d + w2, self.model)  # eq. (CT-3)
-        tau1, tau2, norm, sat = saturate_norm(raw1, raw2, self.params["tau_max"])  # eq. (CT-4)
-        self.outputs = [tau1, tau2, norm, 1.0 if sat else 0.0, w1, w2]
+        code = int(self.params["limit_handling"])
+        d = inertia_entries(phi2, self.model) if code == ACCEL else (1.0, 0.0, 1.0)
+        tau1, tau2, sat = limit_torque(code, raw1, raw2, self.params["tau_max"], *d)  # eq. (CT-4)
+        self.outputs = [tau1, tau2, math.hypot(raw1, raw2), 1.0 if sat else 0.0, w1, w2]
 
 
 class CtCore(LinearisingCore):
@@ -71,6 +78,7 @@ class CtCore(LinearisingCore):
         positive("kp", 25.0, "1/s2", "Position gain Kp of the error dynamics e_ddot + Kd e_dot + Kp e = 0, eq. (CT-2)", high=1e6),
         positive("kd", 10.0, "1/s", "Velocity gain Kd of the error dynamics, eq. (CT-2); 2 sqrt(kp) is critical damping", high=1e4),
         TAU_MAX_SPEC,
+        LIMIT_SPEC,
     )
 
     def feedback(self, e1: float, e2: float, de1: float, de2: float) -> tuple[float, float]:

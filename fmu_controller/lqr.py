@@ -18,7 +18,8 @@ state weight (section 4); r = 1 is the SOTC's R = 1 (there R weights its bounded
 the commanded acceleration v, so the numbers are analogous, not identical problems).
 
 The torque is then bounded on its Euclidean norm, as the paper's ||tau|| <= rho, by scaling the
-vector down (``saturation.saturate_norm``), eq. (CT-4). Because A, B, Theta, R are block
+vector down (``saturation.limit_torque``, eq. (CT-4); ``limit_handling`` selects any other
+handling). Because A, B, Theta, R are block
 diagonal, K = [k_p I2, k_d I2] with k_p = sqrt(q/r), k_d = sqrt(2 k_p + q/r) — the tests check
 that, but the gain here comes from the Riccati solver, not from this formula.
 """
@@ -26,7 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from fmu_controller.computed_torque import TAU_MAX_SPEC, LinearisingCore
+from fmu_controller.computed_torque import LIMIT_SPEC, TAU_MAX_SPEC, LinearisingCore
 from fmu_controller.riccati import solve_care
 from fmu_plant.parameters import ParameterSpec
 
@@ -59,6 +60,7 @@ class LqrCore(LinearisingCore):
         ParameterSpec("r", 1.0, "1", "Input weight: R = r I2 on the commanded acceleration v, eq. (LQR-3)",
                       low=1e-6, high=1e8),
         TAU_MAX_SPEC,
+        LIMIT_SPEC,
     )
 
     def __init__(self, model=None, **params: float):

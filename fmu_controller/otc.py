@@ -42,6 +42,10 @@ admissible policy (active while the Lyapunov candidate L = z'z/2 grows along (OT
 
     Wa_dot = -alpha_a (Wa - Wc) + [z'(F z + g u_hat) > 0] alpha_s/2 grad_sigma g R^-1 g' z   (OTC-9)
 
+Torque limit (``limit_handling``, ``fmu_controller.saturation``): none by default, as the paper's
+OTC; any handling of the other controllers can be applied to tau, the "clipped OTC" of the
+comparison. The learning laws below use the designed u_hat either way.
+
 Exploration: the SOTC's probing signal PE(t) (section 4, scaled by ``probe_amplitude`` instead of
 its 0.5) is added to both torques for t < ``probe_duration``:
 
@@ -66,6 +70,7 @@ import numpy as np
 from fmu_controller.base import ControllerCore, OutputSpec
 from fmu_controller.computed_torque import DEFAULT_TAU_MAX
 from fmu_controller.riccati import solve_care
+from fmu_controller.saturation import NONE, limit_handling_spec, limit_torque
 from fmu_controller.sotc_math import (
     N_BASIS,
     basis,
@@ -98,11 +103,13 @@ class OtcCore(ControllerCore):
         nonnegative("probe_duration", 0.4, "s", "Probing is applied for t < probe_duration, eq. (OTC-10) (assumed; the SOTC's 0.4 s)", high=1e6),
         ParameterSpec("init_weights", 1.0, "1", "Initial weights: 0 = zeros (rely on the stabilising term), 1 = Riccati solution of (OTC-5)-(OTC-6) frozen at phi2 = init_phi2 (an admissible initial policy)", low=0.0, high=1.0),
         any_real("init_phi2", -0.5, "rad", "Elbow angle at which D(phi) is frozen for init_weights = 1 (the paper's phi2(0))"),
-        positive("tau_limit", DEFAULT_TAU_MAX, "N.m", "Torque-norm bound used only for the over_limit diagnostic (never applied)", high=1e6),
+        positive("tau_limit", DEFAULT_TAU_MAX, "N.m", "Torque-norm bound: the over_limit diagnostic, and the limit that limit_handling enforces (if not 3 = none)", high=1e6),
+        limit_handling_spec(NONE, "the total torque tau of (OTC-10) (the critic and actor learn from the unlimited u); "
+                            "the paper's OTC is unsaturated"),
     )
     EXTRA_OUTPUTS = (
-        OutputSpec("tau_norm", "N.m", "||tau|| of the (unsaturated) commanded torque, eq. (OTC-10)"),
-        OutputSpec("over_limit", "1", "1 when ||tau|| exceeds tau_limit, else 0"),
+        OutputSpec("tau_norm", "N.m", "||tau|| of the commanded torque, eq. (OTC-10), after limit_handling"),
+        OutputSpec("over_limit", "1", "1 when ||tau|| before limit_handling exceeds tau_limit, else 0"),
         OutputSpec("tau_a1", "N.m", "Feedforward torque of joint 1, eq. (OTC-4)"),
         OutputSpec("tau_a2", "N.m", "Feedforward torque of joint 2, eq. (OTC-4)"),
         OutputSpec("u1", "N.m", "Actor (optimal feedback) torque of joint 1, eq. (OTC-7)"),
@@ -123,6 +130,7 @@ class OtcCore(ControllerCore):
         self.r_diag = np.array([pr["r1"], pr["r2"]])
         self._lam = (pr["lambda1"], pr["lambda2"])
         self._r = (pr["r1"], pr["r2"])
+        self._limit_code = int(pr["limit_handling"])
         mode = pr["init_weights"]
         if mode not in (0.0, 1.0):
             raise ParameterError("init_weights", f"{mode:g} is not 0 (zeros) or 1 (Riccati)")
@@ -179,7 +187,10 @@ class OtcCore(ControllerCore):
         probe = 0.0
         if t < self.params["probe_duration"]:
             probe = probing_signal(t, self.params["probe_amplitude"])
-        tau1, tau2 = ta1 + u1 + probe, ta2 + u2 + probe  # (OTC-10)
+        raw1, raw2 = ta1 + u1 + probe, ta2 + u2 + probe  # (OTC-10)
+        tau_limit = self.params["tau_limit"]
+        over = math.hypot(raw1, raw2) > tau_limit
+        tau1, tau2, _ = limit_torque(self._limit_code, raw1, raw2, tau_limit, d11, d12, d22)
         tau_norm = math.hypot(tau1, tau2)
 
         self._last = {
@@ -188,7 +199,7 @@ class OtcCore(ControllerCore):
         }
         self.outputs = [
             tau1, tau2,
-            tau_norm, 1.0 if tau_norm > self.params["tau_limit"] else 0.0,
+            tau_norm, 1.0 if over else 0.0,
             ta1, ta2, u1, u2,
             z[2], z[3],
             sum(map(operator.mul, basis(z), wc)), delta, cost_rate,

@@ -1,24 +1,69 @@
-"""Bounds on a 2-vector (a torque or a virtual velocity), shared by every controller core.
+"""Every way the project enforces a torque limit on a 2-vector, in one place, for every controller.
 
-* ``saturate_norm``: radial scaling onto the disc ||v|| <= bound (the Euclidean projection), which
-  keeps the direction: the paper's ||tau|| <= rho (section 2.1; ``CtCore``/``LqrCore`` eq. (CT-4),
-  the SOTC's bound (5) and actuator limit in their norm readings);
-* ``clip_box``: each entry to [-bound, bound] (the SOTC's per-joint readings);
-* ``shrink_into_disc``: the last-ulp correction both radial bounds need, so that the returned vector
-  satisfies ``math.hypot(v1, v2) <= bound`` exactly in floating point.
+The paper bounds the torque norm, ||tau|| <= rho (section 2.1; rho = 4 N.m in section 4), and the
+SOTC's feedforward by (5), ||tau^a|| <= rho - sigma tanh(1); it never says how a vector outside the
+disc is brought back. Each controller core (SOTC: the feedforward tau^a of (4) under (5); CT, LQR and
+the OTC: the total torque) selects one of these through its integer parameter ``limit_handling``
+(FMU Integer parameter of the same name); the codes are the indices of ``LIMIT_HANDLINGS``:
+
+* 0 ``radial``: radial scaling onto the disc (the Euclidean projection), which keeps the direction
+  (the plainest reading of ||tau|| <= rho);
+* 1 ``joint``: each entry clipped to [-bound, bound], then radial scaling onto the disc (a per-joint
+  reading of the bound that still honours the norm limit);
+* 2 ``accel``: the point of the disc whose acceleration D^-1 tau is closest to the requested one, in
+  the D^-2 metric (``accel_projection``): it keeps the designed error dynamics as close as the budget
+  allows, instead of the torque direction. An addition to the paper;
+* 3 ``none``: no limit (the OTC as the paper describes it: unsaturated).
+
+Each core keeps its historical behaviour as default (SOTC: accel; CT, LQR: radial; OTC: none), so
+published numbers stay reproducible; docs/paper-notes.md (2.6) and docs/baselines.md measure all.
+
+``clip_box`` and ``saturate_norm`` are also used on their own (the SOTC's chi_vd^a and its actuator
+limit). Every loop here has an iteration bound that does not depend on the input, and every radial
+result satisfies ``math.hypot(v1, v2) <= bound`` exactly in floating point (also for subnormal or
+tiny bounds).
 """
 from __future__ import annotations
 
 import math
 
+from fmu_plant.parameters import ParameterSpec, integer_code
+
+LIMIT_HANDLINGS = ("radial", "joint", "accel", "none")
+RADIAL, JOINT, ACCEL, NONE = range(4)
+LIMIT_HANDLING_TEXT = "How the torque limit is enforced: " + ", ".join(
+    f"{i} = {name}" for i, name in enumerate(
+        ("radial scaling of the vector (Euclidean projection)", "per-joint clip, then radial norm cap",
+         "projection in the D^-2 (acceleration) metric", "no limit")))
+
+
+
+def limit_handling_spec(default: int, what: str) -> ParameterSpec:
+    """The ``limit_handling`` parameter every controller core declares; ``what`` says which torque."""
+    return integer_code("limit_handling", default, len(LIMIT_HANDLINGS),
+                        f"{LIMIT_HANDLING_TEXT}; applies to {what} (default {default} = {LIMIT_HANDLINGS[default]})")
+
+
+# shrink_into_disc: candidate factors k_i = 1 - 2^(i - 53), i = 0 .. 53 (k_53 = 0 always fits)
+SHRINK_STEPS = 54
+# accel_projection: bisection steps on the multiplier (halves the bracket each time; 200 >> 2 * 53)
+PROJECTION_BISECTIONS = 200
+
 
 def shrink_into_disc(v1: float, v2: float, bound: float) -> tuple[float, float]:
-    """(k v1, k v2) with the largest k <= 1 (stepping down one ulp at a time) such that
-    ``math.hypot(k v1, k v2) <= bound``: removes the rounding that can leave a vector scaled onto
-    the circle a hair outside it. Meant for vectors already within a few ulps of the disc."""
-    k = 1.0
-    while math.hypot(v1 * k, v2 * k) > bound:
-        k = math.nextafter(k, 0.0)
+    """(k v1, k v2) with k = 1 - 2^(i - 53) for the smallest i in 0 .. 53 such that
+    ``math.hypot(k v1, k v2) <= bound`` (k = 1 if it already holds): removes the rounding that can
+    leave a vector scaled onto the circle a hair outside it. For a normal vector a few ulps out, the
+    first or second candidate fits (the k of one ulp, as a one-ulp walk would give); where one-ulp
+    steps cannot move the product (subnormal entries), the doubling step still ends within
+    ``SHRINK_STEPS`` tries, at k = 0 at the latest (bound >= 0)."""
+    if math.hypot(v1, v2) <= bound:
+        return v1, v2
+    k = 0.0
+    for i in range(SHRINK_STEPS):
+        k = 1.0 - math.ldexp(1.0, i - 53)
+        if math.hypot(v1 * k, v2 * k) <= bound:
+            break
     return v1 * k, v2 * k
 
 
@@ -40,3 +85,56 @@ def clip_box(v1: float, v2: float, bound: float) -> tuple[float, float, bool]:
     c1 = min(max(v1, -bound), bound)
     c2 = min(max(v2, -bound), bound)
     return c1, c2, (c1 != v1 or c2 != v2)
+
+
+def accel_projection(
+    t1: float, t2: float, bound: float, d11: float, d12: float, d22: float
+) -> tuple[float, float, bool]:
+    """The torque of the disc ||tau|| <= bound whose acceleration D^-1 tau is closest to D^-1 t:
+
+        argmin (tau - t)^T D^-2 (tau - t)  s.t.  ||tau|| <= bound,   tau = (D^-2 + l I)^-1 D^-2 t, l >= 0.
+
+    When the torque cannot be delivered, deliver the one that keeps the designed error dynamics closest
+    to their design. In D's eigenbasis the KKT system is diagonal; l is found by bisection
+    (||tau(l)|| decreases with l), at most ``PROJECTION_BISECTIONS`` steps."""
+    n = math.hypot(t1, t2)
+    if n <= bound:
+        return t1, t2, False
+    half_tr, half_diff = 0.5 * (d11 + d22), 0.5 * (d11 - d22)
+    rad = math.hypot(half_diff, d12)
+    da, db = half_tr + rad, half_tr - rad  # eigenvalues of D (> 0)
+    ang = 0.5 * math.atan2(2.0 * d12, d11 - d22)
+    c, s = math.cos(ang), math.sin(ang)
+    qa, qb = c * t1 + s * t2, -s * t1 + c * t2
+    aa, ab = 1.0 / (da * da), 1.0 / (db * db)  # eigenvalues of D^-2
+    hi = max(aa, ab) * n / bound if bound > 0.0 else math.inf  # ||tau(hi)|| <= bound
+    if not math.isfinite(hi):  # a bound too small to represent the multiplier: the disc is a point
+        return (*shrink_into_disc(t1 * 0.0, t2 * 0.0, bound), True)
+    lo = 0.0
+    for _ in range(PROJECTION_BISECTIONS):
+        mid = 0.5 * (lo + hi)
+        fa, fb = aa / (aa + mid) * qa, ab / (ab + mid) * qb
+        if fa * fa + fb * fb > bound * bound:
+            lo = mid
+        else:
+            hi = mid
+        if hi - lo <= 1e-15 * hi:
+            break
+    fa, fb = aa / (aa + hi) * qa, ab / (ab + hi) * qb
+    return (*shrink_into_disc(c * fa - s * fb, s * fa + c * fb, bound), True)
+
+
+def limit_torque(code: int, t1: float, t2: float, bound: float,
+                 d11: float, d12: float, d22: float) -> tuple[float, float, bool]:
+    """Enforce ||tau|| <= bound on (t1, t2) the way ``code`` (an index of ``LIMIT_HANDLINGS``) says;
+    D = [[d11, d12], [d12, d22]] is the inertia the ``accel`` metric uses. Returns (tau1, tau2, changed)."""
+    if code == RADIAL:
+        c1, c2, _, changed = saturate_norm(t1, t2, bound)
+        return c1, c2, changed
+    if code == JOINT:
+        b1, b2, boxed = clip_box(t1, t2, bound)
+        c1, c2, _, capped = saturate_norm(b1, b2, bound)
+        return c1, c2, boxed or capped
+    if code == ACCEL:
+        return accel_projection(t1, t2, bound, d11, d12, d22)
+    return t1, t2, False

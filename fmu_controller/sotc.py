@@ -29,7 +29,7 @@ from typing import Any, ClassVar, Sequence
 import numpy as np
 
 from fmu_controller.base import ControllerCore, OutputSpec
-from fmu_controller.saturation import clip_box, saturate_norm, shrink_into_disc
+from fmu_controller.saturation import ACCEL, JOINT, NONE, clip_box, limit_handling_spec, limit_torque, saturate_norm
 from fmu_controller.small_linalg import solve
 from fmu_controller.sotc_math import (
     N_BASIS,
@@ -58,12 +58,12 @@ ZV_TOLERANCE = 1e-12
 # Reading switches (integer-coded parameters); index 0 is the chosen reading, see docs/paper-notes.md.
 CHI_A_FORMS = ("backstepping", "literal")  # chi_vd^a = dphi_d - L1 z_phi | dphi_d + L1 z_v (as printed)
 FV_ERROR_FORMS = ("drift", "zero")  # F_v(z_phi, z_v) = -D(z_phi)^-1 (H(z) z_v + G(z_v)) (as printed) | 0
-BOUND_FORMS = ("accel", "norm", "joint")  # bound (5): D^-1-metric projection | radial | per joint
 ACTUATOR_FORMS = ("norm", "joint")  # limit rho: on ||tau||_2 (as printed) | on each |tau_i|
 SATURATION_FORMS = ("sigma", "rho")  # level of (13)/(28): sigma (Remark 2) | rho (as printed)
 CHI_DOT_FORMS = ("chain", "feedforward", "difference")  # dchi_vd/dt: chain rule | d(chi_vd^a)/dt | backward diff.
 PE_FORMS = ("torque", "critic")  # PE on the applied torque only | also inside the critic's mu_hat
 WEIGHT_INTEGRATORS = ("implicit", "euler")  # (30)/(31) over a step: linearly implicit | explicit Euler
+ETA_FORMS = ("coupled", "printed")  # zdot in eta/(29): full (6) | F_bar of (7) as printed, without +z_v, -z_phi
 
 
 def _switch(name: str, choices: tuple[str, ...], description: str) -> ParameterSpec:
@@ -91,9 +91,11 @@ SOTC_PARAMETER_SPECS: tuple[ParameterSpec, ...] = (
     positive("r_4", 1.0, "1", _R.format("tau*2"), high=1e6),
     positive("alpha1", 50.0, "1/s", "Critic learning rate alpha_1 of the tuning laws (30)/(31); paper: 50", high=1e6),
     positive("alpha2", 0.01, "1/s", "Stabilising gain alpha_2 of the tuning law (31); paper: 0.01", high=1e6),
-    positive("sigma", 0.6, "N.m",
-             "Saturation level sigma of the optimal input, 0 < sigma < rho (Remark 2, eq. (5)); paper: 0.6", high=1e3),
-    positive("rho", 4.0, "N.m", "Torque limit rho, ||tau|| <= rho (eqs. (1), (5)); paper: 4", high=1e3),
+    # lower bounds 1e-6 N.m: below that 1/(2 sigma r) of (28) overflows for admissible r (issue 11)
+    ParameterSpec("sigma", 0.6, "N.m",
+                  "Saturation level sigma of the optimal input, 0 < sigma < rho (Remark 2, eq. (5)); paper: 0.6",
+                  low=1e-6, high=1e3),
+    ParameterSpec("rho", 4.0, "N.m", "Torque limit rho, ||tau|| <= rho (eqs. (1), (5)); paper: 4", low=1e-6, high=1e3),
     ParameterSpec("P", 20.0, "1",
                   "Size P of the concurrent-learning stack, an integer >= 10 = number of weights; paper: 20",
                   low=10.0, high=1000.0),
@@ -109,10 +111,17 @@ SOTC_PARAMETER_SPECS: tuple[ParameterSpec, ...] = (
              "Time between CL stack records (0.02 s: P = 20 records during the 0.4 s of PE)", high=1e3),
     _switch("cl_selection", CL_SELECTIONS, "Which samples the CL stack keeps"),
     _switch("cl_replay", CL_REPLAYS, "What the CL sum of (30)/(31) replays"),
+    nonnegative("cl_start_time", 0.0, "s",
+                "The CL sum enters (30)/(31) only for t >= cl_start_time (records are taken from t = 0): "
+                "0 = from the first record; the paper's 'PE for 0.4 s, then CL' is 0.4", high=1e6),
+    _switch("eta_form", ETA_FORMS,
+            "Error rate in eta and the residual (29): (6) with its coupling terms +z_v, -z_phi, or F_bar of (7) as printed"),
     _switch("weight_integrator", WEIGHT_INTEGRATORS, "How (30)/(31) is integrated over a step"),
     _switch("chi_a_form", CHI_A_FORMS, "Reading of chi_vd^a in (4)"),
     _switch("fv_error_form", FV_ERROR_FORMS, "Reading of F_v(z_phi, z_v) in (4)/(6)"),
-    _switch("bound_form", BOUND_FORMS, "How the bound (5) on tau^a is enforced (chi_vd^a: radial unless per joint)"),
+    limit_handling_spec(ACCEL, "the feedforward tau^a under the bound (5) (chi_vd^a: radial, per joint under 1); "
+                        "1 clips each joint to (5) and the actuator limit then caps ||tau|| <= rho; 3 also drops "
+                        "the actuator limit"),
     _switch("actuator_form", ACTUATOR_FORMS, "How the torque limit rho on the output is enforced"),
     _switch("saturation_form", SATURATION_FORMS, "Saturation level of (13) and (28)"),
     _switch("chi_dot_form", CHI_DOT_FORMS, "How dchi_vd/dt in tau^a of (4) is obtained"),
@@ -126,7 +135,7 @@ _SWITCHES: dict[str, tuple[str, ...]] = {
     "weight_integrator": WEIGHT_INTEGRATORS,
     "chi_a_form": CHI_A_FORMS,
     "fv_error_form": FV_ERROR_FORMS,
-    "bound_form": BOUND_FORMS,
+    "eta_form": ETA_FORMS,
     "actuator_form": ACTUATOR_FORMS,
     "saturation_form": SATURATION_FORMS,
     "chi_dot_form": CHI_DOT_FORMS,
@@ -172,46 +181,14 @@ _EXTRA: tuple[OutputSpec, ...] = (
 )
 
 
-def _limit(v1: float, v2: float, bound: float, per_joint: bool) -> tuple[float, float, bool]:
-    """Bound a 2-vector: radially (Euclidean projection onto the disc) or each entry (the box)."""
-    if per_joint:
+def _limit(v1: float, v2: float, bound: float, code: int) -> tuple[float, float, bool]:
+    """chi_vd^a under the bound (5): each entry (per joint), radially, or not at all."""
+    if code == JOINT:
         return clip_box(v1, v2, bound)
+    if code == NONE:
+        return v1, v2, False
     c1, c2, _, changed = saturate_norm(v1, v2, bound)
     return c1, c2, changed
-
-
-def accel_projection(
-    t1: float, t2: float, bound: float, d11: float, d12: float, d22: float
-) -> tuple[float, float, bool]:
-    """The torque of the disc ||tau|| <= bound whose acceleration D^-1 tau is closest to D^-1 t:
-
-        argmin (tau - t)^T D^-2 (tau - t)  s.t.  ||tau|| <= bound,   tau = (D^-2 + l I)^-1 D^-2 t, l >= 0.
-
-    Used for the bound (5) on tau^a: when the feedforward cannot be delivered, deliver the torque that
-    keeps the error dynamics (6) closest to their design. In D's eigenbasis the KKT system is diagonal;
-    l is found by bisection (||tau(l)|| decreases with l)."""
-    n = math.hypot(t1, t2)
-    if n <= bound:
-        return t1, t2, False
-    half_tr, half_diff = 0.5 * (d11 + d22), 0.5 * (d11 - d22)
-    rad = math.hypot(half_diff, d12)
-    da, db = half_tr + rad, half_tr - rad  # eigenvalues of D (> 0)
-    ang = 0.5 * math.atan2(2.0 * d12, d11 - d22)
-    c, s = math.cos(ang), math.sin(ang)
-    qa, qb = c * t1 + s * t2, -s * t1 + c * t2
-    aa, ab = 1.0 / (da * da), 1.0 / (db * db)  # eigenvalues of D^-2
-    lo, hi = 0.0, max(aa, ab) * n / bound  # ||tau(hi)|| <= bound
-    for _ in range(200):
-        mid = 0.5 * (lo + hi)
-        fa, fb = aa / (aa + mid) * qa, ab / (ab + mid) * qb
-        if fa * fa + fb * fb > bound * bound:
-            lo = mid
-        else:
-            hi = mid
-        if hi - lo <= 1e-15 * hi:
-            break
-    fa, fb = aa / (aa + hi) * qa, ab / (ab + hi) * qb
-    return (*shrink_into_disc(c * fa - s * fb, s * fa + c * fb, bound), True)
 
 
 class SotcCore(ControllerCore):
@@ -250,7 +227,9 @@ class SotcCore(ControllerCore):
         forms = {name: choices[int(p[name])] for name, choices in _SWITCHES.items()}
         self.backstepping = forms["chi_a_form"] == "backstepping"
         self.fv_drift = forms["fv_error_form"] == "drift"
-        self.bound_form = forms["bound_form"]
+        self.limit_code = int(p["limit_handling"])
+        self.cl_start_time = p["cl_start_time"]
+        self.eta_coupled = forms["eta_form"] == "coupled"
         self.actuator_per_joint = forms["actuator_form"] == "joint"
         self.chi_dot_form = forms["chi_dot_form"]
         self.pe_in_critic = forms["pe_form"] == "critic"
@@ -259,7 +238,7 @@ class SotcCore(ControllerCore):
         self.s = self.sigma if forms["saturation_form"] == "sigma" else self.rho
         self.bound5 = self.rho - self.sigma * TANH1  # eq. (5)
         self.stack = CLStack(self.P, forms["cl_selection"], forms["cl_replay"], self.s, self.r, self.theta,
-                             self.lam1, self.lam2, self.backstepping)
+                             self.lam1, self.lam2, self.backstepping, self.eta_coupled)
         self.reset()
 
     # --- learning state ----------------------------------------------------------------------------
@@ -392,7 +371,7 @@ class SotcCore(ControllerCore):
         lam21, lam22 = self.lam2
         phi1, phi2, dphi1, dphi2 = (float(v) for v in y[:4])
         phi1_d, phi2_d, dphi1_d, dphi2_d, ddphi1_d, ddphi2_d = (float(v) for v in r[:6])
-        per_joint = self.bound_form == "joint"
+        code = self.limit_code
         hess = value_hessian(W)  # d^2 J_hat / dz^2: constant in z (quadratic basis)
 
         # tracking error z_phi = chi_phi - chi_phi_d (section 2.1) and its measured rate
@@ -401,11 +380,11 @@ class SotcCore(ControllerCore):
 
         # eq. (4), first line, with the bound (5); z_v = dphi - chi_vd* - chi_vd^a solved jointly with (28)
         if self.backstepping:  # chi_vd^a = dphi_d - Lambda1 z_phi, so F_bar_phi = -Lambda1 z_phi in (6)
-            ca1, ca2, chi_a_bounded = _limit(dphi1_d - lam11 * zp1, dphi2_d - lam12 * zp2, self.bound5, per_joint)
+            ca1, ca2, chi_a_bounded = _limit(dphi1_d - lam11 * zp1, dphi2_d - lam12 * zp2, self.bound5, code)
             zv1, zv2, zv_res = self._solve_zv(zp1, zp2, dphi1 - ca1, dphi2 - ca2, 1.0, 1.0, W, hess)
         else:  # as printed, chi_vd^a = dphi_d + Lambda1 z_v: (I + Lambda1) z_v = dphi - dphi_d - chi_vd*
             zv1, zv2, zv_res = self._solve_zv(zp1, zp2, dzp1, dzp2, 1.0 + lam11, 1.0 + lam12, W, hess)
-            ca1, ca2, chi_a_bounded = _limit(dphi1_d + lam11 * zv1, dphi2_d + lam12 * zv2, self.bound5, per_joint)
+            ca1, ca2, chi_a_bounded = _limit(dphi1_d + lam11 * zv1, dphi2_d + lam12 * zv2, self.bound5, code)
         z = (zp1, zp2, zv1, zv2)
 
         # g_phi = I, g_v = D^-1(phi) of eq. (2), nominal model
@@ -441,8 +420,11 @@ class SotcCore(ControllerCore):
         zd3 = fe1 - lam21 * zv1 - zp1 + i11 * tc1 + i12 * tc2
         zd4 = fe2 - lam22 * zv2 - zp2 + i12 * tc1 + i22 * tc2
 
+        # eta_form = printed: (7)'s F_bar without the coupling terms, in eta and (29) only
+        zdot_eta = (zd1, zd2, zd3, zd4) if self.eta_coupled else (zd1 - zv1, zd2 - zv2, zd3 + zp1, zd4 + zp2)
+
         # eq. (29): eta = grad(zeta) zdot, e1 = W^T eta + z^T Theta z + Omega(mu_hat), Omega of eq. (17)
-        eta = np.array(basis_directional(z, (zd1, zd2, zd3, zd4)))
+        eta = np.array(basis_directional(z, zdot_eta))
         th = self.theta
         rew = (th[0] * zp1 * zp1 + th[1] * zp2 * zp2 + th[2] * zv1 * zv1 + th[3] * zv2 * zv2)
         omega = (omega_term_of_arg(x1, s, rr[0]) + omega_term_of_arg(x2, s, rr[1])
@@ -458,7 +440,7 @@ class SotcCore(ControllerCore):
         wdot = xi * (-self.alpha1 * e1)
         cl_M = cl_E = None
         cl_min_eig = 0.0
-        if self.cl_enabled and self.stack.count:
+        if self.cl_enabled and self.stack.count and t >= self.cl_start_time:
             cl_M, cl_b, cl_E, cl_min_eig = self.stack.terms(Wv)
             wdot -= self.alpha1 * (cl_M @ Wv + cl_b)
         law31 = zp1 * zd1 + zp2 * zd2 + zv1 * zd3 + zv2 * zd4 >= 0.0  # z^T zdot >= 0: eq. (31)
@@ -496,13 +478,18 @@ class SotcCore(ControllerCore):
         v2 = fe2 + dchi2 - zp2 - lam22 * zv2
         b1, b2 = bias_torque(phi2, dphi1, dphi2, m)
         tr1, tr2 = d11 * v1 + d12 * v2 + b1, d12 * v1 + d22 * v2 + b2
-        if self.bound_form == "accel":
-            ta1, ta2, tau_a_bounded = accel_projection(tr1, tr2, self.bound5, d11, d12, d22)
+        if code == JOINT:
+            ta1, ta2, tau_a_bounded = clip_box(tr1, tr2, self.bound5)
         else:
-            ta1, ta2, tau_a_bounded = _limit(tr1, tr2, self.bound5, per_joint)
+            ta1, ta2, tau_a_bounded = limit_torque(code, tr1, tr2, self.bound5, d11, d12, d22)
 
         # tau = tau* + tau^a (+ PE), then the actuator limit ||tau|| <= rho of eq. (1)
-        tau1, tau2, tau_limited = _limit(ts1 + ta1 + pe, ts2 + ta2 + pe, self.rho, self.actuator_per_joint)
+        tau1, tau2 = ts1 + ta1 + pe, ts2 + ta2 + pe
+        tau_limited = False
+        if self.actuator_per_joint:
+            tau1, tau2, tau_limited = clip_box(tau1, tau2, self.rho)
+        elif code != NONE:
+            tau1, tau2, _, tau_limited = saturate_norm(tau1, tau2, self.rho)
 
         self._pending = {
             "t": t, "W": Wv, "wdot": wdot, "xi": xi, "eta": eta, "r": rew, "z": z,

@@ -47,12 +47,14 @@ class CLStack:
     chi_vd^a)."""
 
     def __init__(self, P: int, selection: str, replay: str, s: float, r: Sequence[float],
-                 theta: Sequence[float], lam1: Sequence[float], lam2: Sequence[float], backstepping: bool):
+                 theta: Sequence[float], lam1: Sequence[float], lam2: Sequence[float], backstepping: bool,
+                 coupled: bool = True):
         self.P, self.selection, self.replay_form = P, selection, replay
         self.s = s
         self.r = np.array(r, dtype=float)
         self.theta = np.array(theta, dtype=float)
         self.lam1, self.lam2, self.backstepping = tuple(lam1), tuple(lam2), backstepping
+        self.coupled = coupled  # eta_i with the coupling terms +z_v, -z_phi of (6) (else (7) as printed)
         self.clear()
 
     # --- contents --------------------------------------------------------------------------------
@@ -124,6 +126,9 @@ class CLStack:
             F[:, 1] = (1.0 + self.lam1[1]) * Z[:, 3]
         F[:, 2] = Fe[:, 0] - self.lam2[0] * Z[:, 2] - Z[:, 0]
         F[:, 3] = Fe[:, 1] - self.lam2[1] * Z[:, 3] - Z[:, 1]
+        if not self.coupled:
+            F[:, :2] -= Z[:, 2:]
+            F[:, 2:] += Z[:, :2]
         g = np.zeros((n, 4, 4))
         g[:, 0, 0] = g[:, 1, 1] = 1.0
         g[:, 2, 2], g[:, 2, 3], g[:, 3, 2], g[:, 3, 3] = Di[:, 0], Di[:, 1], Di[:, 1], Di[:, 2]

@@ -32,6 +32,7 @@ class ParameterSpec:
     high: float = math.inf
     low_open: bool = False
     high_open: bool = False
+    integer: bool = False  # an integer code: an FMI Integer variable, refused unless whole
 
     def range_text(self) -> str:
         left = "(" if self.low_open or math.isinf(self.low) else "["
@@ -50,6 +51,8 @@ class ParameterSpec:
         too_high = value >= self.high if self.high_open else value > self.high
         if too_low or too_high:
             raise ParameterError(self.name, f"{value:g} is outside the valid range {self.range_text()}")
+        if self.integer and value != int(value):
+            raise ParameterError(self.name, f"{value:g} is not an integer; valid codes {self.range_text()}")
         return value
 
 
@@ -70,6 +73,11 @@ def nonnegative(name: str, default: float, unit: str, description: str, high: fl
 
 def any_real(name: str, default: float, unit: str, description: str) -> ParameterSpec:
     return ParameterSpec(name, default, unit, description)
+
+
+def integer_code(name: str, default: int, count: int, description: str) -> ParameterSpec:
+    """An integer switch with codes 0 .. count - 1 (FMI Integer; the description lists the codes)."""
+    return ParameterSpec(name, float(default), "1", description, low=0.0, high=float(count - 1), integer=True)
 
 
 def check_all(specs: tuple[ParameterSpec, ...], values: dict[str, float]) -> dict[str, float]:

@@ -176,7 +176,7 @@ class DescribedSlave(Fmi2Slave):
         self._read_plans: dict[tuple[int, ...], tuple[int, ...] | slice | None] = {}
         self._write_plans: dict[tuple[int, ...], tuple[str, ...] | None] = {}
         self._outputs_by_vr: dict[int, int] | None = None  # output value reference -> index
-        self._output_names: tuple[str, ...] = ()
+        self._output_getters: tuple[Callable[[], float], ...] = ()
 
     def _forget_resources_path(self) -> None:
         """pythonfmu's binary inserts ``resources/`` at ``sys.path[0]`` at every fmi2Instantiate and
@@ -204,7 +204,11 @@ class DescribedSlave(Fmi2Slave):
     # --- declaration -------------------------------------------------------------------------
 
     def declare_parameter(self, spec: ParameterSpec) -> None:
-        """A fixed parameter whose value is checked against ``spec`` at initialization."""
+        """A fixed parameter whose value is checked against ``spec`` at initialization (an FMI
+        Integer when ``spec.integer``, else a Real)."""
+        if spec.integer:
+            self.declare_integer_parameter(spec.name, int(spec.default), int(spec.low), int(spec.high), spec.description)
+            return
         setattr(self, spec.name, float(self._starts.get(spec.name, spec.default)))
         self._register(
             Real(spec.name, causality=Fmi2Causality.parameter, variability=Fmi2Variability.fixed,
@@ -345,14 +349,14 @@ class DescribedSlave(Fmi2Slave):
         if self._outputs_by_vr is None:
             outputs = [v for v in self.vars.values() if v.causality == Fmi2Causality.output and isinstance(v, Real)]
             self._outputs_by_vr = {v.value_reference: i for i, v in enumerate(outputs)}
-            self._output_names = tuple(v.name for v in outputs)
+            self._output_getters = tuple(v.getter for v in outputs)
         return self._outputs_by_vr
 
     def output_values(self) -> list[float]:
-        """Every Real output, in declaration order, at the current state (one pass). Subclasses
-        that hold their outputs elsewhere (the controllers) override this."""
+        """Every Real output, in declaration order, at the current state (one pass over their
+        getters). Subclasses that hold their outputs together (the controllers) override this."""
         self._output_index()
-        return [getattr(self, n) for n in self._output_names]
+        return [get() for get in self._output_getters]
 
     def _write_plan(self, vrs) -> tuple[str, ...] | None:
         """Attribute names for a list of input value references (settable in every state); None

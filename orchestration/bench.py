@@ -10,10 +10,18 @@ one process, 3 times each; the ratio of the median wall times (target: at most 1
 time spent inside the recorder itself (less sensitive to other load on the machine).
 
 ``recording-blocks``: the same at several block sizes (how ``recording.BLOCK_SIZE`` was chosen).
+
+``sweep``: the same 8 sweep points (SOTC, 10 s each) as a plain loop in this process and as Dask
+tasks on LocalClusters of 1 and of 2 workers, alternated in one run, best of 2 rounds (both
+clusters started and warmed with a point per worker first; start-up reported apart): throughput,
+the 2-worker speed-up (target >= 1.7 on 2 cores), the per-point overhead of Dask against the loop,
+how many workers were busy on average (robust to other load on the machine), and as the ceiling the
+same measure for plain pure-Python work in 2 processes against 1 (no Dask, no FMU).
 """
 from __future__ import annotations
 
 import math
+import os
 import time
 
 import numpy as np
@@ -166,6 +174,98 @@ def bench_recording_blocks(fmu_dir) -> str:
     return "\n".join(lines)
 
 
+def _spin(n: int) -> int:
+    """A fixed amount of pure-Python work (the machine's own 2-process scaling reference)."""
+    acc = 0
+    for i in range(n):
+        acc = (acc + i * i) % 1_000_003
+    return acc
+
+
+def machine_scaling(units: int = 4, n: int = 3_000_000) -> float:
+    """Time of ``units`` pieces of pure-Python work in 1 process over the same work in 2 processes
+    (no Dask, no FMU): what 2 processes can gain on this machine right now."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    with ProcessPoolExecutor(2) as pool:
+        list(pool.map(_spin, [1000] * 2))  # start both processes
+        t0 = time.perf_counter()
+        for _ in range(units):
+            _spin(n)
+        one = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        list(pool.map(_spin, [n] * units))
+        two = time.perf_counter() - t0
+    return one / two
+
+
+def bench_sweep(fmu_dir, points: int = 8, stop_time: float = 10.0, rounds: int = 2) -> str:
+    from orchestration.sweep import _client, fmu_blobs, point_key, run_point
+    from orchestration.sweep_file import parse_sweep
+
+    values = [float(v) for v in np.linspace(30.0, 70.0, points)]
+    sweep = parse_sweep({"scenario": "paper", "stop_time": stop_time, "axis": [{"name": "controller.alpha1", "values": values}]},
+                        "bench")
+    blobs = fmu_blobs(sweep.model_names(), fmu_dir)
+    digests = {m: d for m, (d, _) in blobs.items()}
+    tasks = [{"point": p, "key": point_key(p.scenario, digests), "time_limit": 600.0, "state_bound": 1e3, "record": False}
+             for p in sweep.points()]
+
+    def timed(run_all) -> tuple[float, float]:
+        """Wall time of the batch and the sum of the points' own wall times."""
+        t0 = time.perf_counter()
+        rows = run_all()
+        wall = time.perf_counter() - t0
+        bad = [r["reason"] for r in rows if r["status"] != "ok"]
+        if bad:
+            raise RuntimeError(f"benchmark point failed: {bad[0]}")
+        return wall, sum(r["wall_time_s"] for r in rows)
+
+    load = os.getloadavg()[0]
+    clusters, started = {}, {}
+    try:
+        for workers in (1, 2):  # both clusters up (idle) before any timing; each warmed with a point per worker
+            t0 = time.perf_counter()
+            clusters[workers] = _client(None, workers)
+            started[workers] = time.perf_counter() - t0
+        shared = {}
+        for workers, (client, _) in clusters.items():
+            [shared[workers]] = client.scatter([blobs], broadcast=True, hash=False)
+            client.gather([client.submit(run_point, t, shared[workers], pure=False) for t in tasks[:workers]])
+        run_point(tasks[0], blobs)  # the loop's warm-up: imports, FMU cache
+        variants = {"plain loop": lambda: [run_point(t, blobs) for t in tasks]}
+        for workers, (client, _) in clusters.items():
+            variants[f"Dask, {workers} worker{'s' if workers > 1 else ''}"] = (
+                lambda c=client, w=workers: c.gather([c.submit(run_point, t, shared[w], pure=False) for t in tasks]))
+        best: dict[str, tuple[float, float]] = {}
+        for _ in range(rounds):  # alternated, best of the rounds: other load on the machine only adds time
+            for name, run_all in variants.items():
+                wall, busy = timed(run_all)
+                if name not in best or wall < best[name][0]:
+                    best[name] = (wall, busy)
+    finally:
+        for client, cluster in clusters.values():
+            client.close()
+            cluster.close()
+    loop, one, two = (best[n][0] for n in variants)
+    lines = [
+        f"Sweep throughput: {points} points of scenario paper (SotcController), {stop_time:g} s each; best of {rounds} "
+        f"alternated rounds (load average before: {load:.1f} on {os.cpu_count()} cores)",
+        f"{'variant':>18} {'wall s':>8} {'points/s':>9} {'busy workers':>13} {'cluster start s':>16}",
+    ]
+    for name, (wall, busy) in best.items():
+        workers = {"plain loop": None, **{f"Dask, {w} worker{'s' if w > 1 else ''}": w for w in (1, 2)}}[name]
+        start = f"{started[workers]:16.2f}" if workers else f"{'-':>16}"
+        lines.append(f"{name:>18} {wall:8.2f} {points / wall:9.2f} {busy / wall:13.2f} {start}")
+    lines += [
+        f"{'2 workers vs 1':>18} {one / two:8.2f}x  (target >= 1.7 on 2 otherwise idle cores)",
+        f"{'machine reference':>18} {machine_scaling():8.2f}x  (pure-Python work in 2 processes vs 1, no Dask: the ceiling now)",
+        f"{'Dask overhead':>18} {(one - loop) / points * 1e3:8.1f} ms per point (1 worker against the plain loop)",
+        "busy workers = sum of the points' own wall times / batch wall time (2 = both workers always running a point)",
+    ]
+    return "\n".join(lines)
+
+
 def _speed(args) -> tuple[str, dict]:
     from orchestration.bench_speed import bench_speed, format_markdown
 
@@ -187,5 +287,6 @@ BENCHMARKS = {
     "integrator": _text_only(lambda fmu_dir: bench_integrator()),  # the plant core alone: no FMU
     "recording": _text_only(bench_recording),
     "recording-blocks": _text_only(bench_recording_blocks),
+    "sweep": _text_only(bench_sweep),
 }
 DEFAULT_BENCHMARKS = ("speed",)

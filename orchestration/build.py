@@ -49,6 +49,7 @@ FMU_SOURCES: dict[str, FmuSource] = {
                   ("fmu_controller/otc.py",)),
         FmuSource("LqrController", "fmu_controller/lqr_controller_fmu.py", ("fmu_plant", "fmu_controller"),
                   ("fmu_controller/lqr.py",)),
+        *(FmuSource(m, f"fmu_plant/{s}_fmu.py", ("fmu_plant",), ("fmu_plant/perturbation.py",)) for m, s in (("Disturbance", "disturbance"), ("MeasurementNoise", "measurement_noise"))),
     )
 }
 

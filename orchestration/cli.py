@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from pathlib import Path
 
@@ -25,22 +26,26 @@ def _cmd_scenarios(args: argparse.Namespace) -> int:
     return 0
 
 
-def _prepare(names: list[str], stop_time: float | None, fmu_dir: Path):
-    """Load the scenarios, apply --stop-time, and build the FMUs they need."""
-    scenarios = [load_scenario(name) for name in names]
+def _prepare(names: list, stop_time: float | None, fmu_dir: Path):
+    """Load the scenarios (names, paths or Scenario objects), apply --stop-time, and build the FMUs they need."""
+    scenarios = [load_scenario(name) if isinstance(name, str) else name for name in names]
     if stop_time is not None:
         scenarios = [s.with_stop_time(stop_time) for s in scenarios]
     return scenarios, ensure_built(sorted({i.fmu for s in scenarios for i in s.instances.values()}), fmu_dir)
 
 
-def _run_each(scenarios, paths, recording_for=None, keep_samples: bool = True, record_every: int = 1) -> list:
+def _run_each(scenarios, paths, recording_for=None, keep_samples: bool = True, record_every: int = 1,
+              progress_label: str | None = None) -> list:
     """Run every scenario (a failure is reported and the next one still runs); ``recording_for``
-    maps a scenario to the .rrd path its run streams to, or None for no recording. Returns
-    (result, summary) pairs; ``keep_samples=False`` streams each run (bounded memory: the summary is
-    computed on the way and the result holds no samples)."""
+    maps a scenario to the .rrd path its run streams to, or None for no recording;
+    ``progress_label``: show the progress under that label. Returns (result, summary) pairs;
+    ``keep_samples=False`` streams each run (bounded memory: the summary is computed on the way
+    and the result holds no samples)."""
     from orchestration.master import run
+    from orchestration.progress import Progress
     from orchestration.summary import SummaryObserver, summarize
 
+    progress = Progress(len(scenarios), progress_label) if progress_label else None
     out = []
     for scenario in scenarios:
         if interrupt.requested():  # Ctrl-C: no further scenario starts; the finished ones are kept
@@ -62,6 +67,10 @@ def _run_each(scenarios, paths, recording_for=None, keep_samples: bool = True, r
         if result.failed and not result.interrupted:
             print(f"{scenario.name}: FAILED: {result.error}", file=sys.stderr)
         out.append((result, summarize(result) if keep_samples else summary.summary))
+        if progress is not None:
+            progress.update(not result.failed, f"{scenario.name} {'FAILED' if result.failed else 'ok'}")
+    if progress is not None:
+        progress.close()
     return out
 
 
@@ -114,32 +123,75 @@ def _cmd_compare(args: argparse.Namespace) -> int:
 
 def _cmd_reproduce(args: argparse.Namespace) -> int:
     from orchestration.recording import record_comparison
-    from orchestration.reproduce import REPRODUCE_SCENARIOS, compact_table, write_table
+    from orchestration.reproduce import compact_table, reproduce_scenarios, write_table
 
-    results, summaries = zip(*_run_each(*_prepare(list(REPRODUCE_SCENARIOS), args.stop_time, args.fmu_dir)))
+    results, summaries = zip(*_run_each(*_prepare(reproduce_scenarios(), args.stop_time, args.fmu_dir),
+                                        progress_label="reproduce"))
     md, cs, text = write_table(summaries, args.out)
     print(text)
     print(compact_table(summaries))
     print(f"wrote {md} and {cs}")
-    print(f"recording: {record_comparison(results, args.recording)} (paper Figs 10-12: every controller overlaid)")
+    print(f"recording: {record_comparison(results, args.recording)} (paper Figs 10-12: every run overlaid)")
     return _exit_code(summaries)
 
 
-def _cmd_sweep(args: argparse.Namespace) -> int:
-    from orchestration.summary import format_table
-    from orchestration.sweep import parse_assignments, run_sweep, write_results
+class _SweepListener:
+    """Prints what a sweep is about to do, then its progress."""
 
-    grid = parse_assignments(args.set)
-    (base,), paths = _prepare([args.scenario], args.stop_time, args.fmu_dir)
-    results = run_sweep(base, grid, paths, scheduler=args.scheduler, workers=args.workers)
-    for r in results:
-        if r["status"] != "ok":
-            print(f"{r['scenario']} {r['parameters']}: FAILED: {r['error']}", file=sys.stderr)
-    print(format_table(results))
-    out = args.out or Path("recordings") / f"sweep-{base.name}.csv"
-    csv_path, json_path = write_results(results, out)
-    print(f"wrote {csv_path} and {json_path}")
-    return _exit_code(results)
+    def __init__(self, sweep, out: Path, workers: int | None, scheduler: str | None):
+        self.sweep, self.out, self.workers, self.scheduler = sweep, out, workers, scheduler
+        self.progress = None
+
+    def started(self, outcome) -> None:
+        from orchestration.progress import Progress
+
+        where = self.scheduler or f"a local Dask cluster of {self.workers or os.cpu_count()} worker processes"
+        print(f"sweep {self.sweep.name}: {outcome.total} points, {outcome.skipped} already in {self.out}, "
+              f"{outcome.total - outcome.skipped} to run on {where}", flush=True)
+        self.progress = Progress(outcome.total, f"sweep {self.sweep.name}", self.workers or os.cpu_count() or 1,
+                                 skipped=outcome.skipped, skipped_failed=outcome.skipped_failed)
+
+    def finished(self, row) -> None:
+        note = f"point {row['index']} {row['status']}" + (f": {row['reason']}" if row["reason"] else "")
+        self.progress.update(row["status"] == "ok", note[:200])
+
+    def close(self) -> None:
+        if self.progress is not None:
+            self.progress.close()
+
+
+def _cmd_sweep(args: argparse.Namespace) -> int:
+    from orchestration.sweep import execute
+    from orchestration.sweep_file import grid_from_assignments, load_sweep
+    from orchestration.sweep_results import SweepStore, write_doc, write_reports
+
+    if args.workers is not None and args.workers < 1:
+        raise ScenarioError(f"--workers {args.workers}: give at least 1")
+    sweep = grid_from_assignments(args.sweep, args.set) if args.set else load_sweep(args.sweep)
+    out = args.out or Path("recordings") / sweep.name
+    store = SweepStore(out)
+    listener = _SweepListener(sweep, out, args.workers, args.scheduler)
+    try:
+        outcome = execute(sweep, args.fmu_dir, store, workers=args.workers, scheduler=args.scheduler,
+                          record=args.record, retry_failed=args.retry_failed, listener=listener)
+    finally:
+        listener.close()
+    reports = write_reports(store, outcome.total)
+    print(f"{len(outcome.rows)} of {outcome.total} points stored ({outcome.skipped} from before, {outcome.ran} run now), "
+          f"{outcome.failed} failed")
+    for name, path in reports.items():
+        print(f"{name}: {path}")
+    if outcome.interrupted:
+        again = ["sotc-cosim", "sweep", args.sweep, *(f"--set={item}" for item in args.set), "--out", str(out)]
+        again += ["--workers", str(args.workers)] if args.workers else []
+        again += ["--scheduler", args.scheduler] if args.scheduler else []
+        again += ["--record"] if args.record else []
+        print(f"interrupted: the {len(outcome.rows)} finished points are kept in {out}; resume with: "
+              f"{' '.join(again)}", file=sys.stderr)
+        return 130
+    if args.doc:
+        print(f"doc: {write_doc(store, outcome.total, args.doc)}")
+    return 1 if outcome.failed else 0
 
 
 def _fmu_files(names: list[str], fmu_dir: Path) -> list[Path]:
@@ -286,15 +338,19 @@ def build_parser() -> argparse.ArgumentParser:
     _add_fmu_dir(p)
     p.set_defaults(func=_cmd_compare)
 
-    p = sub.add_parser("sweep", help="run a scenario over a grid of parameter values (Dask: local processes by default)")
-    p.add_argument("scenario", metavar="SCENARIO", help="scenario name or .toml path")
-    p.add_argument("--set", action="append", default=[], metavar="INSTANCE.PARAM=V1,V2,...", required=True,
-                   help="values of one parameter; several --set make a cartesian grid")
-    p.add_argument("--scheduler", default="processes",
-                   help="processes (default, local), synchronous, or a dask.distributed address tcp://host:port")
-    p.add_argument("--workers", type=int, help="local worker processes (default: one per core)")
-    _add_stop_time(p, "override the scenario's stop time, s")
-    p.add_argument("--out", type=Path, help="CSV of the results (default recordings/sweep-<scenario>.csv; JSON beside it)")
+    p = sub.add_parser("sweep", help="run a sweep file on Dask (a local cluster by default), resumable")
+    p.add_argument("sweep", metavar="FILE", help="sweep name (robustness, learning, controllers) or .toml path; "
+                   "with --set: a scenario name or path")
+    p.add_argument("--set", action="append", default=[], metavar="INSTANCE.PARAM=V1,V2,...",
+                   help="sweep FILE as a scenario over these values (several --set: a grid), without a sweep file")
+    p.add_argument("--workers", type=int, help="worker processes of the local cluster (default: one per core)")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="an existing dask.distributed scheduler, tcp://host:8786 (default: a local cluster)")
+    p.add_argument("--out", type=Path, help="results folder (default recordings/<sweep>); rerun into it to resume")
+    p.add_argument("--record", action="store_true", help="write each point's Rerun recording (points/<key>.rrd)")
+    p.add_argument("--retry-failed", action="store_true", help="run the stored failed points again")
+    p.add_argument("--doc", type=Path, metavar="MD",
+                   help="also write the results into this markdown file's generated block (plots beside it)")
     _add_fmu_dir(p)
     p.set_defaults(func=_cmd_sweep)
 
@@ -308,7 +364,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("bench", help="measure speed and scaling (default), or the measurements behind design choices")
     p.add_argument("names", nargs="*", metavar="NAME",
-                   help="benchmarks to run: speed (default), integrator, recording, recording-blocks")
+                   help="benchmarks to run: speed (default), integrator, recording, recording-blocks, sweep")
     p.add_argument("--repeats", type=_positive_int, default=3, help="alternated runs of each variant (default 3)")
     p.add_argument("--long", type=_stop_times, default=[1000.0, 10000.0], metavar="S[,S...]",
                    help="stop times of the long single runs, s (default 1000,10000; 'none' skips them)")

@@ -60,6 +60,8 @@ class RunResult:
     logs: list[LogRecord] = field(default_factory=list)
     # every parameter of every instance as the FMU holds it after initialization (defaults included)
     parameters: dict[str, dict[str, float]] = field(default_factory=dict)
+    # per instance, the identity of the FMU it ran: guid, version, generation_tool (modelDescription)
+    fmus: dict[str, dict[str, str]] = field(default_factory=dict)
     completed: int | None = None  # samples t_0 .. t_{completed-1} were produced (None: len(time))
 
     @property
@@ -289,6 +291,7 @@ def run(
     logs: list[LogRecord] = []
     clock = _Clock()
     parameters: dict[str, dict[str, float]] = {}
+    fmus: dict[str, dict[str, str]] = {}
     n_steps = scenario.steps
     T = scenario.step_size
     rows = n_steps + 1 if keep_samples else min(block_size, n_steps + 1)  # rows held per instance
@@ -321,6 +324,9 @@ def run(
             if inst.fmu not in fmu_paths:
                 raise ScenarioError(f"instance '{inst.name}': no built FMU for model '{inst.fmu}'")
             loaded[inst.name] = _Loaded(inst.name, fmu_paths[inst.fmu], workdir, logs, clock)
+            md = loaded[inst.name].md
+            fmus[inst.name] = {"guid": md.guid or "", "version": md.version or "",
+                               "generation_tool": md.generationTool or ""}
         links = _resolve_links(scenario, loaded)
         order = _feedthrough_order(loaded, links)
         # per feedthrough position: the instance and the inputs set after it (lists: no lookups per step)
@@ -380,10 +386,11 @@ def run(
         outputs = {name: {v: records[name][:completed, i] for i, v in enumerate(loaded[name].output_names)}
                    for name in records}
         result = RunResult(scenario, times[:completed], outputs, wall, failed=error is not None, error=error,
-                           interrupted=interrupted, logs=logs, parameters=parameters)
+                           interrupted=interrupted, logs=logs, parameters=parameters, fmus=fmus)
     else:
         result = RunResult(scenario, np.empty(0), {}, wall, failed=error is not None, error=error,
-                           interrupted=interrupted, logs=logs, parameters=parameters, completed=completed)
+                           interrupted=interrupted, logs=logs, parameters=parameters, fmus=fmus,
+                           completed=completed)
     if observer is not None:
         try:
             if observer_ok and completed > flushed:

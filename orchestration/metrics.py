@@ -20,6 +20,19 @@ import numpy as np
 # limit lands on it up to rounding)
 LIMIT_TOLERANCE = 1e-9
 SETTLE_BAND = 0.01  # rad
+TRANSIENT_END = 5.0  # s: "post-transient" metrics use t >= 5 s
+# controller outputs that flag a sample where the torque limit acts (SOTC: bound (5) on tau^a or
+# chi_vd^a, the actuator limit; CT/LQR: the limit handling; OTC: the torque before the limit is over it)
+LIMIT_FLAG_OUTPUTS = ("tau_a_bounded", "chi_a_bounded", "tau_limited", "saturated", "over_limit")
+
+
+def limit_active(outputs: dict[str, np.ndarray], n: int) -> np.ndarray:
+    """Per sample: does the torque limit act? (any of ``LIMIT_FLAG_OUTPUTS`` the controller has is nonzero)"""
+    flags = np.zeros(n, dtype=bool)
+    for name in LIMIT_FLAG_OUTPUTS:
+        if name in outputs:
+            flags |= np.asarray(outputs[name]) != 0.0
+    return flags
 
 
 def _trapezoid(y: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -54,6 +67,8 @@ def tracking_metrics(
     torque_limit: float = 4.0,
     cost_rate: np.ndarray | None = None,
     stop_time: float | None = None,
+    e_dot: np.ndarray | None = None,
+    limit_flags: np.ndarray | None = None,
 ) -> dict[str, Any]:
     """Metrics of one closed-loop run.
 
@@ -61,7 +76,9 @@ def tracking_metrics(
     in rad; ``tau`` (n, 2) commanded torque in N.m; ``torque_limit`` the bound on ||tau|| in N.m
     (the paper's rho = 4); ``cost_rate`` (n,) optional SOTC cost integrand z'Theta z + Omega(mu)
     per sample (eq. (12)); ``stop_time`` the run's stop time (default t[-1]), used for
-    ``max_abs_error_last_half``.
+    ``max_abs_error_last_half``; ``e_dot`` (n, 2) optional dphi - dphi_d in rad/s (for
+    ``tracking_cost``); ``limit_flags`` (n,) optional: True where the torque limit acts
+    (``limit_active``).
 
     Returned keys (per-joint values are [joint 1, joint 2]):
 
@@ -83,14 +100,25 @@ def tracking_metrics(
     - ``control_energy``: integral of tau' tau dt (N^2.m^2.s), exact for the sampled loop's
       zero-order hold: sum_k (t_{k+1} - t_k) ||tau_k||^2 (tau_k is held over [t_k, t_{k+1})).
     - ``tau_total_variation_rate``: sum_k |tau_i[k+1] - tau_i[k]| / duration, per joint (N.m/s).
-    - ``cost_integral``: integral of cost_rate dt, trapezoid, or None without cost_rate.
+    - ``cost_integral``: integral of cost_rate dt, trapezoid, or None without cost_rate (the
+      controller's own cost (12); only the SOTC has one).
+    - ``mse_after_5s``: MSE (50) over the samples with t >= 5 s, per joint (None if none).
+    - ``last_limit_time``: time of the last sample where the limit acts (None: never, or no flags).
+    - ``mse_after_limit``: MSE over the samples after that one (all samples if the limit never
+      acts; None without flags or if no sample follows).
+    - ``tracking_cost``: the realised cost (12) in coordinates every controller shares, integral of
+      z'z dt (trapezoid) with z = [e, e_dot + e]: Theta = I and Lambda_1 = I of section 4 with the
+      learned chi_vd* left out, and no input term (the controllers' inputs differ; see
+      ``control_energy``). None without e_dot.
     - ``torque_limit``: the limit used.
     """
     t = np.asarray(t, dtype=float).reshape(-1)
     if len(t) == 0:
         raise ValueError("tracking_metrics needs at least one sample")
-    acc = TrackingMetrics(torque_limit, float(t[-1]) if stop_time is None else float(stop_time), cost_rate is not None)
-    acc.add(t, e, tau, cost_rate)
+    acc = TrackingMetrics(torque_limit, float(t[-1]) if stop_time is None else float(stop_time),
+                          with_cost=cost_rate is not None, with_e_dot=e_dot is not None,
+                          with_flags=limit_flags is not None)
+    acc.add(t, e, tau, cost_rate, e_dot, limit_flags)
     return acc.result()
 
 
@@ -99,8 +127,14 @@ class TrackingMetrics:
     state: what the master streams is summarised without keeping the run. Fed the whole run as
     one block it is ``tracking_metrics``; fed in blocks the sums differ only by rounding."""
 
-    def __init__(self, torque_limit: float, stop_time: float, with_cost: bool = False):
+    def __init__(self, torque_limit: float, stop_time: float, with_cost: bool = False, with_e_dot: bool = False,
+                 with_flags: bool = False):
         self.limit, self.stop, self.with_cost = float(torque_limit), float(stop_time), with_cost
+        self.with_e_dot, self.with_flags = with_e_dot, with_flags
+        self.late = [np.zeros(2), 0]  # sum of e^2 and count over t >= TRANSIENT_END
+        self.after_limit = [np.zeros(2), 0]  # the same since the last sample where the limit acts
+        self.last_limit_time: float | None = None
+        self.tracking_cost = 0.0
         self.n = 0
         self.t0 = self.t_last = math.nan
         self.e2 = np.zeros(2)  # sum of e^2
@@ -118,33 +152,46 @@ class TrackingMetrics:
         self.settle: list[float | None] = [math.nan, math.nan]
         self.last: tuple[float, np.ndarray, np.ndarray, float, float] | None = None  # t, |e|, tau, norm, cost
 
-    def add(self, t: np.ndarray, e: np.ndarray, tau: np.ndarray, cost_rate: np.ndarray | None = None) -> None:
+    def add(self, t: np.ndarray, e: np.ndarray, tau: np.ndarray, cost_rate: np.ndarray | None = None,
+            e_dot: np.ndarray | None = None, limit_flags: np.ndarray | None = None) -> None:
         t = np.asarray(t, dtype=float).reshape(-1)
         m = len(t)
         if m == 0:
             return
         e = np.asarray(e, dtype=float).reshape(m, 2)
         tau = np.asarray(tau, dtype=float).reshape(m, 2)
-        if self.with_cost:
-            if cost_rate is None:
-                raise ValueError("cost_rate is needed in every block (the accumulator was made with_cost)")
-            c = np.asarray(cost_rate, dtype=float).reshape(-1)
-            if len(c) != m:
-                raise ValueError(f"cost_rate has {len(c)} samples, t has {m}")
+        c = self._column("cost_rate", cost_rate, self.with_cost, m)
+        if self.with_e_dot:
+            ed = np.asarray(self._column("e_dot", e_dot, True, 2 * m), dtype=float).reshape(m, 2)
+            zz = np.sum(e**2, axis=1) + np.sum((ed + e) ** 2, axis=1)  # z'z of ``tracking_cost``
         ae = np.abs(e)
         norm = np.hypot(tau[:, 0], tau[:, 1])
+        e2 = e * e
+        late = t >= TRANSIENT_END - 1e-12
+        self.late[0] += np.sum(e2[late], axis=0)
+        self.late[1] += int(np.sum(late))
+        if self.with_flags:
+            hits = np.flatnonzero(np.asarray(self._column("limit_flags", limit_flags, True, m), dtype=bool))
+            if len(hits):  # MSE after the limit restarts after the latest sample where it acts
+                self.last_limit_time = float(t[hits[-1]])
+                self.after_limit = [np.zeros(2), 0]
+            first = hits[-1] + 1 if len(hits) else 0
+            self.after_limit[0] += np.sum(e2[first:], axis=0)
+            self.after_limit[1] += m - first
         if self.last is not None:  # the interval from the previous block's last sample
-            tp, aep, taup, normp, cp = self.last
+            tp, aep, taup, normp, cp, zzp = self.last
             t, ae, tau, norm = np.r_[tp, t], np.vstack([aep, ae]), np.vstack([taup, tau]), np.r_[normp, norm]
             if self.with_cost:
                 c = np.r_[cp, c]
+            if self.with_e_dot:
+                zz = np.r_[zzp, zz]
         else:
             self.t0 = float(t[0])
         if len(t) > 1 and np.any(np.diff(t) <= 0.0):
             raise ValueError("t must be strictly increasing")
         new = slice(0 if self.last is None else 1, None)  # the samples of this block
         self.n += m
-        self.e2 += np.sum(e * e, axis=0)
+        self.e2 += np.sum(e2, axis=0)
         self.iae += _trapezoid(ae, t)
         self.max_e = np.maximum(self.max_e, np.max(ae[new], axis=0))
         tn = t[new]
@@ -169,8 +216,22 @@ class TrackingMetrics:
         self.tv += np.sum(np.abs(np.diff(tau, axis=0)), axis=0)
         if self.with_cost:
             self.cost += float(_trapezoid(c, t))
+        if self.with_e_dot:
+            self.tracking_cost += float(_trapezoid(zz, t))
         self.t_last = float(t[-1])
-        self.last = (self.t_last, ae[-1].copy(), tau[-1].copy(), float(norm[-1]), float(c[-1]) if self.with_cost else 0.0)
+        self.last = (self.t_last, ae[-1].copy(), tau[-1].copy(), float(norm[-1]),
+                     float(c[-1]) if self.with_cost else 0.0, float(zz[-1]) if self.with_e_dot else 0.0)
+
+    @staticmethod
+    def _column(name: str, values, needed: bool, size: int):
+        if not needed:
+            return None
+        if values is None:
+            raise ValueError(f"{name} is needed in every block (the accumulator was made with it)")
+        a = np.asarray(values).reshape(-1)
+        if len(a) != size:
+            raise ValueError(f"{name} has {len(a)} values, the block needs {size}")
+        return a
 
     def result(self) -> dict[str, Any]:
         n = self.n
@@ -200,6 +261,11 @@ class TrackingMetrics:
             "tau_total_variation_rate": _per_joint(self.tv / duration) if duration > 0.0 else [0.0, 0.0],
             "cost_integral": self.cost if self.with_cost else None,
             "torque_limit": self.limit,
+            "mse_after_5s": _per_joint(self.late[0] / self.late[1]) if self.late[1] else None,
+            "last_limit_time": self.last_limit_time,
+            "mse_after_limit": (_per_joint(self.after_limit[0] / self.after_limit[1])
+                                if self.with_flags and self.after_limit[1] else None),
+            "tracking_cost": self.tracking_cost if self.with_e_dot else None,
         }
         # floats must be finite for JSON; a diverged run reports None rather than NaN/inf
         for key, value in out.items():

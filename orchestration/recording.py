@@ -38,7 +38,7 @@ import numpy as np
 import rerun as rr
 
 from orchestration.master import RunResult
-from orchestration.recording_blueprint import comparison_blueprint, run_blueprint
+from orchestration.recording_blueprint import VIEW_DESCRIPTIONS, comparison_blueprint, run_blueprint
 from orchestration.scenario import Scenario
 
 APPLICATION_ID = "sotc-cosim"
@@ -49,6 +49,7 @@ COMPARE_BLOCK = 10_000  # samples per send_columns when a finished run is writte
 
 JOINT_COLORS = ((31, 119, 180), (255, 127, 14), (120, 120, 120))  # joint 1, joint 2, norm
 ACTUAL, DESIRED, LIMIT = (220, 60, 40), (40, 110, 220), (150, 150, 150)
+DESIRED_DRAW_ORDER = 40.0  # above the runs' paths and arms (Rerun's default for 2D lines is 20)
 PALETTE = ((31, 119, 180), (255, 127, 14), (44, 160, 44), (214, 39, 40), (148, 103, 189),
            (140, 86, 75), (227, 119, 194), (127, 127, 127), (188, 189, 34), (23, 190, 207))
 
@@ -227,8 +228,12 @@ class RunWriter:
             log(f"{ws}/arm", rr.LineStrips2D.from_fields(colors=[(*self.arm_color, 110)], radii=[0.012]), static=True)
             log(f"{ws}/path/actual", rr.LineStrips2D.from_fields(colors=[self.arm_color], radii=[0.006]), static=True)
         if self.has_target:
-            log(f"{ws}/target", rr.Points2D.from_fields(colors=[DESIRED], radii=[0.04]), static=True)
-            log(f"{ws}/path/desired", rr.LineStrips2D.from_fields(colors=[DESIRED], radii=[0.004]), static=True)
+            # drawn above every run's path and arm (DrawOrder), thin, so that it stays visible where runs
+            # overlay it (Fig. 12)
+            log(f"{ws}/target", rr.Points2D.from_fields(colors=[DESIRED], radii=[0.04], draw_order=DESIRED_DRAW_ORDER + 1),
+                static=True)
+            log(f"{ws}/path/desired", rr.LineStrips2D.from_fields(colors=[DESIRED], radii=[0.004],
+                                                                   draw_order=DESIRED_DRAW_ORDER), static=True)
 
     def send_block(self, rows: dict[str, np.ndarray], every: int = 1) -> None:
         """The next samples (per instance an array (m, n_outputs)). ``every`` > 1 sends the signals
@@ -316,10 +321,11 @@ _FMI_LEVELS = {"WARNING": "WARN", "DISCARD": "WARN", "ERROR": "ERROR", "FATAL": 
 
 def send_scenario_properties(
     stream: rr.RecordingStream, scenario: Scenario, parameters: dict[str, dict[str, float]] | None = None,
-    prefix: str = "",
+    prefix: str = "", fmus: dict[str, dict[str, str]] | None = None,
 ) -> None:
-    """The scenario, and per instance its FMU and every parameter value it ran with (read back from
-    the FMU, defaults included; the scenario's overrides where the run never got that far)."""
+    """The scenario, and per instance its FMU (name, and once the run has loaded it its GUID, version
+    and generation tool) and every parameter value it ran with (read back from the FMU, defaults
+    included; the scenario's overrides where the run never got that far)."""
     stream.send_property(f"{prefix}scenario", rr.AnyValues(
         name=scenario.name, description=scenario.description, stop_time=scenario.stop_time,
         step_size=scenario.step_size, steps=scenario.steps, controller=scenario.controller_fmu() or "",
@@ -329,7 +335,14 @@ def send_scenario_properties(
     ))
     for inst in scenario.instances.values():
         values = (parameters or {}).get(inst.name) or inst.parameters
-        stream.send_property(f"{prefix}{inst.name}", rr.AnyValues(fmu=inst.fmu, **values))
+        ids = (fmus or {}).get(inst.name, {})
+        stream.send_property(f"{prefix}{inst.name}", rr.AnyValues(fmu=inst.fmu, **{f"fmu_{k}": v for k, v in ids.items()},
+                                                                   **values))
+
+
+def send_view_properties(stream: rr.RecordingStream) -> None:
+    """What each default view shows (the view titles are kept short enough to read)."""
+    stream.send_property("views", rr.AnyValues(**VIEW_DESCRIPTIONS))
 
 
 def send_result_properties(stream: rr.RecordingStream, result: RunResult, prefix: str = "") -> None:
@@ -377,6 +390,7 @@ class RunRecorder:
         self.stream.send_recording_name(scenario.name)
         send_scenario_properties(self.stream, scenario, parameters)
         self.stream.send_property("recording", rr.AnyValues(record_every=self.every))
+        send_view_properties(self.stream)
         self.writer.send_static()
         self.stream.flush()
 
@@ -390,6 +404,7 @@ class RunRecorder:
         if self.stream is None:  # failed before the first sample: record why
             self.start(result.scenario, {}, result.parameters)
         self.writer.send_end(result)
+        send_scenario_properties(self.stream, result.scenario, result.parameters, fmus=result.fmus)
         send_result_properties(self.stream, result)
         self.close()
 
@@ -406,6 +421,45 @@ class RunRecorder:
 
     def __exit__(self, exc_type, exc, tb) -> None:
         self.close(exc)
+
+
+class PointRecorder(RunRecorder):
+    """The recording of one point of a sweep: a run recording whose properties also hold the
+    point's settings (``sweep_point``) and its resume key."""
+
+    def __init__(self, path: str | Path, settings: dict[str, object], key: str):
+        super().__init__(path)
+        self.settings, self.key = settings, key
+
+    def start(self, scenario: Scenario, columns: dict[str, list[str]],
+              parameters: dict[str, dict[str, float]] | None = None) -> None:
+        super().start(scenario, columns, parameters)
+        self.stream.send_property("sweep_point", rr.AnyValues(
+            key=self.key, **{name.replace(".", "/"): value for name, value in self.settings.items()}))
+
+
+def record_sweep(traces: Sequence[tuple[str, np.ndarray]], step_size: float, path: str | Path, title: str) -> Path:
+    """One file overlaying the tracking errors of every point of a sweep: ``/points/<label>/e1``
+    and ``.../e2``, each trace an array (m, 3) of [t, e1, e2] (thinned samples of a run)."""
+    path = Path(path)
+    from orchestration.recording_blueprint import sweep_blueprint
+
+    stream = _new_stream(path, sweep_blueprint())
+    try:
+        stream.send_recording_name(title)
+        ns = step_nanos(step_size)
+        for n, (label, trace) in enumerate(traces):
+            if not len(trace):
+                continue
+            color = PALETTE[1:][n % (len(PALETTE) - 1)]
+            steps = np.round(trace[:, 0] / step_size).astype(np.int64)
+            for j in (1, 2):
+                entity = f"/points/{label}/e{j}"
+                stream.log(entity, rr.SeriesLines(names=[f"{label}: e{j} [rad]"], colors=[color]), static=True)
+                stream.send_columns(entity, time_columns(steps, ns), rr.Scalars.columns(scalars=trace[:, j]))
+    finally:
+        _close(stream)
+    return path
 
 
 # --- comparison ---------------------------------------------------------------------------------
@@ -434,8 +488,9 @@ def record_comparison(results: Sequence[RunResult], path: str | Path) -> Path:
     stream = _new_stream(path, comparison_blueprint(labels, writers))
     try:
         stream.send_recording_name("compare: " + ", ".join(labels))
+        send_view_properties(stream)
         for r, label, writer in zip(results, labels, writers):
-            send_scenario_properties(stream, r.scenario, r.parameters, prefix=f"{label}_")
+            send_scenario_properties(stream, r.scenario, r.parameters, prefix=f"{label}_", fmus=r.fmus)
             send_result_properties(stream, r, prefix=f"{label}_")
             writer.stream = stream
             writer.send_static()

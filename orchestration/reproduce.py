@@ -1,9 +1,11 @@
 """``sotc-cosim reproduce``: the paper's section 4 end to end, and Table 1 extended.
 
-Runs the SOTC scenarios (``paper``, ``paper-pe-only``) and the comparison controllers
-(``paper-otc``, ``paper-ct``, ``paper-lqr``) through the FMUs, then writes Table 1 with the
-paper's own numbers in their own rows beside ours (``table1.md`` and ``table1.csv``). Every number
-in our rows is read from the summaries of this invocation's runs.
+Runs through the FMUs the SOTC scenarios (``paper``, its literal and near-literal readings,
+``paper-pe-only``) and every controller under every torque-limit handling (``REPRODUCE_RUNS``: the
+SOTC, CT and LQR under radial / joint / accel, the OTC unclipped and clipped by each), then writes
+Table 1 with the paper's own numbers in their own rows beside ours (``table1.md`` and
+``table1.csv``), and the value-function table of the learned W (``orchestration.value_function``).
+Every number in our rows is read from the summaries of this invocation's runs.
 """
 from __future__ import annotations
 
@@ -12,9 +14,33 @@ import io
 from pathlib import Path
 from typing import Any, Callable
 
+from fmu_controller.saturation import LIMIT_HANDLINGS
+from orchestration.comparison import COMPARED
+from orchestration.scenario import Scenario, load_scenario
 from orchestration.summary import fmt_cell
 
-REPRODUCE_SCENARIOS = ("paper", "paper-pe-only", "paper-otc", "paper-ct", "paper-lqr")
+
+def _runs() -> tuple[tuple[str, int | None, str], ...]:
+    """(scenario, limit_handling code or None for the scenario's own, run name): the SOTC readings
+    first, then every controller of ``COMPARED`` under each handling (its default under its own name)."""
+    runs = [("paper-literal", None, "paper-literal"), ("paper-near-literal", None, "paper-near-literal"),
+            ("paper-pe-only", None, "paper-pe-only")]
+    for scenario, codes in COMPARED:
+        runs.append((scenario, None, scenario))
+        runs += [(scenario, code, f"{scenario}-{LIMIT_HANDLINGS[code]}") for code in codes[1:]]
+    return tuple(runs)
+
+
+REPRODUCE_RUNS = _runs()
+REPRODUCE_SCENARIOS = tuple(name for _, _, name in REPRODUCE_RUNS)
+
+
+def reproduce_scenarios() -> list[Scenario]:
+    out = []
+    for scenario, code, name in REPRODUCE_RUNS:
+        sc = load_scenario(scenario)
+        out.append(sc if code is None else sc.with_parameters({"controller.limit_handling": code}, name=name))
+    return out
 
 # Table 1 of the paper (MSE, eq. (50)); no other metric is reported there.
 PAPER_TABLE1 = {
@@ -41,8 +67,15 @@ def _scalar(key: str, fmt: str) -> Callable[[dict[str, Any]], str]:
 
 # (column title, unit, extractor from a run summary)
 COLUMNS: list[tuple[str, str, Callable[[dict[str, Any]], str]]] = [
+    ("limit handling", "", lambda s: s.get("limit_handling") or ""),
     ("MSE joint 1", "rad^2", _joint("mse", 0, ".5f")),
     ("MSE joint 2", "rad^2", _joint("mse", 1, ".5f")),
+    ("MSE1 t>=5s", "rad^2", _joint("mse_after_5s", 0, ".3e")),
+    ("MSE2 t>=5s", "rad^2", _joint("mse_after_5s", 1, ".3e")),
+    ("MSE1 after last limit", "rad^2", _joint("mse_after_limit", 0, ".3e")),
+    ("MSE2 after last limit", "rad^2", _joint("mse_after_limit", 1, ".3e")),
+    ("last limit sample", "s", _scalar("last_limit_time", ".2f")),
+    ("realised cost int z'z", "", _scalar("tracking_cost", ".4f")),
     ("RMSE joint 1", "rad", _joint("rmse", 0, ".4f")),
     ("RMSE joint 2", "rad", _joint("rmse", 1, ".4f")),
     ("IAE joint 1", "rad.s", _joint("iae", 0, ".4f")),
@@ -61,7 +94,7 @@ COLUMNS: list[tuple[str, str, Callable[[dict[str, Any]], str]]] = [
     ("energy int tau'tau", "N^2.m^2.s", _scalar("control_energy", ".1f")),
     ("TV(tau1)/s", "N.m/s", _joint("tau_total_variation_rate", 0, ".3f")),
     ("TV(tau2)/s", "N.m/s", _joint("tau_total_variation_rate", 1, ".3f")),
-    ("SOTC cost int", "", _scalar("cost_integral", ".3f")),
+    ("own cost int (cost_rate)", "", _scalar("cost_integral", ".3f")),
 ]
 
 
@@ -72,7 +105,7 @@ def table_rows(summaries: list[dict[str, Any]]) -> tuple[list[str], list[list[st
     ]
     rows: list[list[str]] = []
     for name, (m1, m2) in PAPER_TABLE1.items():
-        rows.append(["paper Table 1", "", name, ""] + [f"{m1:.5f}", f"{m2:.5f}"] + [""] * (len(COLUMNS) - 2))
+        rows.append(["paper Table 1", "", name, ""] + ["", f"{m1:.5f}", f"{m2:.5f}"] + [""] * (len(COLUMNS) - 3))
     for s in summaries:
         rows.append(["this run", s["scenario"], str(s["controller"]), s["status"]] + [get(s) for _, _, get in COLUMNS])
     return header, rows
@@ -92,6 +125,20 @@ def to_csv(header: list[str], rows: list[list[str]]) -> str:
     return buf.getvalue()
 
 
+def value_table(summaries: list[dict[str, Any]]) -> str:
+    """The value-function measures (``orchestration.value_function``) of the W the ``paper`` run of
+    this invocation learned, beside W = 0, the paper's W and the LQR weights (horizon: the stop time,
+    at most 20 s)."""
+    from orchestration.value_function import HORIZON, VALUE_HEADER, value_rows
+
+    paper = next((s for s in summaries if s["scenario"] == "paper" and s.get("final_weights")), None)
+    if paper is None:
+        return "(no value-function table: the `paper` run did not finish)\n"
+    rows = [[label, f"{ratio:.3g}", f"{cost:.4g}", f"{rel:.4g}", f"{below} of {n}"]
+            for label, ratio, cost, rel, below, n in value_rows(paper["final_weights"], min(HORIZON, paper["stop_time"]))]
+    return to_markdown(VALUE_HEADER, rows)
+
+
 def write_table(summaries: list[dict[str, Any]], out_dir: Path) -> tuple[Path, Path, str]:
     header, rows = table_rows(summaries)
     out_dir = Path(out_dir)
@@ -102,6 +149,7 @@ def write_table(summaries: list[dict[str, Any]], out_dir: Path) -> tuple[Path, P
         "# Table 1 of the paper, extended\n\n"
         "Rows 'paper Table 1' are the paper's numbers (it reports MSE only); rows 'this run' are measured\n"
         "by this invocation of `sotc-cosim reproduce` (metrics defined in orchestration/metrics.py).\n\n" + text
+        + "\n## The learned value function (docs/paper-notes.md, section 3.1)\n\n" + value_table(summaries)
     )
     cs.write_text(to_csv(header, rows))
     return md, cs, text
@@ -109,14 +157,18 @@ def write_table(summaries: list[dict[str, Any]], out_dir: Path) -> tuple[Path, P
 
 def compact_table(summaries: list[dict[str, Any]]) -> str:
     """The console version: MSE beside the paper's, and the torque bound."""
-    lines = [f"{'':<14} {'controller':<15} {'MSE 1':>9} {'MSE 2':>9} {'max||tau||':>10} {'over limit':>10}"]
+    lines = [f"{'':<22} {'controller':<15} {'limit':<7} {'MSE 1':>9} {'MSE 2':>9} {'MSE1 t>=5':>10} "
+             f"{'MSE2 t>=5':>10} {'cost':>8} {'max||tau||':>10} {'over limit':>10}"]
     for name, (m1, m2) in PAPER_TABLE1.items():
         bound = "<= 4" if name == "SOTC" else "?"  # the paper states the bound for SOTC only
-        lines.append(f"{'paper':<14} {name:<15} {m1:>9.5f} {m2:>9.5f} {bound:>10} {'':>10}")
+        lines.append(f"{'paper':<22} {name:<15} {'':<7} {m1:>9.5f} {m2:>9.5f} {'':>10} {'':>10} {'':>8} {bound:>10} {'':>10}")
     for s in summaries:
         mse = s.get("mse") or [None, None]
+        late = s.get("mse_after_5s") or [None, None]
         lines.append(
-            f"{s['scenario']:<14} {str(s['controller']):<15} {fmt_cell(mse[0], '.5f', 9)} {fmt_cell(mse[1], '.5f', 9)} "
+            f"{s['scenario']:<22} {str(s['controller']):<15} {str(s.get('limit_handling')):<7} "
+            f"{fmt_cell(mse[0], '.5f', 9)} {fmt_cell(mse[1], '.5f', 9)} {fmt_cell(late[0], '.2e', 10)} "
+            f"{fmt_cell(late[1], '.2e', 10)} {fmt_cell(s.get('tracking_cost'), '.4f', 8)} "
             f"{fmt_cell(s.get('max_norm_tau'), '.3f', 10)} {fmt_cell(s.get('samples_over_limit'), 'd', 10)}"
         )
     return "\n".join(lines)

@@ -68,6 +68,9 @@ class Scenario:
     def with_stop_time(self, stop_time: float) -> "Scenario":
         return _validated({**self.__dict__, "stop_time": stop_time})
 
+    def with_step_size(self, step_size: float) -> "Scenario":
+        return _validated({**self.__dict__, "step_size": step_size})
+
     def with_parameters(self, overrides: dict[str, float], name: str | None = None) -> "Scenario":
         """A copy with ``{"instance.parameter": value}`` overrides (an unknown parameter name is
         refused later, by the FMU's modelDescription, when the run loads it)."""
@@ -117,11 +120,11 @@ class Scenario:
         return resolved
 
     def torque_limit(self) -> float:
-        """The controller's torque bound as the scenario sets it (``rho`` or ``tau_max``), else the
+        """The controller's torque bound as the scenario sets it (``rho``, ``tau_max`` or ``tau_limit``), else the
         paper's rho = 4 N.m (section 4), which every controller FMU uses by default."""
         inst = self.instances.get("controller")
         params = inst.parameters if inst else {}
-        for key in ("rho", "tau_max"):
+        for key in ("rho", "tau_max", "tau_limit"):
             if key in params:
                 return float(params[key])
         return PAPER_TORQUE_LIMIT

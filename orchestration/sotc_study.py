@@ -40,8 +40,11 @@ def setting_params(setting: str) -> dict[str, float]:
 
 
 def sotc_settings() -> list[str]:
-    """The scenarios whose controller is the SOTC: paper, paper-long-pe, paper-pe-only."""
-    return [n for n in available_scenarios() if load_scenario(n).controller_fmu() == "SotcController"]
+    """The scenarios whose controller is the SOTC in the plain paper loop (plant, reference,
+    controller; the pure loop has no place for e.g. paper-perturbed's disturbance and noise FMUs)."""
+    plain = {"plant", "reference", "controller"}
+    return [n for n in available_scenarios()
+            if (sc := load_scenario(n)).controller_fmu() == "SotcController" and set(sc.instances) == plain]
 
 
 def run(setting: str = "paper", stop_time: float = 100.0, **overrides: float) -> tuple[SotcCore, LoopResult]:
@@ -113,9 +116,9 @@ READINGS: list[tuple[str, dict[str, float]]] = [
     ("chosen reading", {}),
     ("chi_a: as printed, +Lambda1 z_v", {"chi_a_form": 1}),
     ("F_v(z_phi, z_v) := 0", {"fv_error_form": 1}),
-    ("bound (5): radial (Euclidean proj.)", {"bound_form": 1}),
-    ("bound (5) per joint, |tau_i| <= rho", {"bound_form": 2, "actuator_form": 1}),
-    ("bound (5) per joint, ||tau|| <= rho", {"bound_form": 2}),
+    ("bound (5): radial (Euclidean proj.)", {"limit_handling": 0}),
+    ("bound (5) per joint, |tau_i| <= rho", {"limit_handling": 1, "actuator_form": 1}),
+    ("bound (5) per joint, ||tau|| <= rho", {"limit_handling": 1}),
     ("saturation level rho in (13)/(28)", {"saturation_form": 1}),
     ("dchi_vd/dt: d(chi_vd^a)/dt only", {"chi_dot_form": 1}),
     ("dchi_vd/dt: backward difference", {"chi_dot_form": 2}),
@@ -125,11 +128,14 @@ READINGS: list[tuple[str, dict[str, float]]] = [
     ("CL replay: recorded eta_i, r_i", {"cl_replay": 1}),
     ("W update: explicit Euler", {"weight_integrator": 1}),
     ("explicit Euler + FIFO stack", {"weight_integrator": 1, "cl_selection": 2}),
+    ("CL from the end of PE (0.4 s)", {"cl_start_time": 0.4}),
+    ("eta from (7) as printed (no coupling terms)", {"eta_form": 1}),
+    ("CL from 0.4 s and eta as printed", {"cl_start_time": 0.4, "eta_form": 1}),
     ("no CL", {"cl_enabled": 0}),
     ("no learning (alpha1 = alpha2 = 1e-9)", {"alpha1": 1e-9, "alpha2": 1e-9}),
     ("no learning, F_v(z_phi, z_v) := 0", {"alpha1": 1e-9, "alpha2": 1e-9, "fv_error_form": 1}),
-    ("no learning, bound (5) radial", {"alpha1": 1e-9, "alpha2": 1e-9, "bound_form": 1}),
-    ("as printed throughout", {"chi_a_form": 1, "bound_form": 1, "saturation_form": 1, "cl_selection": 1,
+    ("no learning, bound (5) radial", {"alpha1": 1e-9, "alpha2": 1e-9, "limit_handling": 0}),
+    ("as printed throughout", {"chi_a_form": 1, "limit_handling": 0, "saturation_form": 1, "cl_selection": 1,
                                "cl_replay": 1, "weight_integrator": 1}),
 ]
 

@@ -9,11 +9,13 @@ from typing import Any, Callable
 import numpy as np
 
 from orchestration.master import RunResult
-from orchestration.metrics import TrackingMetrics
+from orchestration.metrics import LIMIT_FLAG_OUTPUTS, TrackingMetrics, limit_active
 from orchestration.scenario import Scenario
 
 CLOSED_LOOP = {"e": (("plant.phi1", "reference.phi1_d"), ("plant.phi2", "reference.phi2_d")),
                "tau": ("controller.tau1", "controller.tau2")}
+E_DOT = (("plant.dphi1", "reference.dphi1_d"), ("plant.dphi2", "reference.dphi2_d"))
+LIMIT_FLAGS = tuple(f"controller.{name}" for name in LIMIT_FLAG_OUTPUTS)
 WEIGHTS = tuple(f"controller.W{i}" for i in range(1, 11))
 
 
@@ -33,7 +35,9 @@ class SummaryObserver:
         needed = [k for pair in CLOSED_LOOP["e"] for k in pair] + list(CLOSED_LOOP["tau"])
         if {"plant", "reference", "controller"} <= set(columns) and all(k in self.where for k in needed):
             self.metrics = TrackingMetrics(scenario.torque_limit(), scenario.stop_time,
-                                           with_cost="controller.cost_rate" in self.where)
+                                           with_cost="controller.cost_rate" in self.where,
+                                           with_e_dot=all(k in self.where for pair in E_DOT for k in pair),
+                                           with_flags=True)  # no flag outputs: the limit never acts
 
     def block(self, time: np.ndarray, rows: dict[str, np.ndarray]) -> None:
         self.add(time, lambda key: rows[self.where[key][0]][:, self.where[key][1]])
@@ -45,7 +49,9 @@ class SummaryObserver:
         e = np.column_stack([column(p) - column(r) for p, r in CLOSED_LOOP["e"]])
         tau = np.column_stack([column(k) for k in CLOSED_LOOP["tau"]])
         cost = column("controller.cost_rate") if self.metrics.with_cost else None
-        self.metrics.add(time, e, tau, cost)
+        e_dot = np.column_stack([column(p) - column(r) for p, r in E_DOT]) if self.metrics.with_e_dot else None
+        flags = limit_active({k.split(".", 1)[1]: column(k) for k in LIMIT_FLAGS if k in self.where}, len(time))
+        self.metrics.add(time, e, tau, cost, e_dot, flags)
         self.final = {k: float(column(k)[-1]) for k in (*WEIGHTS, "controller.cl_stack_min_eig") if k in self.where}
 
     def finish(self, result: RunResult) -> None:
@@ -56,6 +62,7 @@ class SummaryObserver:
         summary: dict[str, Any] = {
             "scenario": sc.name,
             "controller": sc.controller_fmu(),
+            "limit_handling": _limit_handling(sc),
             "step_size": sc.step_size,
             "stop_time": sc.stop_time,
             "steps": max(result.samples - 1, 0),
@@ -73,6 +80,18 @@ class SummaryObserver:
             summary["final_weights"] = [self.final[k] for k in WEIGHTS]
             summary["cl_stack_min_eig"] = self.final.get("controller.cl_stack_min_eig")
         return summary
+
+
+def _limit_handling(sc) -> str | None:
+    """The name of the controller's torque-limit handling as the scenario sets it (else its default)."""
+    from fmu_controller.saturation import LIMIT_HANDLINGS
+    from orchestration.comparison import CORES
+
+    inst = sc.instances.get("controller")
+    if inst is None or inst.fmu not in CORES:
+        return None
+    specs = {s.name: s for s in CORES[inst.fmu].PARAMETER_SPECS}
+    return LIMIT_HANDLINGS[int(inst.parameters.get("limit_handling", specs["limit_handling"].default))]
 
 
 def summarize(result: RunResult) -> dict[str, Any]:

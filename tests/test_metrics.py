@@ -140,13 +140,49 @@ def test_metrics_fed_in_blocks_equal_the_whole_run(blocks):
     e[499, 0] = 0.3  # last excursion of joint 1 ends exactly at a block boundary in one split
     tau = np.column_stack([4.5 * np.sin(0.3 * t), 3.0 * np.cos(0.2 * t)])
     cost = np.abs(e[:, 0]) + 1.0
-    whole = tracking_metrics(t, e, tau, cost_rate=cost, stop_time=100.0)
-    acc = TrackingMetrics(4.0, 100.0, with_cost=True)
+    e_dot = np.column_stack([np.cos(t), np.sin(2 * t)])
+    flags = np.zeros(1000, dtype=bool)
+    flags[[40, 332, 333, 610]] = True  # the limit acts last inside a block, and at block boundaries
+    whole = tracking_metrics(t, e, tau, cost_rate=cost, stop_time=100.0, e_dot=e_dot, limit_flags=flags)
+    acc = TrackingMetrics(4.0, 100.0, with_cost=True, with_e_dot=True, with_flags=True)
     lo = 0
     for m in blocks:
-        acc.add(t[lo:lo + m], e[lo:lo + m], tau[lo:lo + m], cost[lo:lo + m])
+        part = slice(lo, lo + m)
+        acc.add(t[part], e[part], tau[part], cost[part], e_dot[part], flags[part])
         lo += m
     got = acc.result()
     assert got.keys() == whole.keys()
     for key, want in whole.items():
         assert np.allclose(np.array(got[key], dtype=float), np.array(want, dtype=float), rtol=1e-12, atol=0.0, equal_nan=True), key
+
+
+def test_post_transient_and_after_limit_metrics_leave_out_what_they_say():
+    t = np.arange(0, 1001) * 0.01  # 0 .. 10 s
+    e = np.zeros((len(t), 2))
+    e[t < 5.0] = [1.0, -2.0]  # the transient
+    e[t >= 5.0] = [0.1, 0.2]
+    flags = np.zeros(len(t), dtype=bool)
+    flags[[10, 300]] = True  # the limit acts last at t = 3 s
+    e[301:500] = [0.5, 0.5]
+    m = tracking_metrics(t, e, np.zeros((len(t), 2)), limit_flags=flags, e_dot=np.zeros((len(t), 2)))
+    assert m["mse_after_5s"] == pytest.approx([0.01, 0.04])
+    assert m["last_limit_time"] == pytest.approx(3.0)
+    after = e[301:]
+    assert m["mse_after_limit"] == pytest.approx(list(np.mean(after**2, axis=0)))
+    # z = [e, e_dot + e] with e_dot = 0: z'z = 2 |e|^2, trapezoid over t
+    zz = 2.0 * np.sum(e**2, axis=1)
+    assert m["tracking_cost"] == pytest.approx(float(np.sum(0.5 * (zz[1:] + zz[:-1]) * 0.01)))
+    never = tracking_metrics(t, e, np.zeros((len(t), 2)), limit_flags=np.zeros(len(t), dtype=bool))
+    assert never["last_limit_time"] is None and never["mse_after_limit"] == pytest.approx(m["mse"])
+    plain = tracking_metrics(t, e, np.zeros((len(t), 2)))
+    assert plain["mse_after_limit"] is None and plain["tracking_cost"] is None
+
+
+def test_limit_active_reads_every_flag_the_controller_has():
+    from orchestration.metrics import limit_active
+
+    out = {"tau_a_bounded": np.array([0.0, 1.0, 0.0, 0.0]), "tau_limited": np.array([0.0, 0.0, 0.0, 1.0]),
+           "W1": np.ones(4)}
+    assert limit_active(out, 4).tolist() == [False, True, False, True]
+    assert limit_active({"saturated": np.array([1.0, 0.0])}, 2).tolist() == [True, False]
+    assert not limit_active({}, 3).any()

@@ -10,11 +10,13 @@ from pathlib import Path
 import numpy as np
 import pyarrow as pa
 import pytest
+from fmpy import read_model_description
 from rerun.chunk import RrdReader
 
 from orchestration.cli import main
 from orchestration.master import run
 from orchestration.recording import APPLICATION_ID, BLOCK_SIZE, RunRecorder, record_comparison
+from orchestration.recording_blueprint import VIEW_DESCRIPTIONS
 from orchestration.scenario import load_scenario
 
 STEP_NS = 10_000_000  # T = 0.01 s
@@ -145,7 +147,7 @@ def test_sotc_series_and_events_come_from_the_diagnostics(sotc_run):
     assert ents["/events/run"]["TextLog:level"][-1] == ["INFO"]
 
 
-def test_blueprint_properties_and_identity_are_stored(ct_run, sotc_run):
+def test_blueprint_properties_and_identity_are_stored(ct_run, sotc_run, fmu_paths):
     (_, ct_path, _), (_, sotc_path, _) = ct_run, sotc_run
     readers = [RrdReader(ct_path), RrdReader(sotc_path)]
     ids = set()
@@ -159,14 +161,20 @@ def test_blueprint_properties_and_identity_are_stored(ct_run, sotc_run):
     for chunk in readers[1].stream(store=readers[1].blueprints()[0]).to_chunks():
         rb = chunk.to_record_batch()
         names += [v[0] for n in rb.schema.names if n.endswith("display_name") for v in rb.column(n).to_pylist()]
-    for fig in ("Figs. 1-2", "Fig. 3", "Fig. 4", "Fig. 5", "Fig. 6", "Fig. 7", "Fig. 8", "Fig. 9"):
+    for fig in ("Fig. 1-2", "Fig. 3", "Fig. 4", "Fig. 5", "Fig. 6", "Fig. 7", "Fig. 8", "Fig. 9"):
         assert any(n.startswith(fig) for n in names), fig
+    assert max(len(n) for n in names) <= 16, names  # titles readable at 1600 x 1000; details in "views"
+    assert set(names) <= set(VIEW_DESCRIPTIONS) | {"Paper figures", "FMU outputs", "plant", "reference", "controller"}
     props = statics(sotc_path)
     assert props["/__properties/scenario"]["name"] == [["paper"]]
     assert props["/__properties/scenario"]["stop_time"] == [[5.0]]
     assert props["/__properties/scenario"]["step_size"] == [[0.01]]
     assert props["/__properties/plant"]["phi1_0"] == [[0.5]]
-    assert props["/__properties/controller"]["fmu"] == [["SotcController"]]
+    assert props["/__properties/controller"]["fmu"][-1] == ["SotcController"]
+    md = read_model_description(str(fmu_paths["SotcController"]))
+    assert props["/__properties/controller"]["fmu_guid"][-1] == [md.guid]
+    assert props["/__properties/controller"]["fmu_version"][-1] == [md.version] and md.version
+    assert "Fig. 9: path" in props["/__properties/views"]
     assert props["/__properties/result"]["status"] == [["ok"]]
     assert props["/__properties"]["RecordingInfo:name"] == [["paper"]]
     _verify(ct_path, sotc_path)
@@ -322,3 +330,14 @@ def test_cli_record_every_is_checked(fmu_dir, tmp_path, monkeypatch, capsys):
     assert exc.value.code == 2 and "--record-every" in capsys.readouterr().err
     assert main(["run", "paper-ct", "--stop-time", "1", "--record-every", "10", "--fmu-dir", str(fmu_dir)]) == 0
     assert list(read_entities(tmp_path / "recordings" / "paper-ct.rrd")["/fmu/plant"]["step"]) == list(range(0, 101, 10))
+
+
+def test_fig9_bounds_hold_the_arm_base_and_the_whole_circle_with_a_margin():
+    from orchestration.recording_blueprint import WORKSPACE_X, WORKSPACE_Y
+
+    theta = np.linspace(0.0, 2.0 * np.pi, 361)
+    xs = np.concatenate(([0.0, 1.88], 1.0 + 0.5 * np.sin(0.5 * theta + np.pi / 2)))  # base, E(0), circle (47)
+    ys = -np.concatenate(([0.0, 0.48], 1.0 + 0.5 * np.cos(0.5 * theta + np.pi / 2)))  # the view mirrors y
+    margin = 0.1
+    assert WORKSPACE_X[0] + margin <= xs.min() and xs.max() <= WORKSPACE_X[1] - margin
+    assert WORKSPACE_Y[0] + margin <= ys.min() and ys.max() <= WORKSPACE_Y[1] - margin

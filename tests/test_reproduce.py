@@ -1,11 +1,18 @@
 """`sotc-cosim reproduce`: Table 1 extended, every number from this invocation's runs."""
 import csv
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
 
 from rerun.chunk import RrdReader
 
 import orchestration.summary as summary_module
 from orchestration.cli import main
-from orchestration.reproduce import COLUMNS, PAPER_TABLE1, REPRODUCE_SCENARIOS
+from orchestration.comparison import run_metrics
+from orchestration.reproduce import COLUMNS, PAPER_TABLE1, REPRODUCE_RUNS, REPRODUCE_SCENARIOS
 
 
 def _read(path):
@@ -31,19 +38,58 @@ def test_reproduce_writes_the_table_from_its_own_runs(fmu_dir, tmp_path, monkeyp
     printed = capsys.readouterr().out
     assert code == 0
     header, rows = _read(tmp_path / "out" / "table1.csv")
-    assert (tmp_path / "out" / "table1.md").read_text().count("\n| ") == len(rows) + 1
+    md = (tmp_path / "out" / "table1.md").read_text()
+    first, value = md.split("## The learned value function")
+    assert first.count("\n| ") == len(rows) + 1 and value.count("\n| ") == 1 + 4  # header, 4 W
     assert header[:4] == ["source", "scenario", "controller", "status"] and len(header) == 4 + len(COLUMNS)
     paper_rows = [r for r in rows if r[0] == "paper Table 1"]
     ours = [r for r in rows if r[0] == "this run"]
-    assert [(r[2], float(r[4]), float(r[5])) for r in paper_rows] == [(k, *v) for k, v in PAPER_TABLE1.items()]
+    assert [(r[2], float(r[5]), float(r[6])) for r in paper_rows] == [(k, *v) for k, v in PAPER_TABLE1.items()]
     assert [r[1] for r in ours] == list(REPRODUCE_SCENARIOS)
     assert [s["scenario"] for s in captured] == list(REPRODUCE_SCENARIOS)
     for row, s in zip(ours, captured):
         assert s["stop_time"] == 3.0 and s["samples"] == 301
         assert row[4:] == [get(s) for _, _, get in COLUMNS]
-        assert float(row[4]) == float(format(s["mse"][0], ".5f"))
-    assert "paper-otc" in printed and "wrote" in printed
+        assert row[4] == s["limit_handling"] and float(row[5]) == float(format(s["mse"][0], ".5f"))
+        assert s["mse_after_5s"] is None and row[header.index("MSE1 t>=5s [rad^2]")] == ""  # a 3 s run
+        after = s["mse_after_limit"]
+        assert row[header.index("MSE2 after last limit [rad^2]")] == ("" if after is None else format(after[1], ".3e"))
+        assert float(row[header.index("realised cost int z'z")]) == float(format(s["tracking_cost"], ".4f"))
+        assert int(row[header.index("samples over limit")]) == s["samples_over_limit"]
+    # every controller under every limit handling, the OTC clipped and unclipped
+    cells = {(s["controller"], s["limit_handling"]) for s in captured}
+    for fmu in ("SotcController", "CtController", "LqrController"):
+        assert {(fmu, h) for h in ("radial", "joint", "accel")} <= cells
+    assert {("OtcController", h) for h in ("none", "radial", "joint", "accel")} <= cells
+    assert {s["scenario"] for s in captured} >= {"paper-literal", "paper-near-literal"}
+    unclipped = next(s for s in captured if s["scenario"] == "paper-otc")
+    assert unclipped["samples_over_limit"] > 0 and all(
+        s["samples_over_limit"] == 0 for s in captured if s["limit_handling"] != "none")
+    assert "paper-otc-accel" in printed and "wrote" in printed
+    # the docs' tables come from the pure loop: it gives these FMU runs' numbers
+    by_name = {s["scenario"]: s for s in captured}
+    for scenario, code, name in REPRODUCE_RUNS:
+        pure = run_metrics(scenario, 3.0, **({} if code is None else {"limit_handling": code}))
+        fmu = by_name[name]
+        assert np.allclose(pure["mse"], fmu["mse"], rtol=1e-9, atol=0.0), name
+        assert pure["tracking_cost"] == pytest.approx(fmu["tracking_cost"], rel=1e-9), name
+        assert (pure["samples_over_limit"], pure["last_limit_time"]) == (fmu["samples_over_limit"], fmu["last_limit_time"])
     # the comparison recording overlays every run of this invocation (paper Figs 10-12)
     entities = {c.entity_path for c in RrdReader(rrd).stream().to_chunks()}
     for name in REPRODUCE_SCENARIOS:
         assert f"/{name}/fmu/plant" in entities, sorted(entities)[:20]
+
+
+@pytest.mark.slow
+def test_reproduce_console_script_in_a_fresh_interpreter_outside_the_repo(tmp_path):
+    """The installed ``sotc-cosim`` in its own process, from a folder outside the repository, building
+    every FMU afresh: all controllers run in one process and every limit handling is printed."""
+    exe = Path(sys.executable).with_name("sotc-cosim")
+    proc = subprocess.run([str(exe), "reproduce", "--stop-time", "2", "--fmu-dir", str(tmp_path / "fmus")],
+                          cwd=tmp_path, capture_output=True, text=True, timeout=900)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    for name in REPRODUCE_SCENARIOS:
+        assert f"\n{name} " in proc.stdout, name
+    for handling in ("radial", "joint", "accel", "none"):
+        assert handling in proc.stdout
+    assert (tmp_path / "recordings" / "table1.md").is_file() and (tmp_path / "recordings" / "reproduce.rrd").is_file()

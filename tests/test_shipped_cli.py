@@ -80,39 +80,36 @@ def test_cross_check_writes_every_fmu(shipped, shipped_fmu_dir):
     proc = shipped.cli("cross-check", "--out", "xc", "--stop-time", "1", "--fmu-dir", str(shipped_fmu_dir), cwd=work)
     _ok(proc)
     folders = [Path(work, line) for line in proc.stdout.split()]
-    assert len(folders) == 6
+    assert len(folders) == len(FMU_SOURCES)
     for folder in folders:
         assert (folder / f"{folder.name}.fmu").is_file() and (folder / f"{folder.name}_ref.csv").is_file()
 
 
-SWEEP_ONE_WORKER = """
-import json, os, sys
-from pathlib import Path
-import dask
-from orchestration.build import ensure_built
-from orchestration.scenario import load_scenario
-from orchestration.sweep import run_variant
-
-def point(name, paths):
-    summary = run_variant({}, load_scenario(name).with_stop_time(1.0), paths)
-    return {"scenario": name, "status": summary["status"], "error": summary.get("error"), "pid": os.getpid()}
-
-names = sys.argv[1].split(",")
-paths = ensure_built(["ArmPlant", "ReferenceTrajectory", "SotcController", "OtcController", "CtController",
-                      "LqrController"], Path(sys.argv[2]))
-tasks = [dask.delayed(point)(n, paths) for n in names]
-print(json.dumps(dask.compute(*tasks, scheduler="processes", num_workers=1)))
+CONTROLLER_SWEEP = """
+name = "one-worker"
+scenario = "paper-perturbed"
+stop_time = 1.0
+[[axis]]
+name = "controller"
+values = ["OtcController", "CtController", "LqrController", "SotcController"]
+[[axis]]
+name = "noise.std_phi"
+values = [0.0, 0.001]
 """
 
 
 def test_a_sweep_over_controllers_reuses_one_worker_process(shipped, shipped_fmu_dir):
-    names = ("paper-otc", "paper-ct", "paper-lqr", "paper", "paper-otc")
-    proc = shipped.python_code(SWEEP_ONE_WORKER, ",".join(names), str(shipped_fmu_dir), cwd=shipped.workdir("sweep"))
+    """Every controller (and the perturbation FMUs) one after another in one Dask worker process."""
+    work = shipped.workdir("sweep")
+    (work / "controllers.toml").write_text(CONTROLLER_SWEEP)
+    proc = shipped.cli("sweep", "controllers.toml", "--workers", "1", "--fmu-dir", str(shipped_fmu_dir), cwd=work)
     _ok(proc)
-    points = json.loads(proc.stdout.strip().splitlines()[-1])
-    assert [p["scenario"] for p in points] == list(names)
-    assert all(p["status"] == "ok" for p in points), points
-    assert len({p["pid"] for p in points}) == 1  # one worker process ran every controller
+    rows = [json.loads(line) for line in (work / "recordings" / "one-worker" / "points.jsonl").read_text().splitlines()]
+    assert sorted(r["settings"]["controller"] for r in rows) == sorted(["OtcController", "CtController", "LqrController",
+                                                                        "SotcController"] * 2)
+    assert all(r["status"] == "ok" for r in rows), [r["reason"] for r in rows]
+    assert len({r["worker"] for r in rows}) == 1  # one worker process ran every controller
+    assert "8 of 8 points stored" in proc.stdout
 
 
 def _grown(path: Path, size: int):

@@ -13,7 +13,8 @@ import pytest
 from scipy import integrate, optimize
 
 from fmu_controller import sotc_math as sm
-from fmu_controller.sotc import SotcCore, accel_projection
+from fmu_controller.saturation import accel_projection
+from fmu_controller.sotc import SotcCore
 from fmu_plant.dynamics import ArmParameters, inertia_matrix, rk4_step
 from fmu_plant.parameters import ParameterError
 from fmu_plant.trajectory import CircleTrajectory
@@ -271,12 +272,12 @@ def test_implicit_weight_step_survives_where_explicit_euler_diverges():
 # --- saturation, bound (5), actuator limit -------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("bound_form,actuator_form", [(0, 0), (1, 0), (2, 0), (2, 1)])
-def test_saturation_bounds_hold_for_extreme_weights_and_errors(bound_form, actuator_form):
-    g = rng(7 + bound_form)
+@pytest.mark.parametrize("limit_handling,actuator_form", [(2, 0), (0, 0), (1, 0), (1, 1)])
+def test_saturation_bounds_hold_for_extreme_weights_and_errors(limit_handling, actuator_form):
+    g = rng(7 + (limit_handling + 1) % 3)
     for trial in range(30):
         W0 = random_weights(g, 10.0 ** g.uniform(-2, 6))
-        ctrl = SotcCore(bound_form=bound_form, actuator_form=actuator_form, **W0)
+        ctrl = SotcCore(limit_handling=limit_handling, actuator_form=actuator_form, **W0)
         y, r = random_inputs(g, 10.0 ** g.uniform(-1, 3))
         t = float(g.choice([0.0, 0.3, 5.0]))  # with and without probing
         ctrl.evaluate(t, y, r)
@@ -289,7 +290,7 @@ def test_saturation_bounds_hold_for_extreme_weights_and_errors(bound_form, actua
             assert np.all(np.abs(tau) <= ctrl.rho)
         assert np.all(np.abs(outs(ctrl, "tau_star1", "tau_star2", "chi_vd_star1", "chi_vd_star2")) <= ctrl.sigma)
         ta, ca = outs(ctrl, "tau_a1", "tau_a2"), outs(ctrl, "chi_vd_a1", "chi_vd_a2")
-        if bound_form == 2:
+        if limit_handling == 1:
             assert np.all(np.abs(ta) <= ctrl.bound5) and np.all(np.abs(ca) <= ctrl.bound5)
         else:
             assert math.hypot(*ta) <= ctrl.bound5 and math.hypot(*ca) <= ctrl.bound5
@@ -565,3 +566,39 @@ def test_learned_critic_is_a_valid_value_near_the_lqr_solution(paper_run):
     assert np.linalg.eigvalsh(sm.weights_to_matrix(PAPER_W))[0] < 0.0
     w_lqr = lqr_weights(1.39, ctrl)
     assert np.linalg.norm(np.array(ctrl.W) - w_lqr) < 0.4 * np.linalg.norm(w_lqr)
+
+
+def test_cl_start_time_keeps_the_cl_sum_out_until_then():
+    """cl_start_time = 0.4 (the paper's 'PE for 0.4 s, then CL'): until 0.4 s the weights move exactly as
+    without CL, although the stack fills from t = 0; from 0.4 s on the CL sum acts."""
+    from fmu_plant.dynamics import rk4_step
+    from fmu_plant.trajectory import CircleTrajectory
+
+    traj = CircleTrajectory()
+    late, none = SotcCore(cl_start_time=0.4), SotcCore(cl_enabled=0)
+    state = (0.5, -0.5, 0.0, 0.0)
+    for k in range(45):
+        t = k * T
+        for c in (late, none):
+            c.evaluate(t, state, traj.sample(t)[:6])
+        if t < 0.4:
+            assert late.W == none.W and late.outputs[:2] == none.outputs[:2]
+        state = rk4_step(state, late.outputs[0], late.outputs[1], T, 4, late.model)
+        for c in (late, none):
+            c.advance(t, T)
+    assert late.stack.count >= 20 and late.W != none.W
+
+
+def test_eta_form_printed_drops_exactly_the_coupling_terms_of_6():
+    from fmu_controller.sotc_math import basis_directional
+
+    g = rng(3)
+    W0 = random_weights(g, 1.0)
+    y, r = random_inputs(g, 1.0)
+    full, printed = SotcCore(**W0), SotcCore(eta_form=1, **W0)
+    full.evaluate(1.0, y, r)
+    printed.evaluate(1.0, y, r)
+    z = full._pending["z"]
+    coupling = basis_directional(z, (z[2], z[3], -z[0], -z[1]))  # grad(zeta) (+z_v, -z_phi)
+    assert np.allclose(printed._pending["eta"], full._pending["eta"] - np.array(coupling), atol=1e-12)
+    assert printed._pending["z"] == z  # same error state (the torque differs through dW/dt in the chain rule)

@@ -1,72 +1,260 @@
-"""Parameter sweeps with Dask: grid, failures recorded while the others go on, same numbers in
-worker processes as in this process."""
+"""Sweep files: parsing, validation before anything runs, combinations, seeded random axes, the
+shipped sweeps, the tables and the per-point task (divergence, refusals) in this process."""
+import math
+
+import numpy as np
 import pytest
 
 from orchestration.cli import main
-from orchestration.scenario import ScenarioError, load_scenario
-from orchestration.sweep import parse_assignments, run_sweep, variants
+from orchestration.sweep import PointGuard, point_key, run_point
+from orchestration.sweep_file import load_sweep, parse_sweep
+from orchestration.sweep_results import doc_block, summary_markdown, table_csv
 
-GRID = {"controller.kp": [25.0, 100.0, -1.0], "controller.kd": [10.0]}
-
-
-@pytest.fixture(scope="module")
-def base():
-    return load_scenario("paper-ct").with_stop_time(1.0)
+BASE = {"scenario": "paper-ct", "stop_time": 1.0}
 
 
-def test_grid_is_the_cartesian_product_in_order(base):
-    vs = variants(base, {"controller.kp": [1.0, 2.0], "plant.f1": [8.0, 9.0, 10.0]})
-    assert [o for o, _ in vs][:4] == [
+def sweep_of(**raw):
+    return parse_sweep({**BASE, **raw}, "test")
+
+
+def test_grid_is_the_cartesian_product_in_file_order_last_axis_fastest():
+    s = sweep_of(axis=[{"name": "controller.kp", "values": [1, 2]}, {"name": "plant.f1", "values": [8, 9, 10]}])
+    pts = s.points()
+    assert [p.settings for p in pts][:4] == [
         {"controller.kp": 1.0, "plant.f1": 8.0}, {"controller.kp": 1.0, "plant.f1": 9.0},
         {"controller.kp": 1.0, "plant.f1": 10.0}, {"controller.kp": 2.0, "plant.f1": 8.0}]
-    assert len(vs) == 6 and vs[4][1].instances["plant"].parameters["f1"] == 9.0
-    assert vs[4][1].instances["controller"].parameters["kp"] == 2.0
-    assert base.instances["controller"].parameters == {}  # the base is untouched
+    assert len(pts) == 6 and pts[4].scenario.instances["plant"].parameters["f1"] == 9.0
+    assert pts[4].scenario.instances["controller"].parameters["kp"] == 2.0
+    assert s.base.instances["controller"].parameters == {}  # the base is untouched
 
 
-def test_a_failed_variant_is_recorded_and_the_others_go_on_under_the_process_pool(base, fmu_paths):
-    local = run_sweep(base, GRID, fmu_paths, scheduler="synchronous")
-    remote = run_sweep(base, GRID, fmu_paths, scheduler="processes", workers=2)
-    assert [r["status"] for r in remote] == ["ok", "ok", "failed"]
-    assert "'kp'" in remote[2]["error"]
-    assert remote[0]["mse"] != remote[1]["mse"]  # the override reached the FMU
-    # the same numbers whether the runs happen here or in worker processes
-    assert [r["mse"] for r in remote[:2]] == [r["mse"] for r in local[:2]]
-    assert [r["parameters"] for r in remote] == [{"controller.kp": k, "controller.kd": 10.0} for k in (25.0, 100.0, -1.0)]
+def test_paired_groups_and_one_at_a_time():
+    axes = [{"name": "plant.phi1_0", "values": [0.1, 0.2], "group": "x0"},
+            {"name": "plant.phi2_0", "values": [-0.1, -0.2], "group": "x0"},
+            {"name": "step_size", "values": [0.005, 0.02]}]
+    paired = sweep_of(combine="paired", axis=axes).points()
+    assert [p.settings for p in paired] == [
+        {"plant.phi1_0": 0.1, "plant.phi2_0": -0.1, "step_size": 0.005},
+        {"plant.phi1_0": 0.2, "plant.phi2_0": -0.2, "step_size": 0.02}]
+    assert paired[1].scenario.step_size == 0.02 and paired[1].scenario.steps == 50
+    oat = sweep_of(combine="one-at-a-time", axis=axes).points()
+    assert [p.settings for p in oat] == [
+        {"plant.phi1_0": 0.1, "plant.phi2_0": -0.1}, {"plant.phi1_0": 0.2, "plant.phi2_0": -0.2},
+        {"step_size": 0.005}, {"step_size": 0.02}]
+    assert oat[2].scenario.instances["plant"].parameters["phi1_0"] == 0.5  # the others stay at the base
 
 
-def test_sweep_command_writes_csv_and_json(fmu_dir, tmp_path, monkeypatch):
+def test_scaled_axis_multiplies_the_base_value_and_controller_axis_swaps_the_fmu():
+    s = parse_sweep({"scenario": "paper-perturbed", "stop_time": 1.0, "set": {"noise.seed": 3}, "axis": [
+        {"name": "controller", "values": ["SotcController", "CtController"]},
+        {"name": "plant.p1", "values": [0.8], "scale": True}]}, "test")
+    sotc, ct = s.points()
+    assert sotc.settings == {"controller": "SotcController", "plant.p1 [x base]": 0.8}
+    assert sotc.scenario.instances["plant"].parameters["p1"] == pytest.approx(0.8 * 3.473)
+    assert sotc.scenario.instances["controller"].parameters["alpha1"] == 50.0  # same FMU: keeps its tuning
+    assert ct.scenario.instances["controller"].fmu == "CtController"
+    assert ct.scenario.instances["controller"].parameters == {}  # another FMU starts from its defaults
+    assert ct.scenario.instances["noise"].parameters["seed"] == 3  # `set` reaches every point
+    assert s.model_names() == sorted({"ArmPlant", "ReferenceTrajectory", "SotcController", "CtController",
+                                      "Disturbance", "MeasurementNoise"})
+
+
+def test_random_axes_are_seeded():
+    spec = {"name": "plant.f1", "random": {"distribution": "uniform", "low": 5, "high": 10, "count": 5}}
+    a, b = sweep_of(seed=4, axis=[spec]), sweep_of(seed=4, axis=[spec])
+    c = sweep_of(seed=5, axis=[spec])
+    assert a.axes[0].values == b.axes[0].values != c.axes[0].values
+    assert all(5 <= v < 10 for v in a.axes[0].values) and len(set(a.axes[0].values)) == 5
+    log = sweep_of(axis=[{"name": "plant.f1", "random": {"distribution": "loguniform", "low": 1, "high": 100, "count": 50}}])
+    assert all(1 <= v <= 100 for v in log.axes[0].values)
+    pick = sweep_of(axis=[{"name": "step_size", "random": {"distribution": "choice", "values": [0.005, 0.01], "count": 6}}])
+    assert set(pick.axes[0].values) <= {0.005, 0.01}
+
+
+@pytest.mark.parametrize("axis, message", [
+    ({"name": "plant.f1", "values": [1.0, math.nan]}, "axis 'plant.f1': nan is not finite"),
+    ({"name": "plant.f1", "values": [1.0, math.inf]}, "axis 'plant.f1': inf is not finite"),
+    ({"name": "plant.f1", "values": [1.0, "fast"]}, "axis 'plant.f1': 'fast' is not a number"),
+    ({"name": "plant.f1", "values": [True]}, "axis 'plant.f1': True is not a number"),
+    ({"name": "plant.f1", "range": {"start": 0, "stop": math.nan, "num": 3}}, "axis 'plant.f1': range.stop"),
+    ({"name": "plant.f1", "random": {"distribution": "normal", "mean": 1, "std": math.inf, "count": 3}}, "random.std"),
+    ({"name": "plant.f1", "random": {"distribution": "cauchy", "count": 3}}, "distribution 'cauchy'"),
+    ({"name": "nosuch.kp", "values": [1.0]}, "axis 'nosuch.kp'"),
+    ({"name": "controller", "values": [1.0]}, "axis 'controller'"),
+    ({"name": "plant.f1", "values": [1.0], "scale": True}, "does not set plant.f1"),
+    ({"name": "plant.f1", "values": [1.0], "step": 2}, "unknown keys"),
+    ({"name": "step_size", "values": [0.03]}, "whole number of steps"),
+])
+def test_bad_axes_are_refused_before_anything_runs_with_the_axis_named(axis, message):
+    with pytest.raises(ValueError, match=message.replace("(", r"\(").replace("[", r"\[")):
+        sweep_of(axis=[axis])
+
+
+def test_bad_files_are_refused(tmp_path):
+    with pytest.raises(ValueError, match="paired"):
+        sweep_of(combine="paired", axis=[{"name": "plant.f1", "values": [1.0, 2.0]}, {"name": "plant.f2", "values": [1.0]}])
+    with pytest.raises(ValueError, match="set.plant.f1"):
+        sweep_of(set={"plant.f1": math.nan})
+    with pytest.raises(ValueError, match="time_limit"):
+        sweep_of(time_limit=-1)
+    with pytest.raises(ValueError, match="no sweep 'nosuch'.*robustness"):
+        load_sweep("nosuch")
+    bad = tmp_path / "bad.toml"
+    bad.write_text('scenario = "paper-ct"\n[[axis]]\nname = "plant.f1"\nvalues = [1.0, nan]\n')
+    code = main(["sweep", str(bad)])
+    assert code == 2  # one line, nothing ran
+
+
+def test_shipped_sweeps_load():
+    sizes = {name: len(load_sweep(name).points()) for name in ("robustness", "learning", "controllers")}
+    assert sizes == {"robustness": 41, "learning": 24, "controllers": 48}
+    controllers = load_sweep("controllers")
+    pts = controllers.points()
+    # every controller sees the same perturbed plants from the same initial states
+    by_ctrl = {}
+    for p in pts:
+        plant = {k: v for k, v in p.settings.items() if k != "controller"}
+        by_ctrl.setdefault(p.settings["controller"], []).append(plant)
+    first, *others = by_ctrl.values()
+    assert len(by_ctrl) == 4 and all(o == first for o in others)
+
+
+def test_point_key_changes_with_the_scenario_and_the_fmu_digest():
+    s = sweep_of(axis=[{"name": "controller.kp", "values": [1, 2]}])
+    a, b = s.points()
+    digests = {m: "0" * 64 for m in s.model_names()}
+    assert point_key(a.scenario, digests) == point_key(a.scenario, dict(digests))
+    assert point_key(a.scenario, digests) != point_key(b.scenario, digests)
+    assert point_key(a.scenario, digests) != point_key(a.scenario, {**digests, "CtController": "1" * 64})
+
+
+def _rows(sweep):
+    rows = []
+    for p in sweep.points():
+        ok = p.index != 1
+        rows.append({"index": p.index, "key": f"{p.index:016d}" + "0" * 48, "settings": p.settings,
+                     "status": "ok" if ok else "failed", "reason": None if ok else "time limit of 5 s exceeded",
+                     "summary": {"controller": "CtController", "mse": [0.1 * (p.index + 1), 0.2],
+                                 "max_abs_error_last_half": [0.01 * (p.index + 1), 0.02], "max_norm_tau": 3.5,
+                                 "samples_over_limit": 0}})
+    return rows
+
+
+def test_table_and_summary_are_written_from_the_rows():
+    s = sweep_of(axis=[{"name": "controller.kp", "values": [1, 2, 3]}])
+    rows = _rows(s)
+    lines = table_csv(s, rows).splitlines()
+    assert lines[0].startswith("index,key,controller.kp,status,reason,mse_1")
+    assert lines[1].startswith("0,0000000000000000,1.0,ok,,0.1,0.2,0.01,0.02,3.5,0")
+    assert lines[2] == "1,0000000000000001,2.0,failed,time limit of 5 s exceeded,,,,,,"  # no partial metrics
+    md = summary_markdown(s, rows, total=3)
+    assert "| 3 | - | 1 | 0 | 0.03 | 0 | 0.03 | 3.5 | 0 |" in md
+    assert "| 2 | - | 1 | 1 | - |" in md and "time limit of 5 s exceeded" in md
+
+
+def test_doc_block_replaces_only_its_own_block():
+    from orchestration.docgen import replace_block
+
+    s = sweep_of(name="tiny", axis=[{"name": "controller.kp", "values": [1, 2, 3]}])
+    block = doc_block(s, _rows(s), 3, ["sweeps/tiny/controller.kp.png"])
+    text = replace_block("# Doc\n\nintro\n", "sweep-tiny", block)
+    assert text.startswith("# Doc\n\nintro\n\n<!-- BEGIN generated:sweep-tiny -->\n### Sweep `tiny`")
+    assert "![controller.kp](sweeps/tiny/controller.kp.png)" in text
+    again = replace_block(text + "\nafter\n", "sweep-tiny", block.replace("3.5", "9.9"))
+    assert again.count("<!-- BEGIN") == 1 and again.endswith("\nafter\n") and "9.9" in again
+
+
+def test_a_diverging_point_and_a_refused_point_are_failed_rows(fmu_dir):
+    from orchestration.sweep import fmu_blobs
+
+    s = sweep_of(state_bound=0.3, axis=[{"name": "controller.kp", "values": [25.0, -1.0]}])
+    blobs = fmu_blobs(s.model_names(), fmu_dir)
+    digests = {m: d for m, (d, _) in blobs.items()}
+    task = {"time_limit": 60.0, "state_bound": s.state_bound, "record": False}
+    diverged, refused = (run_point({**task, "point": p, "key": point_key(p.scenario, digests)}, blobs) for p in s.points())
+    assert diverged["status"] == "failed" and diverged["reason"].startswith("diverged: plant.")
+    assert "beyond the bound 0.3" in diverged["reason"]
+    assert refused["status"] == "failed" and "'kp'" in refused["reason"]
+    assert diverged["trace"].shape[1] == 3  # the samples up to the bound, for the sweep recording
+
+
+def test_guard_keeps_every_stride_th_sample_across_blocks():
+    g = PointGuard(time_limit=60, state_bound=1e9, stride=3)
+    cols = {"plant": ["phi1", "phi2"], "reference": ["phi1_d", "phi2_d"]}
+
+    class Sc:
+        step_size = 0.01
+
+    g.start(Sc, cols, {})
+    t = np.arange(10) * 0.01
+    for lo, hi in ((0, 4), (4, 10)):
+        g.block(t[lo:hi], {"plant": np.column_stack([t[lo:hi], -t[lo:hi]]), "reference": np.zeros((hi - lo, 2))})
+    trace = np.concatenate(g.trace)
+    assert np.allclose(trace[:, 0], t[::3]) and np.allclose(trace[:, 1], t[::3]) and np.allclose(trace[:, 2], -t[::3])
+
+
+def test_an_existing_scheduler_gets_the_fmus_with_the_tasks(fmu_dir, tmp_path):
+    from distributed import LocalCluster
+
+    (tmp_path / "s.toml").write_text('scenario = "paper-ct"\nstop_time = 0.5\n[[axis]]\nname = "controller.kp"\n'
+                                     'values = [25.0, 100.0]\n')
+    with LocalCluster(n_workers=1, threads_per_worker=1, dashboard_address=None) as cluster:
+        code = main(["sweep", str(tmp_path / "s.toml"), "--scheduler", cluster.scheduler_address,
+                     "--out", str(tmp_path / "out"), "--fmu-dir", str(fmu_dir)])
+    assert code == 0
+    lines = (tmp_path / "out" / "points.csv").read_text().splitlines()
+    assert [line.split(",")[2:4] for line in lines[1:]] == [["25.0", "ok"], ["100.0", "ok"]]
+
+
+class _Terminal:
+    def __init__(self):
+        self.text = ""
+
+    def isatty(self):
+        return True
+
+    def write(self, s):
+        self.text += s
+
+    def flush(self):
+        pass
+
+
+def test_progress_is_a_bar_on_a_terminal_and_plain_lines_otherwise(capsys):
+    from orchestration.progress import Progress
+
+    term = _Terminal()
+    bar = Progress(4, "sweep x", workers=2, skipped=1, skipped_failed=1, stream=term)
+    bar.update(True)
+    bar.update(False)
+    bar.close()
+    assert "sweep x" in term.text and "3/4" in term.text and "failed 2" in term.text
+    plain = Progress(3, "reproduce")
+    plain.update(True, "paper ok")
+    plain.update(False, "paper-ct FAILED")
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].startswith("reproduce: 1/3 done, 0 failed, 1 running, about ") and out[0].endswith("| paper ok")
+    assert out[1].startswith("reproduce: 2/3 done, 1 failed, 1 running")
+
+
+def test_set_makes_a_grid_over_a_scenario_without_a_sweep_file(fmu_dir, tmp_path, monkeypatch, capsys):
+    from orchestration.sweep_file import grid_from_assignments
+
+    s = grid_from_assignments("paper-ct", ["controller.kp=25,100", "plant.f1=8,9"])
+    assert s.name == "paper-ct-sweep" and [p.settings for p in s.points()][1] == {"controller.kp": 25.0, "plant.f1": 9.0}
+    for bad, message in (("kp=1", "instance.parameter"), ("controller.kp=a,b", "must be a number"),
+                         ("controller.kp=", "write instance.parameter"), ("controller.kp=1,nan", "nan is not finite")):
+        with pytest.raises(ValueError, match=message):
+            grid_from_assignments("paper-ct", [bad])
     monkeypatch.chdir(tmp_path)
-    code = main(["sweep", "paper-ct", "--set", "controller.kp=25,-1", "--stop-time", "0.5",
-                 "--scheduler", "synchronous", "--fmu-dir", str(fmu_dir)])
-    assert code == 1  # one variant failed
-    lines = (tmp_path / "recordings" / "sweep-paper-ct.csv").read_text().splitlines()
-    assert lines[0].startswith("controller.kp,status,mse_1") and len(lines) >= 3
-    assert lines[1].startswith("25.0,ok,") and lines[2].startswith("-1.0,failed,")
-    assert (tmp_path / "recordings" / "sweep-paper-ct.json").is_file()
-
-
-@pytest.mark.parametrize("item", ["kp=1", "controller.kp", "controller.kp=a,b", "controller.kp="])
-def test_bad_assignments_are_refused(item):
-    with pytest.raises(ScenarioError):
-        parse_assignments([item])
-
-
-def test_override_of_an_unknown_instance_is_refused(base):
-    with pytest.raises(ScenarioError, match="nosuch"):
-        base.with_parameters({"nosuch.kp": 1.0})
-
-
-def test_cluster_scheduler_without_distributed_says_what_to_install(base, fmu_paths, monkeypatch):
-    import builtins
-
-    real_import = builtins.__import__
-
-    def no_distributed(name, *args, **kwargs):
-        if name == "distributed":
-            raise ImportError(name)
-        return real_import(name, *args, **kwargs)
-
-    monkeypatch.setattr(builtins, "__import__", no_distributed)
-    with pytest.raises(ScenarioError, match="distributed"):
-        run_sweep(base, {"controller.kp": [25.0]}, fmu_paths, scheduler="tcp://127.0.0.1:1")
+    code = main(["sweep", "paper-ct", "--set", "controller.kp=25,-1", "--workers", "1", "--fmu-dir", str(fmu_dir)])
+    assert code == 1  # one point failed
+    lines = (tmp_path / "recordings" / "paper-ct-sweep" / "points.csv").read_text().splitlines()
+    assert [line.split(",")[2:4] for line in lines[1:]] == [["25.0", "ok"], ["-1.0", "failed"]]
+    capsys.readouterr()
+    # --retry-failed runs the failed point again and keeps the finished one
+    code = main(["sweep", "paper-ct", "--set", "controller.kp=25,-1", "--workers", "1", "--retry-failed",
+                 "--fmu-dir", str(fmu_dir)])
+    assert code == 1 and "2 points, 1 already in" in capsys.readouterr().out
+    jsonl = (tmp_path / "recordings" / "paper-ct-sweep" / "points.jsonl").read_text().splitlines()
+    assert len(jsonl) == 3  # the failed point has a second line; the last line of a key wins

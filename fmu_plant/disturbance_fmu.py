@@ -1,0 +1,35 @@
+"""Disturbance: FMI 2.0 co-simulation FMU of the disturbance torques d1, d2 (``fmu_plant.perturbation``).
+
+Outputs are a function of time only (no inputs): connect them to the plant's inputs d1, d2.
+"""
+from __future__ import annotations
+
+from fmu_plant.perturbation import DISTURBANCE_PARAMETER_SPECS, disturbance_torque
+from fmu_plant.parameters import check_all
+from fmu_plant.slave_base import DescribedSlave as Fmi2Slave  # the name pythonfmu's binary looks for
+
+
+class Disturbance(Fmi2Slave):
+    description = "Step and sinusoidal disturbance torques for the arm's inputs d1, d2 (robustness studies)"
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        for spec in DISTURBANCE_PARAMETER_SPECS:
+            self.declare_parameter(spec)
+        self.declare_output("d1", "N.m", "Disturbance torque on joint 1")
+        self.declare_output("d2", "N.m", "Disturbance torque on joint 2")
+        self._values = {s.name: s.default for s in DISTURBANCE_PARAMETER_SPECS}
+
+    def initialize(self) -> None:
+        self._values = check_all(DISTURBANCE_PARAMETER_SPECS, self.parameter_values(DISTURBANCE_PARAMETER_SPECS))
+        self.publish(self._time)
+
+    def publish(self, t: float) -> None:
+        self.d1, self.d2 = disturbance_torque(t, **self._values)
+
+    def step(self, current_time: float, step_size: float) -> bool:
+        return True  # the outputs follow time alone: the base class publishes them at the new time
+
+    def restore_internal_state(self, state) -> None:
+        if self._initialized:
+            self.initialize()
