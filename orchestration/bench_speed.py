@@ -307,6 +307,10 @@ def _runs_rows(data: dict) -> list[tuple[str, str, str]]:
             for k, v in data["runs"].items()]
 
 
+def _best(data: dict, run: str, base: str) -> float:
+    return data["runs"][run]["min"] / data["runs"][base]["min"]
+
+
 def format_markdown(data: dict) -> str:
     """The generated block of docs/performance.md and the README (from the JSON of one bench run)."""
     m, meth = data["machine"], data["method"]
@@ -321,7 +325,10 @@ def format_markdown(data: dict) -> str:
         *(f"| {a} | {b} | {c} |" for a, b, c in _runs_rows(data)),
         "",
         f"Recording overhead {data['ratios']['recording_overhead']:.2f}x; the recording of these "
-        f"{meth['stop_time']:g} s is {data['rrd_mb']:.1f} MB.",
+        f"{meth['stop_time']:g} s is {data['rrd_mb']:.1f} MB. The fastest runs (other load on a shared "
+        f"machine only adds time) give {_best(data, 'cosim', 'floor'):.2f}x for the co-simulation and "
+        f"{_best(data, 'cosim_recorded', 'floor'):.2f}x recorded against the floor, recording overhead "
+        f"{_best(data, 'cosim_recorded', 'cosim'):.2f}x.",
         "",
         "| per step (one recorded run, instrumented) | us | share | the same core in the floor's loop, us |",
         "| --- | --- | --- | --- |",
