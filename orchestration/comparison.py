@@ -82,10 +82,14 @@ def run_metrics(scenario: str, stop_time: float = 100.0, **overrides: float) -> 
     return _cached(fmu, tuple(sorted(params.items())), stop_time)
 
 
-def handling_name(scenario: str, **overrides: float) -> str:
-    fmu, params = controller_of(scenario, **overrides)
+def handling_code(fmu: str, params: dict[str, float]) -> int:
+    """The limit handling a controller FMU runs with these parameters (its default if they do not set it)."""
     spec = {s.name: s for s in CORES[fmu].PARAMETER_SPECS}["limit_handling"]
-    return LIMIT_HANDLINGS[int(params.get("limit_handling", spec.default))]
+    return int(params.get("limit_handling", spec.default))
+
+
+def handling_name(scenario: str, **overrides: float) -> str:
+    return LIMIT_HANDLINGS[handling_code(*controller_of(scenario, **overrides))]
 
 
 def tuning(scenario: str, handling: int, stop_time: float = 100.0) -> list[tuple[dict[str, float], dict[str, Any]]]:
@@ -102,3 +106,22 @@ def mse_sum(m: dict[str, Any]) -> float:
 
 def best_tuning(scenario: str, handling: int, stop_time: float = 100.0) -> tuple[dict[str, float], dict[str, Any]]:
     return min(tuning(scenario, handling, stop_time), key=lambda pm: mse_sum(pm[1]))
+
+
+@functools.lru_cache(maxsize=None)
+def tuned_scenarios() -> dict[str, str]:
+    """Controller FMU -> the scenario whose tuning grid tunes it (CT, LQR; the SOTC and OTC have none)."""
+    return {controller_of(scenario)[0]: scenario for scenario in TUNING_GRIDS}
+
+
+def tuned_parameter_names(fmu: str) -> set[str]:
+    """The parameters the tuning search of a controller FMU sets (empty: the FMU has no search)."""
+    scenario = tuned_scenarios().get(fmu)
+    return {k for point in TUNING_GRIDS[scenario] for k in point} if scenario else set()
+
+
+def best_parameters(fmu: str, handling: int) -> dict[str, float]:
+    """The controller parameters of the best point of ``fmu``'s tuning search under a limit handling:
+    the tuning the README's results table reports (``tuning = "best"`` of a sweep file). About a second
+    of pure-loop runs per (fmu, handling) the first time; the runs are cached per process."""
+    return dict(best_tuning(tuned_scenarios()[fmu], int(handling))[0])

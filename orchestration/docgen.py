@@ -24,8 +24,9 @@ import numpy as np
 from orchestration.comparison import (
     COMPARED, LABELS, OTC_VARIANTS, TUNING_GRIDS, best_tuning, controller_of, handling_name, mse_sum, run_metrics, tuning,
 )
+from fmu_controller.saturation import LIMIT_HANDLINGS
 from orchestration.reproduce import PAPER_TABLE1
-from orchestration.sweep_results import stored_sweep_block
+from orchestration.sweep_results import paired_tail_errors, stored_rows, stored_sweep_block
 
 ROOT = Path(__file__).resolve().parent.parent
 LITERAL_SCENARIOS = ("paper-literal", "paper-near-literal")
@@ -219,6 +220,49 @@ def otc_table() -> str:
     return table(["OTC variant", *METRIC_HEADER], rows)
 
 
+def controllers_verdict() -> str:
+    """The plain sentences on the stored `controllers` sweep: each controller's post-transient error over
+    the same perturbed points, lowest first, and whether a baseline beats the SOTC there."""
+    sweep, rows = stored_rows("controllers", ROOT / "docs")
+    errors = paired_tail_errors(rows)
+    own = sweep.controller_parameters()
+    handling = sweep.fixed.get("controller.limit_handling")
+
+    def label(fmu: str) -> str:
+        params = " or ".join(", ".join(f"{k.partition('.')[2]} {v:g}" for k, v in p.items()) for p in own.get(fmu, []))
+        if fmu in sweep.per_controller and sweep.per_controller[fmu].tuning == "best":
+            how = f"best of its tuning search: {params}"
+        elif params:
+            how = params
+        else:
+            how = "the paper's tuning" if fmu == "SotcController" else "its defaults"
+        return f"{LABELS.get(fmu, fmu)} ({how})"
+
+    def stats(fmu: str) -> tuple[float, float, int]:
+        ok = [e for e in errors[fmu].values() if e is not None]
+        return (float(np.mean(ok)) if ok else float("inf"), max(ok, default=float("inf")), len(errors[fmu]) - len(ok))
+
+    ranked = sorted(errors, key=lambda fmu: stats(fmu)[0])
+    under = f" under `{LIMIT_HANDLINGS[int(handling)]}`" if handling is not None else ""  # set for every point
+    lines = ["Post-transient error over the same points (mean / worst, rad; failed points apart), lowest mean "
+             f"first{under and ', all' + under}: " + "; ".join(
+                 f"{label(f)} {_g(stats(f)[0], 3)} / {_g(stats(f)[1], 3)}" + (f", {stats(f)[2]} failed" if stats(f)[2] else "")
+                 for f in ranked) + "."]
+    sotc = errors.get("SotcController")
+    if sotc is not None:
+        better = []
+        for fmu in ranked:
+            if fmu == "SotcController":
+                continue
+            pairs = [(e, sotc[k]) for k, e in errors[fmu].items() if k in sotc]
+            wins = sum(e is not None and (s is None or e < s) for e, s in pairs)
+            if stats(fmu)[0] < stats("SotcController")[0]:
+                better.append(f"{label(fmu)}, lower on {wins} of {len(pairs)} points")
+        lines.append(f"A baseline beats the SOTC on this sweep: {'; '.join(better)}." if better else
+                     "No baseline reaches a lower mean post-transient error than the SOTC on this sweep.")
+    return "\n".join(f"- {line}" for line in lines)
+
+
 @dataclass(frozen=True)
 class Block:
     file: str
@@ -240,6 +284,8 @@ BLOCKS: dict[str, Block] = {
     # the results of a shipped sweep, from its stored rows (rerun: sotc-cosim sweep NAME --doc docs/robustness.md)
     "sweep-robustness": Block("docs/robustness.md", lambda: stored_sweep_block("robustness", ROOT / "docs"), False),
     "sweep-controllers": Block("docs/robustness.md", lambda: stored_sweep_block("controllers", ROOT / "docs"), False),
+    "controllers-verdict": Block("docs/robustness.md", controllers_verdict, False),
+    "sweep-verdict": Block("README.md", controllers_verdict, False),
 }
 
 

@@ -12,6 +12,10 @@ A sweep file is TOML (``orchestration/sweeps/<name>.toml``, shipped as package d
     state_bound = 1000.0            # |phi| (rad) or |dphi| (rad/s) beyond this is divergence (default 1000)
     set = { "controller.limit_handling" = 0 }   # applied to every point, after the axes
 
+    [controller_settings.LqrController]   # applied only to points whose controller is this FMU, after `set`
+    tuning = "best"                 # optional: the best point of this FMU's tuning search (below)
+    "controller.r" = 0.1            # instance.parameter = number, like `set`
+
     [[axis]]
     name = "plant.p1"               # instance.parameter, or a setting: controller, step_size, stop_time
     values = [0.8, 1.0, 1.2]        # a list; or
@@ -25,7 +29,14 @@ Combination over the groups (an axis without ``group`` is a group of its own): `
 cartesian product in file order (the last axis varies fastest), ``paired`` takes the i-th value of
 every group (equal lengths), ``one-at-a-time`` varies each group alone with the others at the base
 scenario's values. A ``controller`` axis names controller FMUs (model identifiers); the controller
-instance keeps the base scenario's parameters only for the same FMU. Random axes draw from
+instance keeps the base scenario's parameters only for the same FMU; ``controller_settings`` gives a
+controller FMU its own parameters (a fair comparison tunes each baseline, not only the base scenario's
+controller). ``tuning = "best"`` takes them from the one place the baselines' tuning search lives,
+``orchestration.comparison`` (``TUNING_GRIDS``; the point ``best_tuning`` picks, Table 1's metric on
+the paper's 100 s loop) under the point's own ``controller.limit_handling``: the tuning the README's
+results table reports. Only FMUs with a tuning grid have it (CT, LQR; not the SOTC or the OTC); it
+costs a second or two of pure-loop runs per FMU and handling when the file is loaded. The parameters a
+point gets this way are part of its settings (and of its resume key). Random axes draw from
 ``numpy.random.default_rng([seed, axis number])``: the same file and seed give the same points.
 
 Every value is checked before anything runs: a non-numeric or non-finite value is refused with the
@@ -54,7 +65,8 @@ MAX_POINTS = 100_000
 DEFAULT_TIME_LIMIT = 600.0
 DEFAULT_STATE_BOUND = 1000.0
 _FILE_KEYS = {"name", "description", "scenario", "stop_time", "combine", "seed", "time_limit", "state_bound",
-              "set", "axis"}
+              "set", "controller_settings", "axis"}
+TUNINGS = ("best",)  # values of controller_settings.<FMU>.tuning
 _AXIS_KEYS = {"name", "values", "range", "random", "scale", "group"}
 
 
@@ -75,9 +87,31 @@ class Axis:
 
 
 @dataclass(frozen=True)
+class ControllerSettings:
+    """``[controller_settings.<fmu>]``: parameters for the points whose controller is ``fmu``."""
+    fmu: str
+    values: dict[str, float]  # instance.parameter -> value
+    tuning: str = ""  # "best": the parameters of the best point of the FMU's tuning search
+
+    def parameters(self, scenario: Scenario) -> dict[str, float]:
+        """What this applies to a point's scenario (whose controller is ``fmu``): the tuned parameters
+        under the scenario's limit handling, then the explicit values."""
+        out: dict[str, float] = {}
+        if self.tuning == "best":
+            from orchestration.comparison import best_parameters, handling_code
+
+            params = {**scenario.instances["controller"].parameters,
+                      **{k.partition(".")[2]: v for k, v in self.values.items() if k.startswith("controller.")}}
+            out = {f"controller.{k}": v for k, v in best_parameters(self.fmu, handling_code(self.fmu, params)).items()}
+        return {**out, **self.values}
+
+
+@dataclass(frozen=True)
 class Point:
     index: int
-    settings: dict[str, Any]  # axis label -> value as written in the file (a factor for scaled axes)
+    # axis label -> value as written in the file (a factor for scaled axes), then the parameters the
+    # point's [controller_settings.<fmu>] gave it (instance.parameter -> value)
+    settings: dict[str, Any]
     scenario: Scenario
 
 
@@ -92,6 +126,7 @@ class Sweep:
     time_limit: float
     state_bound: float
     fixed: dict[str, float]
+    per_controller: dict[str, ControllerSettings] = dataclasses.field(default_factory=dict)
 
     def groups(self) -> dict[str, list[Axis]]:
         """The axes of the combination: group name (an ungrouped axis: its own name) -> its axes."""
@@ -113,8 +148,23 @@ class Sweep:
         for i, combo in enumerate(combos):
             settings = {a.label: v for axes, values in combo for a, v in zip(axes, values)}
             applied = [(a, v) for axes, values in combo for a, v in zip(axes, values)]
-            points.append(Point(i, settings, self._apply(applied, f"{self.name}#{i}")))
+            scenario = self._apply(applied, f"{self.name}#{i}")
+            own = self.per_controller.get(scenario.controller_fmu() or "")
+            extra = own.parameters(scenario) if own else {}
+            points.append(Point(i, {**settings, **extra}, scenario.with_parameters(extra) if extra else scenario))
         return points
+
+    def controller_parameters(self) -> dict[str, list[dict[str, Any]]]:
+        """Per FMU of ``controller_settings``: the distinct parameter sets its points get (one, unless
+        ``tuning = "best"`` meets points of different limit handlings)."""
+        labels = {a.label for a in self.axes}
+        out: dict[str, list[dict[str, Any]]] = {fmu: [] for fmu in self.per_controller}
+        for p in self.points():
+            seen = out.get(p.scenario.controller_fmu() or "")
+            extra = {k: v for k, v in p.settings.items() if k not in labels}
+            if seen is not None and extra not in seen:
+                seen.append(extra)
+        return out
 
     def _apply(self, applied: list[tuple[Axis, Any]], name: str) -> Scenario:
         sc = self.base
@@ -213,16 +263,62 @@ def parse_sweep(raw: dict[str, Any], label: str, folder: Path | None = None, def
     names = [a.name for a in axes]
     if len(set(names)) != len(names):
         raise SweepError(f"{where}: an axis is given twice: {sorted({n for n in names if names.count(n) > 1})}")
+    per_controller = _controller_settings(raw.get("controller_settings", {}), base, axes, where)
     sweep = Sweep(
         name=str(raw.get("name", default_name)), description=str(raw.get("description", "")), base=base,
         axes=axes, combine=combine, seed=seed,
         time_limit=_positive(raw.get("time_limit", DEFAULT_TIME_LIMIT), f"{where}: time_limit"),
         state_bound=_positive(raw.get("state_bound", DEFAULT_STATE_BOUND), f"{where}: state_bound"),
-        fixed=fixed,
+        fixed=fixed, per_controller=per_controller,
     )
     _check_shape(sweep, where)
     sweep.points()  # every point's scenario is valid (whole number of steps, known instances)
     return sweep
+
+
+def _controller_settings(raw: Any, base: Scenario, axes: tuple[Axis, ...], where: str) -> dict[str, ControllerSettings]:
+    """``[controller_settings.<fmu>]`` tables: each FMU one that the sweep runs, every value a finite number
+    (or ``tuning``), no parameter that an axis varies or that the tuning search sets too."""
+    from orchestration.comparison import CORES, tuned_parameter_names, tuned_scenarios
+
+    if not isinstance(raw, dict) or not all(isinstance(v, dict) for v in raw.values()):
+        raise SweepError(f"{where}: controller_settings must hold tables [controller_settings.<controller FMU>]")
+    axis_fmus = [v for a in axes if a.name == "controller" for v in a.values]  # else: the base's controller
+    runs = sorted(set(axis_fmus)) if axis_fmus else [f for f in [base.controller_fmu()] if f]
+    swept = {a.name for a in axes}
+    out = {}
+    for fmu, table in raw.items():
+        here = f"{where}: controller_settings.{fmu}"
+        if fmu not in runs:
+            raise SweepError(f"{here}: no point of this sweep runs controller {fmu!r}; its controllers: "
+                             f"{', '.join(runs) or 'none'}")
+        tuning = table.get("tuning", "")
+        values = {k: v for k, v in table.items() if k != "tuning"}
+        if "tuning" in table and tuning not in TUNINGS:
+            raise SweepError(f"{here}.tuning = {tuning!r}; choose {' or '.join(repr(t) for t in TUNINGS)}")
+        tuned = {f"controller.{p}" for p in tuned_parameter_names(fmu)}
+        if tuning and not tuned:
+            raise SweepError(f"{here}.tuning: {fmu} has no tuning search (orchestration.comparison.TUNING_GRIDS "
+                             f"tunes {', '.join(sorted(tuned_scenarios()))}); give its parameters instead")
+        specs = {s.name: s for s in CORES[fmu].PARAMETER_SPECS} if fmu in CORES else None
+        for key, value in values.items():
+            at = f'{here}."{key}"'
+            value = values[key] = _number(value, at)
+            _check_parameter_name(base, key, at)
+            if key in swept:
+                raise SweepError(f"{at}: an axis varies {key} already")
+            if tuning and key in tuned:
+                raise SweepError(f"{at}: tuning = {tuning!r} sets {key} already")
+            inst, _, pname = key.partition(".")
+            if inst == "controller" and specs is not None:
+                if pname not in specs:
+                    raise SweepError(f"{at}: {fmu} has no parameter {pname!r}; its parameters: {', '.join(specs)}")
+                try:
+                    specs[pname].check(value)
+                except ValueError as exc:
+                    raise SweepError(f"{at}: {exc}") from None
+        out[fmu] = ControllerSettings(fmu, values, tuning)
+    return out
 
 
 def _check_shape(sweep: Sweep, where: str) -> None:

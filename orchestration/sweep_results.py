@@ -171,6 +171,19 @@ def group_rows(sweep: Sweep, rows: list[dict[str, Any]], axes: list[Axis]) -> li
     return out
 
 
+def _per_controller_text(sweep: Sweep) -> str:
+    """The sentence on ``controller_settings``: what each controller FMU's points get, and why."""
+    if not sweep.per_controller:
+        return ""
+    parts = []
+    for fmu, sets in sweep.controller_parameters().items():
+        how = ("the best point of its tuning search (`orchestration.comparison`, Table 1's metric on the "
+               "paper's loop) under the point's limit handling, " if sweep.per_controller[fmu].tuning == "best" else "")
+        values = " or ".join(", ".join(f"`{k} = {v:g}`" for k, v in params.items()) for params in sets)
+        parts.append(f"{fmu}: {how}{values or 'no point'}")
+    return " Per controller (`controller_settings`): " + "; ".join(parts) + "."
+
+
 def summary_markdown(sweep: Sweep, rows: list[dict[str, Any]], total: int, heading: str = "#") -> str:
     ok = [r for r in rows if r["status"] == "ok"]
     lines = [f"{heading} Sweep `{sweep.name}`", "", sweep.description, "",
@@ -178,7 +191,8 @@ def summary_markdown(sweep: Sweep, rows: list[dict[str, Any]], total: int, headi
              f"`{sweep.base.name}`, {sweep.combine} combination, seed {sweep.seed}, stop time {sweep.base.stop_time:g} s "
              "(unless an axis sets it). Post-transient error = max over both joints of max |e| over the second "
              "half of the run; max ||tau|| against the torque limit rho; a failed point counts in 'failed' only."
-             + (" Set for every point: " + ", ".join(f"`{k} = {v:g}`" for k, v in sweep.fixed.items()) + "." if sweep.fixed else ""),
+             + (" Set for every point: " + ", ".join(f"`{k} = {v:g}`" for k, v in sweep.fixed.items()) + "." if sweep.fixed else "")
+             + _per_controller_text(sweep),
              ""]
     for group, axes in sweep.groups().items():
         title = f"`{axes[0].label}`" if len(axes) == 1 else f"{group} ({', '.join(f'`{a.label}`' for a in axes)})"
@@ -286,13 +300,28 @@ def _doc_plots(sweep: Sweep) -> list[str]:
     return [f"sweeps/{sweep.name}/{plot_name(group)}" for group in sweep.groups()]
 
 
-def stored_sweep_block(name: str, docs: Path) -> str:
-    """The block of shipped sweep ``name`` from the rows its last ``--doc`` run stored under ``docs``."""
+def stored_rows(name: str, docs: Path) -> tuple[Sweep, list[dict[str, Any]]]:
+    """Shipped sweep ``name`` and the rows its last ``--doc`` run stored under ``docs``."""
     from orchestration.sweep_file import load_sweep
 
-    sweep = load_sweep(name)
     rows = [json.loads(line) for line in (docs / "sweeps" / name / "points.jsonl").read_text().splitlines()]
+    return load_sweep(name), rows
+
+
+def stored_sweep_block(name: str, docs: Path) -> str:
+    """The block of shipped sweep ``name`` from the rows its last ``--doc`` run stored under ``docs``."""
+    sweep, rows = stored_rows(name, docs)
     return doc_block(sweep, rows, len(sweep.points()), _doc_plots(sweep))
+
+
+def paired_tail_errors(rows: list[dict[str, Any]]) -> dict[str, dict[tuple, float | None]]:
+    """Controller -> {the point's other axis settings: its post-transient error}: the controllers of a
+    sweep with a controller axis, each over the same points (None: the point failed)."""
+    out: dict[str, dict[tuple, float | None]] = {}
+    for r in rows:
+        where = tuple(sorted((k, v) for k, v in r["settings"].items() if k.partition(".")[0] != "controller"))
+        out.setdefault(_controller(r), {})[where] = tail_error(r)
+    return out
 
 
 def write_doc(store: SweepStore, total: int, doc: Path) -> Path:

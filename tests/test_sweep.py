@@ -59,6 +59,83 @@ def test_scaled_axis_multiplies_the_base_value_and_controller_axis_swaps_the_fmu
                                       "Disturbance", "MeasurementNoise"})
 
 
+CONTROLLERS = {"scenario": "paper-perturbed", "stop_time": 1.0, "set": {"controller.limit_handling": 2}, "axis": [
+    {"name": "controller", "values": ["SotcController", "CtController", "LqrController", "OtcController"]}]}
+
+
+def test_controller_settings_reach_only_the_points_of_that_controller():
+    s = parse_sweep({**CONTROLLERS, "controller_settings": {
+        "LqrController": {"controller.q": 100, "controller.r": 0.01},
+        "OtcController": {"controller.limit_handling": 3}}}, "test")
+    sotc, ct, lqr, otc = (p.scenario.instances["controller"].parameters for p in s.points())
+    assert lqr == {"limit_handling": 2, "q": 100.0, "r": 0.01}
+    assert ct == {"limit_handling": 2} and "q" not in sotc and sotc["alpha1"] == 50.0
+    assert otc == {"limit_handling": 3}  # the controller's own setting wins over `set`
+    assert s.points()[2].settings == {"controller": "LqrController", "controller.q": 100.0, "controller.r": 0.01}
+    assert s.points()[1].settings == {"controller": "CtController"}
+    md = summary_markdown(s, [], 4)
+    assert ("Per controller (`controller_settings`): LqrController: `controller.q = 100`, `controller.r = 0.01`; "
+            "OtcController: `controller.limit_handling = 3`.") in md
+
+
+def test_tuning_best_asks_the_comparison_search_under_each_points_limit_handling(monkeypatch):
+    from orchestration import comparison
+
+    asked = []
+
+    def best_tuning(scenario, handling, stop_time=100.0):  # stands in for the pure-loop runs
+        asked.append((scenario, handling))
+        return comparison.TUNING_GRIDS[scenario][handling + 1], {}
+
+    monkeypatch.setattr(comparison, "best_tuning", best_tuning)
+    tuned = {"CtController": {"tuning": "best"}, "LqrController": {"tuning": "best"}}
+    s = parse_sweep({**CONTROLLERS, "controller_settings": tuned}, "test")
+    _, ct, lqr, _ = s.points()
+    assert ct.scenario.instances["controller"].parameters == {"limit_handling": 2, "kp": 25.0, "kd": 10.0}
+    assert lqr.settings == {"controller": "LqrController", "controller.q": 1.0, "controller.r": 0.0016}
+    assert set(asked) == {("paper-ct", 2), ("paper-lqr", 2)}
+    # without `set`, each FMU's default handling (radial for CT and LQR); one given in the table counts
+    s = parse_sweep({**CONTROLLERS, "set": {}, "controller_settings": {
+        "CtController": {"tuning": "best"}, "LqrController": {"tuning": "best", "controller.limit_handling": 1}}}, "test")
+    _, ct, lqr, _ = s.points()
+    assert ct.settings == {"controller": "CtController", "controller.kp": 4.0, "controller.kd": 4.0}
+    assert lqr.scenario.instances["controller"].parameters == {"limit_handling": 1, "q": 1.0, "r": 0.01}
+    assert {("paper-ct", 0), ("paper-lqr", 1)} <= set(asked)
+
+
+@pytest.mark.parametrize("settings, message", [
+    ({"PidController": {"controller.kp": 1.0}}, "controller_settings.PidController: no point of this sweep runs"),
+    ({"LqrController": {"controller.q": math.nan}}, 'controller_settings.LqrController."controller.q": nan is not finite'),
+    ({"LqrController": {"controller.r": math.inf}}, 'controller_settings.LqrController."controller.r": inf is not finite'),
+    ({"LqrController": {"controller.r": "small"}}, "'small' is not a number"),
+    ({"LqrController": {"controller.q": -1.0}}, "'q': -1 is outside the valid range"),
+    ({"LqrController": {"controller.kp": 1.0}}, "LqrController has no parameter 'kp'"),
+    ({"LqrController": {"nosuch.q": 1.0}}, '"nosuch.q": write instance.parameter'),
+    ({"OtcController": {"tuning": "best"}}, "OtcController has no tuning search"),
+    ({"SotcController": {"tuning": "best"}}, "SotcController has no tuning search"),
+    ({"CtController": {"tuning": "fastest"}}, "tuning = 'fastest'; choose 'best'"),
+    ({"CtController": {"tuning": "best", "controller.kp": 9.0}}, "tuning = 'best' sets controller.kp already"),
+    ({"CtController": 3}, "must hold tables"),
+])
+def test_bad_controller_settings_are_refused_with_the_key_named(settings, message):
+    with pytest.raises(ValueError, match=message.replace("(", r"\(").replace("[", r"\[")):
+        parse_sweep({**CONTROLLERS, "controller_settings": settings}, "test")
+
+
+def test_controller_settings_may_not_set_what_an_axis_varies():
+    raw = {**CONTROLLERS, "axis": [*CONTROLLERS["axis"], {"name": "controller.kd", "values": [1.0, 2.0]}]}
+    with pytest.raises(ValueError, match='CtController."controller.kd": an axis varies controller.kd already'):
+        parse_sweep({**raw, "controller_settings": {"CtController": {"controller.kd": 5.0}}}, "test")
+
+
+def test_a_bad_controller_setting_exits_2_before_anything_runs(tmp_path, capsys):
+    bad = tmp_path / "bad.toml"
+    bad.write_text('scenario = "paper-perturbed"\n[controller_settings.SotcController]\n"controller.alpha1" = nan\n')
+    assert main(["sweep", str(bad), "--out", str(tmp_path / "out")]) == 2
+    assert 'controller_settings.SotcController."controller.alpha1": nan is not finite' in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
+
+
 def test_random_axes_are_seeded():
     spec = {"name": "plant.f1", "random": {"distribution": "uniform", "low": 5, "high": 10, "count": 5}}
     a, b = sweep_of(seed=4, axis=[spec]), sweep_of(seed=4, axis=[spec])
@@ -113,10 +190,19 @@ def test_shipped_sweeps_load():
     # every controller sees the same perturbed plants from the same initial states
     by_ctrl = {}
     for p in pts:
-        plant = {k: v for k, v in p.settings.items() if k != "controller"}
+        plant = {k: v for k, v in p.settings.items() if k.partition(".")[0] != "controller"}
         by_ctrl.setdefault(p.settings["controller"], []).append(plant)
     first, *others = by_ctrl.values()
     assert len(by_ctrl) == 4 and all(o == first for o in others)
+    # the same tuning effort: each baseline runs the best point of its tuning search under the sweep's handling
+    from orchestration.comparison import best_tuning
+
+    handling = controllers.fixed["controller.limit_handling"]
+    for p in pts:
+        params, fmu = p.scenario.instances["controller"].parameters, p.settings["controller"]
+        if fmu in ("CtController", "LqrController"):
+            best, _ = best_tuning("paper-ct" if fmu == "CtController" else "paper-lqr", handling)
+            assert {k: params[k] for k in best} == best
 
 
 def test_point_key_changes_with_the_scenario_and_the_fmu_digest():
@@ -150,6 +236,19 @@ def test_table_and_summary_are_written_from_the_rows():
     md = summary_markdown(s, rows, total=3)
     assert "| 3 | - | 1 | 0 | 0.03 | 0 | 0.03 | 3.5 | 0 |" in md
     assert "| 2 | - | 1 | 1 | - |" in md and "time limit of 5 s exceeded" in md
+
+
+def test_tail_errors_are_paired_by_the_points_other_settings():
+    from orchestration.sweep_results import paired_tail_errors
+
+    def row(ctrl, f1, e, status="ok", **tuned):
+        return {"settings": {"controller": ctrl, "plant.f1": f1, **tuned}, "status": status,
+                "summary": {"controller": ctrl, "max_abs_error_last_half": [e, e / 2]}}
+
+    rows = [row("SotcController", 8.0, 0.05), row("SotcController", 9.0, 0.06),
+            row("CtController", 9.0, 0.01, **{"controller.kp": 100.0}), row("CtController", 8.0, 0.2, status="failed")]
+    assert paired_tail_errors(rows) == {"SotcController": {(("plant.f1", 8.0),): 0.05, (("plant.f1", 9.0),): 0.06},
+                                        "CtController": {(("plant.f1", 9.0),): 0.01, (("plant.f1", 8.0),): None}}
 
 
 def test_doc_block_replaces_only_its_own_block():
