@@ -244,14 +244,14 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     if unknown:
         raise ScenarioError(f"no benchmark {unknown}; known: {', '.join(BENCHMARKS)}")
     if args.update_docs:
-        from orchestration.bench_speed import DOC_FILES
+        from orchestration.bench_speed import DOC_BLOCKS
         from orchestration.build import PACKAGE_ROOT
 
         if "speed" not in names:
             raise ScenarioError("--update-docs writes the speed benchmark's tables: run it (sotc-cosim bench speed)")
-        missing = [f for f in DOC_FILES if not (PACKAGE_ROOT / f).is_file()]
+        missing = [f for f in DOC_BLOCKS.values() if not (PACKAGE_ROOT / f).is_file()]
         if missing:
-            raise ScenarioError(f"--update-docs writes {', '.join(DOC_FILES)} of a source checkout; "
+            raise ScenarioError(f"--update-docs writes {', '.join(DOC_BLOCKS.values())} of a source checkout; "
                                 f"not found next to {PACKAGE_ROOT / 'orchestration'}")
     old = None
     if args.compare is not None:

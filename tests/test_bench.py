@@ -1,17 +1,14 @@
 """`sotc-cosim bench`: what it measures and writes (never how fast: no timed assertions), and the
-generated tables in the docs equal what the code renders from the committed measurement."""
+generated tables in the docs (``speed`` blocks) are checked with every docgen block (test_docgen)."""
 from __future__ import annotations
 
 import json
 import math
-from pathlib import Path
 
 import pytest
 
-from orchestration.bench_speed import DOC_FILES, child_run, compare, format_markdown, replace_block
+from orchestration.bench_speed import child_run, compare
 from orchestration.cli import main
-
-ROOT = Path(__file__).resolve().parent.parent
 
 
 @pytest.fixture(scope="module")
@@ -68,11 +65,3 @@ def test_a_long_run_is_measured_in_a_child_process(fmu_dir, tmp_path):
     assert r["stop_time"] == 2.0 and r["record_every"] == 5
     assert r["peak_rss_mb"] > 10 and r["rrd_mb"] > 0 and r["wall_s"] > 0
     assert not (tmp_path / "x.rrd").exists()  # the recording is measured, then removed
-
-
-def test_generated_tables_in_the_docs_are_what_the_bench_renders():
-    data = json.loads((ROOT / "docs" / "performance.json").read_text())
-    block = format_markdown(data)
-    for name in DOC_FILES:
-        text = (ROOT / name).read_text()
-        assert replace_block(text, block) == text, f"{name}: run `sotc-cosim bench --update-docs`"
