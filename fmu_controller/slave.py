@@ -21,7 +21,7 @@ from fmu_controller.base import (
 )
 from fmu_plant.dynamics import ArmParameters
 from fmu_plant.parameters import ParameterError
-from fmu_plant.slave_base import DescribedSlave, Fmi2Status
+from fmu_plant.slave_base import DescribedSlave, all_finite
 
 INPUT_PORTS = MEASUREMENT_PORTS + REFERENCE_PORTS
 INPUT_DOCS = {
@@ -61,8 +61,6 @@ class ControllerSlave(DescribedSlave):
             depends_on = INPUT_PORTS if self._input_dependent[index] else ()
             self.declare_output(name, unit, doc, depends_on=depends_on, getter=self._output_getter(index))
         self._stale = True  # inputs or learning state changed since the core last evaluated
-        self._names = self.CORE.output_names()
-        self._bad_output: str | None = None  # first non-finite output of the last good evaluation
         self._invalid_inputs: str | None = None  # why the input-dependent outputs are NaN, or None
         self._last_valid: tuple[list[float], list[float]] | None = None  # inputs of the last good evaluation
 
@@ -92,11 +90,10 @@ class ControllerSlave(DescribedSlave):
         leaves them exact (they do not depend on the inputs) and the learning state untouched."""
         self._stale = False
         self._invalid_inputs = None if inputs_checked else self.input_problem()
+        self._output_problem = self._invalid_inputs
         if self._invalid_inputs is None:
             y, r = self._inputs()
         else:
-            self.log(f"{self.instance_name}: input-dependent outputs are NaN: {self._invalid_inputs}",
-                     Fmi2Status.warning)
             y, r = self._last_valid or ([0.0] * len(MEASUREMENT_PORTS), [0.0] * len(REFERENCE_PORTS))
         try:
             # absurd (finite) inputs may overflow: the non-finite outputs are detected and logged below,
@@ -105,23 +102,13 @@ class ControllerSlave(DescribedSlave):
                 self._core.evaluate(self._time, y, r)
         except Exception as exc:  # e.g. an overflow for absurd inputs: refuse these inputs, keep running
             self._invalid_inputs = f"the controller cannot evaluate these inputs: {type(exc).__name__}: {exc}"
-            self.log(f"{self.instance_name}: outputs are NaN: {self._invalid_inputs}", Fmi2Status.error)
+            self._output_problem = self._invalid_inputs
             return
         if self._invalid_inputs is not None:
             return
         self._last_valid = (y, r)
-        self._bad_output = self._first_nonfinite_output()
-        if self._bad_output is not None:
-            self.log(f"{self.instance_name}: output '{self._bad_output}' is not finite for the finite inputs "
-                     f"at t = {self._time!r}", Fmi2Status.error)
-
-    def _first_nonfinite_output(self) -> str | None:
-        """The first output that is not finite, or None; one C-level pass over the outputs in the
-        usual case (a finite sum), the exact scan only when the sum is not finite."""
-        outputs = self._core.outputs
-        if math.isfinite(sum(outputs)):
-            return None
-        return next((n for n, v in zip(self._names, outputs) if not math.isfinite(v)), None)
+        if not all_finite(self._core.outputs):
+            self._output_problem = f"it is not finite for the finite inputs at t = {self._time!r}"
 
     def set_real(self, vrs, values):
         super().set_real(vrs, values)
@@ -145,8 +132,9 @@ class ControllerSlave(DescribedSlave):
             self._evaluate(inputs_checked=True)  # the base class has refused bad inputs already
         if self._invalid_inputs is not None:
             return self.discard(f"{self._invalid_inputs}; the step is refused and the state is kept")
-        if self._bad_output is not None:
-            return self.discard(f"output '{self._bad_output}' is not finite at t = {current_time!r}: "
+        if self._output_problem is not None:
+            bad = next(n for n, v in zip(self.CORE.output_names(), self._core.outputs) if not math.isfinite(v))
+            return self.discard(f"output '{bad}' is not finite at t = {current_time!r}: "
                                 "the core does not learn from it; the step is refused and the state is kept")
         self._core.advance(current_time, step_size)
         self._stale = True  # the outputs now reflect the new learning state at the next read

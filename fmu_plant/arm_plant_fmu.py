@@ -1,23 +1,29 @@
 """ArmPlant: FMI 2.0 co-simulation FMU of the two-link arm, eq. (1)/(46) of the SOTC paper.
 
 A thin adapter over ``fmu_plant.dynamics``: inputs are held constant over each communication step
-(zero-order hold) and the state is advanced with fixed-step RK4 (``substeps`` per step).
+(zero-order hold) and the state is advanced with RK4 (``substeps`` per step at least, more where the
+friction or the speed make the arm stiff; ``dynamics.integrate``). A step the integrator cannot
+take within its bounded number of substeps, or whose result is not physical, is refused (Discard)
+with the state kept.
 Outputs at a communication point are the state there, so no output depends directly on an input.
 """
 from __future__ import annotations
 
-import math
-
-from fmu_plant.dynamics import ARM_PARAMETER_SPECS, ArmParameters, rk4_step
+from fmu_plant.dynamics import (
+    ARM_PARAMETER_SPECS, MAX_SUBSTEPS, STEP_SIZE, ArmParameters, IntegrationError, integrate, substeps_needed,
+)
 from fmu_plant.kinematics import elbow_position, forward_kinematics
-from fmu_plant.parameters import ParameterSpec, any_real
+from fmu_plant.parameters import ParameterError, ParameterSpec
 from fmu_plant.slave_base import DescribedSlave as Fmi2Slave  # the name pythonfmu's binary looks for
 
 INITIAL_STATE_SPECS = (
-    any_real("phi1_0", 0.5, "rad", "Initial angle of joint 1 (paper: 0.5)"),
-    any_real("phi2_0", -0.5, "rad", "Initial angle of joint 2, relative to link 1 (paper: -0.5)"),
-    any_real("dphi1_0", 0.0, "rad/s", "Initial velocity of joint 1"),
-    any_real("dphi2_0", 0.0, "rad/s", "Initial velocity of joint 2"),
+    # |phi| <= 1e3 rad: any angle modulo 2 pi, far from where phi1 + phi2 of (49) could overflow
+    ParameterSpec("phi1_0", 0.5, "rad", "Initial angle of joint 1 (paper: 0.5)", low=-1e3, high=1e3),
+    ParameterSpec("phi2_0", -0.5, "rad", "Initial angle of joint 2, relative to link 1 (paper: -0.5)",
+                  low=-1e3, high=1e3),
+    # |dphi| <= 1e3 rad/s (160 rev/s): beyond that no arm of the parameter box is integrable at T = 0.01 s
+    ParameterSpec("dphi1_0", 0.0, "rad/s", "Initial velocity of joint 1", low=-1e3, high=1e3),
+    ParameterSpec("dphi2_0", 0.0, "rad/s", "Initial velocity of joint 2", low=-1e3, high=1e3),
 )
 DEFAULT_SUBSTEPS = 4
 
@@ -31,7 +37,8 @@ class ArmPlant(Fmi2Slave):
         self._specs = specs
         for spec in specs:
             self.declare_parameter(spec)
-        self.declare_integer_parameter("substeps", DEFAULT_SUBSTEPS, 1, 1000, "RK4 substeps per communication step")
+        self.declare_integer_parameter("substeps", DEFAULT_SUBSTEPS, 1, MAX_SUBSTEPS,
+                                        "RK4 substeps per communication step, at least (more where the arm is stiff)")
         self.declare_input("tau1", "N.m", "Joint 1 actuator torque, held over the step")
         self.declare_input("tau2", "N.m", "Joint 2 actuator torque, held over the step")
         self.declare_input("d1", "N.m", "Disturbance torque on joint 1 (added to tau1)")
@@ -51,8 +58,11 @@ class ArmPlant(Fmi2Slave):
         self._arm = ArmParameters.from_mapping({s.name: values[s.name] for s in ARM_PARAMETER_SPECS})
         for spec in INITIAL_STATE_SPECS:
             spec.check(values[spec.name])
-        if not 1 <= int(self.substeps) <= 1000:
-            raise ValueError(f"parameter 'substeps': {self.substeps} is outside the valid range [1, 1000]")
+        if not 1 <= int(self.substeps) <= MAX_SUBSTEPS:
+            raise ParameterError("substeps", f"{self.substeps} is outside the valid range [1, {MAX_SUBSTEPS}]")
+        if substeps_needed(self.phi2_0, self.dphi1_0, self.dphi2_0, STEP_SIZE, self._arm) > MAX_SUBSTEPS:
+            raise ParameterError("dphi1_0", f"the initial velocities ({self.dphi1_0:g}, {self.dphi2_0:g}) rad/s "
+                                 f"need more than {MAX_SUBSTEPS} RK4 substeps per {STEP_SIZE} s step for this arm")
         self._set_state(self.phi1_0, self.phi2_0, self.dphi1_0, self.dphi2_0)
 
     def _set_state(self, q1: float, q2: float, w1: float, w2: float) -> None:
@@ -62,10 +72,12 @@ class ArmPlant(Fmi2Slave):
 
     def step(self, current_time: float, step_size: float) -> bool:
         # the base class has refused non-finite inputs already
-        new = rk4_step((self.phi1, self.phi2, self.dphi1, self.dphi2),
-                       self.tau1 + self.d1, self.tau2 + self.d2, step_size, int(self.substeps), self._arm)
-        if not all(math.isfinite(x) for x in new):
-            return self.discard(f"integration diverged over [{current_time}, {current_time + step_size}]")
+        try:
+            new = integrate((self.phi1, self.phi2, self.dphi1, self.dphi2),
+                            self.tau1 + self.d1, self.tau2 + self.d2, step_size, self.substeps, self._arm)
+        except IntegrationError as exc:
+            return self.discard(f"step over [{current_time}, {current_time + step_size}] refused, the state is "
+                                f"kept: {exc}")
         self._set_state(*new)
         return True
 

@@ -6,11 +6,12 @@ from __future__ import annotations
 
 from fmu_plant.perturbation import DISTURBANCE_PARAMETER_SPECS, disturbance_torque
 from fmu_plant.parameters import check_all
-from fmu_plant.slave_base import DescribedSlave as Fmi2Slave  # the name pythonfmu's binary looks for
+from fmu_plant.slave_base import TimeFunctionSlave as Fmi2Slave  # the name pythonfmu's binary looks for
 
 
 class Disturbance(Fmi2Slave):
     description = "Step and sinusoidal disturbance torques for the arm's inputs d1, d2 (robustness studies)"
+    TIME_OUTPUTS = ("d1", "d2")
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
@@ -22,13 +23,10 @@ class Disturbance(Fmi2Slave):
 
     def initialize(self) -> None:
         self._values = check_all(DISTURBANCE_PARAMETER_SPECS, self.parameter_values(DISTURBANCE_PARAMETER_SPECS))
-        self.publish(self._time)
+        self.publish_initial(tuple(self._values))
 
-    def publish(self, t: float) -> None:
-        self.d1, self.d2 = disturbance_torque(t, **self._values)
-
-    def step(self, current_time: float, step_size: float) -> bool:
-        return True  # the outputs follow time alone: the base class publishes them at the new time
+    def outputs_at(self, t: float) -> tuple[float, float]:
+        return disturbance_torque(t, **self._values)
 
     def restore_internal_state(self, state) -> None:
         if self._initialized:

@@ -25,6 +25,11 @@ import numpy as np
 
 from fmu_plant.parameters import ParameterError, ParameterSpec, check_all, nonnegative, positive
 
+STEP_SIZE = 0.01  # s, the paper's sampling period T: the step the stiffness check at construction assumes
+MAX_SUBSTEPS = 1000  # RK4 substeps per communication step, at most (a bound independent of the input)
+SUBSTEP_STIFFNESS = 1.0  # h L kept at or below this per substep (RK4's real stability limit is 2.785)
+MAX_INVERSE_INERTIA = 1e6  # 1/(kg m^2): lambda_min(D(phi)) >= 1e-6 kg m^2 for every phi
+
 ARM_PARAMETER_SPECS: tuple[ParameterSpec, ...] = (
     positive("p1", 3.473, "kg.m2", "Inertia parameter varrho_1 of D(phi), eq. (46)", high=1e3),
     positive("p2", 0.196, "kg.m2", "Inertia parameter varrho_2 of D(phi), eq. (46)", high=1e3),
@@ -67,6 +72,21 @@ class ArmParameters:
                 f"p2 (p1 - p2) = {self.p2 * (self.p1 - self.p2):g} must exceed p3^2 = {self.p3**2:g}, "
                 "otherwise D(phi) is singular for some phi (valid range: p3 < sqrt(p2 (p1 - p2)))",
             )
+        # ||D(phi)^-1|| <= tr D / det D <= (p1 + p2 + 2 p3) / margin for every phi (lambda_min >= det / tr)
+        inv = (self.p1 + self.p2 + 2.0 * self.p3) / margin
+        object.__setattr__(self, "inv_inertia", inv)
+        if not inv <= MAX_INVERSE_INERTIA:
+            raise ParameterError(
+                "p2", f"D(phi) is nearly singular: its smallest eigenvalue can be {1.0 / inv:.3g} kg.m2, below "
+                f"{1.0 / MAX_INVERSE_INERTIA:g} (raise p2, or p1 - p2, or lower p3)")
+        needed = substeps_needed(0.0, 0.0, 0.0, STEP_SIZE, self)
+        if needed > MAX_SUBSTEPS:
+            worst = "1" if self.f1 + self.b1 >= self.f2 + self.b2 else "2"
+            name = f"b{worst}" if getattr(self, f"b{worst}") > 0.0 else f"f{worst}"
+            raise ParameterError(
+                name, f"friction {getattr(self, 'f' + worst) + getattr(self, 'b' + worst):g} N.m.s/rad against "
+                f"inertia down to {1.0 / inv:.3g} kg.m2 makes the arm too stiff: one {STEP_SIZE} s step would "
+                f"need {needed} RK4 substeps (at most {MAX_SUBSTEPS}); lower f{worst}/b{worst} or raise the inertias")
 
     @classmethod
     def from_mapping(cls, values: dict[str, float]) -> "ArmParameters":
@@ -123,6 +143,66 @@ def inverse_dynamics(
     d11, d12, d22 = inertia_entries(phi2, p)
     c1, c2 = bias_torque(phi2, dphi1, dphi2, p)
     return d11 * ddphi1 + d12 * ddphi2 + c1, d12 * ddphi1 + d22 * ddphi2 + c2
+
+
+class IntegrationError(ValueError):
+    """A step the integrator refuses: too stiff for MAX_SUBSTEPS, or the result is not physical."""
+
+
+def substeps_needed(phi2: float, dphi1: float, dphi2: float, dt: float, p: ArmParameters,
+                    tau_norm: float = 0.0) -> int:
+    """RK4 substeps that keep h L <= SUBSTEP_STIFFNESS over a step of ``dt`` (RK4 is stable for real
+    h L up to 2.785), where L (1/s) bounds the Jacobian of eq. (1) near this state:
+
+    - damping: ||D^-1|| (max_i f_i + b_i + 4 p3 (|dphi1| + |dphi2|)): friction slopes (tanh' <= 1) and the
+      Coriolis terms of H(phi, dphi) dphi, whose velocity Jacobian has entries up to 2 p3 |dphi|;
+    - position coupling: sqrt(J) with J bounding d ddphi / d phi2 (D and H vary with phi2 through p3).
+
+    ``p.inv_inertia`` bounds ||D(phi)^-1|` for every phi. Returns a count (possibly > MAX_SUBSTEPS)."""
+    k, w = p.inv_inertia, abs(dphi1) + abs(dphi2)
+    friction = max(p.f1 + p.b1, p.f2 + p.b2)
+    damping = k * (friction + 4.0 * p.p3 * w)
+    bias = friction + max(p.b1, p.b2) * w + 3.0 * p.p3 * w * w  # bound on |H dphi + G|
+    position = math.sqrt(2.0 * p.p3 * k * k * (tau_norm + bias) + 3.0 * p.p3 * k * w * w)
+    n = dt * (damping + position) / SUBSTEP_STIFFNESS
+    return int(math.ceil(n)) if n < MAX_SUBSTEPS + 1 else MAX_SUBSTEPS + 1
+
+
+def kinetic_energy(phi2: float, dphi1: float, dphi2: float, p: ArmParameters) -> float:
+    """1/2 dphi^T D(phi) dphi."""
+    d11, d12, d22 = inertia_entries(phi2, p)
+    return 0.5 * (d11 * dphi1 * dphi1 + 2.0 * d12 * dphi1 * dphi2 + d22 * dphi2 * dphi2)
+
+
+def integrate(
+    state: tuple[float, float, float, float], tau1: float, tau2: float, dt: float, min_substeps: int,
+    p: ArmParameters,
+) -> tuple[float, float, float, float]:
+    """``rk4_step`` with at least ``min_substeps`` substeps and as many more as the stiffness at this
+    state asks (``substeps_needed``), and a physical check of the result; raises IntegrationError
+    (naming the reason) instead of returning a blown-up state.
+
+    The check: along eq. (1) dE/dt = dphi^T (tau - G(dphi)) <= dphi^T tau (H is the Christoffel form,
+    friction dissipates), so ||dphi||_D = sqrt(2 E) grows by at most dt ||tau|| sqrt(||D^-1||); a
+    larger growth (5 % slack for the integration error) is a numerical blow-up, not motion."""
+    q1, q2, w1, w2 = state
+    tau_norm = math.hypot(tau1, tau2)
+    n = max(min_substeps, substeps_needed(q2, w1, w2, dt, p, tau_norm))
+    if n > MAX_SUBSTEPS:
+        raise IntegrationError(
+            f"the arm at dphi = ({w1:.6g}, {w2:.6g}) rad/s with |tau| = {tau_norm:.6g} N.m is too stiff for a "
+            f"{dt:g} s step: it needs more than {MAX_SUBSTEPS} RK4 substeps (shorten the communication step)")
+    new = rk4_step(state, tau1, tau2, dt, n, p)
+    if not all(math.isfinite(x) for x in new):
+        raise IntegrationError("the integration gave a non-finite state")
+    speed_before = math.sqrt(2.0 * kinetic_energy(q2, w1, w2, p))
+    speed_after = math.sqrt(2.0 * kinetic_energy(new[1], new[2], new[3], p))
+    allowed = (speed_before + dt * tau_norm * math.sqrt(p.inv_inertia)) * 1.05 + 1e-9
+    if not speed_after <= allowed:
+        raise IntegrationError(
+            f"the integration blew up: sqrt(2 E) went from {speed_before:.6g} to {speed_after:.6g}, but the "
+            f"torque can raise it to {allowed:.6g} at most over {dt:g} s")
+    return new
 
 
 def rk4_step(

@@ -33,11 +33,11 @@ class MeasurementNoise(Fmi2Slave):
     def _getter(self, name: str, index: int):
         def get() -> float:
             value = getattr(self, name)
-            if not math.isfinite(value):
-                return math.nan  # a non-finite input never passes (doStep refuses it, naming it)
-            if not self._initialized:
-                return value
-            return value + self._std[index] * float(self._noise.at(self._steps)[index])
+            if self._initialized and math.isfinite(value):
+                value += self._std[index] * float(self._noise.at(self._steps)[index])
+            if not math.isfinite(value):  # refused by the base class's get, naming it and the input
+                self._output_problem = f"input '{name}' is {getattr(self, name)!r}"
+            return value
         return get
 
     def initialize(self) -> None:

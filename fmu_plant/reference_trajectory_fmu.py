@@ -5,7 +5,7 @@ Outputs at a communication point t are the reference at t; they depend on time o
 """
 from __future__ import annotations
 
-from fmu_plant.slave_base import DescribedSlave as Fmi2Slave  # the name pythonfmu's binary looks for
+from fmu_plant.slave_base import TimeFunctionSlave as Fmi2Slave  # the name pythonfmu's binary looks for
 from fmu_plant.trajectory import REFERENCE_SIGNALS, TRAJECTORY_PARAMETER_SPECS, CircleTrajectory
 
 SIGNAL_DOCS = {
@@ -22,6 +22,7 @@ SIGNAL_DOCS = {
 
 class ReferenceTrajectory(Fmi2Slave):
     description = "Circular end-effector path (47) and its joint-space reference (48)"
+    TIME_OUTPUTS = REFERENCE_SIGNALS
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
@@ -34,14 +35,10 @@ class ReferenceTrajectory(Fmi2Slave):
 
     def initialize(self) -> None:
         self._trajectory = CircleTrajectory(**self.parameter_values(TRAJECTORY_PARAMETER_SPECS))
-        self.publish(self._time)
+        self.publish_initial(("rate", "radius"))
 
-    def publish(self, t: float) -> None:
-        for name, value in zip(REFERENCE_SIGNALS, self._trajectory.sample(t)):
-            setattr(self, name, value)
-
-    def step(self, current_time: float, step_size: float) -> bool:
-        return True  # the outputs follow time alone: the base class publishes them at the new time
+    def outputs_at(self, t: float) -> tuple[float, ...]:
+        return self._trajectory.sample(t)
 
     def restore_internal_state(self, state) -> None:
         if self._initialized:

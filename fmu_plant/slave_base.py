@@ -81,6 +81,61 @@ STEPPING = "stepping"
 TERMINATED = "terminated"
 
 
+def all_finite(values: Sequence[float]) -> bool:
+    """No NaN or infinity among ``values`` (one C-level sum in the common case)."""
+    try:
+        return math.isfinite(math.fsum(values))
+    except OverflowError:  # finite values whose sum overflows
+        return all(math.isfinite(v) for v in values)
+    except ValueError:  # inf - inf
+        return False
+
+
+def _is_real(x: Any) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool)
+
+
+def _check_state_value(name: str, value: Any, var: Real | Integer, check: ParameterSpec | tuple | None) -> None:
+    """One variable of a restored state: the type of its variable; a parameter inside its declared
+    range (the same check as at initialization); an output finite (an input may hold anything a
+    master could set, NaN included: doStep refuses it)."""
+    where = f"FMU state value of '{name}'"
+    if isinstance(var, Integer):
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ValueError(f"{where} = {value!r} must be an integer")
+        if isinstance(check, tuple) and not check[0] <= value <= check[1]:
+            raise ValueError(f"{where} = {value} is outside its range [{check[0]}, {check[1]}]")
+        return
+    if not _is_real(value):
+        raise ValueError(f"{where} = {value!r} must be a number")
+    if isinstance(check, ParameterSpec):
+        try:
+            check.check(value)
+        except ValueError as exc:
+            raise ValueError(f"{where}: {exc}") from None
+    elif var.causality == Fmi2Causality.output and not math.isfinite(value):
+        raise ValueError(f"{where} = {value!r} must be finite")
+
+
+def _first_nonfinite(tree: Any, path: str) -> str | None:
+    """Path of the first non-finite number (or non-JSON value) in a JSON tree, or None."""
+    if isinstance(tree, dict):
+        for key, value in tree.items():
+            bad = _first_nonfinite(value, f"{path}.{key}")
+            if bad:
+                return bad
+    elif isinstance(tree, list):
+        for i, value in enumerate(tree):
+            bad = _first_nonfinite(value, f"{path}[{i}]")
+            if bad:
+                return bad
+    elif isinstance(tree, float) and not math.isfinite(tree):
+        return path
+    elif tree is not None and not isinstance(tree, (bool, int, float, str)):
+        return path
+    return None
+
+
 _EXIT_CALL_REGISTERED: set[int] = set()  # dlopen handles of binaries whose keeper is released at exit
 
 
@@ -177,6 +232,12 @@ class DescribedSlave(Fmi2Slave):
         self._write_plans: dict[tuple[int, ...], tuple[str, ...] | None] = {}
         self._outputs_by_vr: dict[int, int] | None = None  # output value reference -> index
         self._output_getters: tuple[Callable[[], float], ...] = ()
+        # how each parameter is checked (a ParameterSpec, or (low, high) of an Integer): also applied to
+        # the values of a restored FMU state
+        self._parameter_checks: dict[str, ParameterSpec | tuple[int, int]] = {}
+        # why an output computed at the last evaluation is not finite, or None: ``_get`` then refuses
+        # to return a non-finite value (set where outputs are computed, so a get costs one check)
+        self._output_problem: str | None = None
 
     def _forget_resources_path(self) -> None:
         """pythonfmu's binary inserts ``resources/`` at ``sys.path[0]`` at every fmi2Instantiate and
@@ -210,6 +271,7 @@ class DescribedSlave(Fmi2Slave):
             self.declare_integer_parameter(spec.name, int(spec.default), int(spec.low), int(spec.high), spec.description)
             return
         setattr(self, spec.name, float(self._starts.get(spec.name, spec.default)))
+        self._parameter_checks[spec.name] = spec
         self._register(
             Real(spec.name, causality=Fmi2Causality.parameter, variability=Fmi2Variability.fixed,
                  initial=Fmi2Initial.exact, description=f"{spec.description}; valid range {spec.range_text()}"),
@@ -219,6 +281,7 @@ class DescribedSlave(Fmi2Slave):
 
     def declare_integer_parameter(self, name: str, default: int, low: int, high: int, description: str) -> None:
         setattr(self, name, int(self._starts.get(name, default)))
+        self._parameter_checks[name] = (low, high)
         self._register(
             Integer(name, causality=Fmi2Causality.parameter, variability=Fmi2Variability.fixed,
                     initial=Fmi2Initial.exact, description=f"{description}; valid range [{low}, {high}]"),
@@ -313,6 +376,7 @@ class DescribedSlave(Fmi2Slave):
             accepted.append((var, value))
         for var, value in accepted:
             var.setter(value)
+        self._output_problem = None  # outputs computed from the inputs are computed (and checked) again
         if self._mode == INITIALIZATION and any(v.causality == Fmi2Causality.parameter for v, _ in accepted):
             self._preview_stale = True  # the initial outputs follow the parameters
 
@@ -322,6 +386,8 @@ class DescribedSlave(Fmi2Slave):
         values = []
         for vr in vrs:
             values.append(convert(self._variable(vr, kind).getter()))
+        if self._output_problem is not None:  # rare: only after an evaluation gave a non-finite output
+            self._refuse_nonfinite(vrs, values)
         return values
 
     # The per-step calls (a master reads every output and sets the inputs each step with the same
@@ -370,6 +436,13 @@ class DescribedSlave(Fmi2Slave):
             if len(self._write_plans) < PLAN_CACHE:
                 self._write_plans[key] = plan
         return plan
+    def _refuse_nonfinite(self, vrs, values: list) -> None:
+        """Raise (the call then fails; pythonfmu can only say fmi2Fatal here, see docs/interop.md)
+        naming the first requested output that is not finite and why, instead of returning it."""
+        for vr, value in zip(vrs, values):
+            if isinstance(value, float) and not math.isfinite(value):
+                raise ValueError(f"output '{self.vars[vr].name}' is {value!r} and is not returned: "
+                                 f"{self._output_problem}")
 
     def set_real(self, vrs, values):
         try:
@@ -391,7 +464,10 @@ class DescribedSlave(Fmi2Slave):
             if self._mode == INITIALIZATION and self._preview_stale:
                 self._preview()
             values = self.output_values()
-            return values[plan] if type(plan) is slice else [values[i] for i in plan]
+            values = values[plan] if type(plan) is slice else [values[i] for i in plan]
+            if self._output_problem is not None:  # rare: only after an evaluation gave a non-finite output
+                self._refuse_nonfinite(vrs, values)
+            return values
         except Exception as exc:
             self._failed("fmi2GetReal", exc)
             raise
@@ -490,17 +566,23 @@ class DescribedSlave(Fmi2Slave):
         reason = self.input_problem()
         if reason:
             return self.discard(reason)
+        reached = self.next_time(current_time, step_size)
         ok = self.step(current_time, step_size)
         if ok:
             if self._uniform_step is None or self._uniform_step == step_size:
                 self._uniform_step = step_size
                 self._steps += 1
-                self._time = self._start_time + self._steps * step_size
             else:
                 self._uniform_step = math.nan
-                self._time = current_time + step_size
-            self.publish(self._time)
+            self._time = reached
         return ok
+
+    def next_time(self, current_time: float, step_size: float) -> float:
+        """The communication time a successful ``doStep(current_time, step_size)`` reaches: t0 + n h
+        while every step has had the same size h, else current_time + step_size."""
+        if self._uniform_step is None or self._uniform_step == step_size:
+            return self._start_time + (self._steps + 1) * step_size
+        return current_time + step_size
 
     def discard(self, reason: str) -> bool:
         """Log why a step is refused; returning False makes pythonfmu answer fmi2Discard."""
@@ -509,9 +591,8 @@ class DescribedSlave(Fmi2Slave):
 
     def input_problem(self) -> str | None:
         """Why the current inputs cannot be used (naming the first bad input), or None. The usual
-        case costs one pass: a finite sum of the inputs and no declared range; otherwise each input
-        is looked at (a sum that overflows only sends it to the exact check)."""
-        if not self._bounded_inputs and math.isfinite(sum([getattr(self, n) for n, _, _ in self._input_ranges])):
+        case costs one pass (``all_finite``, no declared range); otherwise each input is looked at."""
+        if not self._bounded_inputs and all_finite([getattr(self, n) for n, _, _ in self._input_ranges]):
             return None
         for name, low, high in self._input_ranges:
             value = getattr(self, name)
@@ -543,11 +624,73 @@ class DescribedSlave(Fmi2Slave):
         for name, value in state["values"].items():
             settable[name].setter(value)
         self._mode = state["mode"]
-        self._initialized = bool(state["initialized"])
-        self._preview_stale = bool(state["preview_stale"])
-        self._time = float(state["time"])
+        self._initialized = state["initialized"]
+        self._preview_stale = state["preview_stale"]
+        self._time = state["time"]
         self._start_time, self._steps, self._uniform_step = state["clock"]
+        self._output_problem = None
         self.restore_internal_state(state["internal"])
+
+    def _check_state(self, state: Any) -> None:
+        """Refuse (naming the field and what it may be) a state this instance cannot have produced:
+        every field is checked against the types and ranges the FMU itself enforces, before anything
+        is applied. Cross-field rules (sigma < rho, ...) and the internal state are checked by
+        ``restore_internal_state``; ``_set_fmu_state`` undoes everything if that refuses."""
+        model = type(self).__name__
+        if not isinstance(state, dict) or state.get("model") != model:
+            found = state.get("model") if isinstance(state, dict) else type(state).__name__
+            raise ValueError(f"not an FMU state of {model} (field 'model' is {found!r}: corrupt or another "
+                             "model's state)")
+        fields = {"model", "values", "mode", "initialized", "preview_stale", "time", "clock", "internal"}
+        if set(state) != fields:
+            raise ValueError(f"FMU state of {model} must have exactly the fields {sorted(fields)}, "
+                             f"got {sorted(map(str, state))}")
+        values = state["values"]
+        settable = {v.name: v for v in self.vars.values() if v.setter is not None}
+        if not isinstance(values, dict) or set(values) != set(settable):
+            found = sorted(values) if isinstance(values, dict) else type(values).__name__
+            raise ValueError(f"FMU state field 'values' must hold exactly the variables {sorted(settable)}, got {found}")
+        if state["mode"] not in (INSTANTIATED, INITIALIZATION, STEPPING, TERMINATED):
+            raise ValueError(f"FMU state field 'mode' = {state['mode']!r} is not one of "
+                             f"{[INSTANTIATED, INITIALIZATION, STEPPING, TERMINATED]}")
+        # parameters are in force (checked at initialization) once stepping; before, any value a master
+        # may set is a legitimate state (exitInitializationMode refuses it)
+        in_force = state["mode"] in (STEPPING, TERMINATED)
+        for name, value in values.items():
+            check = self._parameter_checks.get(name) if in_force else None
+            _check_state_value(name, value, settable[name], check)
+        for key in ("initialized", "preview_stale"):
+            if not isinstance(state[key], bool):
+                raise ValueError(f"FMU state field '{key}' = {state[key]!r} must be true or false")
+        if state["mode"] in (STEPPING, TERMINATED) and not state["initialized"]:
+            raise ValueError(f"FMU state in mode '{state['mode']}' must have 'initialized' = true")
+        time = state["time"]
+        if not _is_real(time) or not math.isfinite(time):
+            raise ValueError(f"FMU state field 'time' = {time!r} must be a finite number")
+        clock = state["clock"]
+        if not (isinstance(clock, list) and len(clock) == 3):
+            raise ValueError(f"FMU state field 'clock' = {clock!r} must be [start time, steps, step size]")
+        start, steps, uniform = clock
+        if not _is_real(start) or not math.isfinite(start):
+            raise ValueError(f"FMU state field 'clock' start time {start!r} must be a finite number")
+        if isinstance(steps, bool) or not isinstance(steps, int) or steps < 0:
+            raise ValueError(f"FMU state field 'clock' step count {steps!r} must be an integer >= 0")
+        if uniform is None:
+            consistent = steps == 0 and time == start
+        elif _is_real(uniform) and math.isnan(uniform):
+            consistent = steps > 0
+        elif _is_real(uniform) and math.isfinite(uniform) and uniform > 0.0:
+            consistent = steps > 0 and time == start + steps * uniform
+        else:
+            raise ValueError(f"FMU state field 'clock' step size {uniform!r} must be null, NaN or a number > 0")
+        if not consistent:
+            raise ValueError(f"FMU state fields 'time' = {time!r} and 'clock' = {clock!r} disagree "
+                             "(time must be start + steps * step size while the step size is uniform)")
+        if not isinstance(state["internal"], dict):
+            raise ValueError(f"FMU state field 'internal' must be a table, got {type(state['internal']).__name__}")
+        bad = _first_nonfinite(state["internal"], "internal")
+        if bad:
+            raise ValueError(f"FMU state field '{bad}' is not a finite number")
 
     def _get_fmu_state(self) -> dict[str, Any]:
         with self._guarded("fmi2GetFMUstate"):
@@ -556,21 +699,15 @@ class DescribedSlave(Fmi2Slave):
             return state
 
     def _set_fmu_state(self, state: dict[str, Any]) -> None:
-        with self._guarded("fmi2SetFMUstate"):
-            model = type(self).__name__
-            if not isinstance(state, dict) or state.get("model") != model:
-                found = state.get("model") if isinstance(state, dict) else type(state).__name__
-                raise ValueError(f"not an FMU state of {model} (got {found!r}: corrupt or another model's state)")
-            settable = {v.name for v in self.vars.values() if v.setter is not None}
-            unknown = sorted(set(state.get("values", {})) - settable)
-            if unknown or state.get("mode") not in (INSTANTIATED, INITIALIZATION, STEPPING, TERMINATED):
-                raise ValueError(f"FMU state does not fit this {model} (unknown variables {unknown})")
+        with self._guarded("fmi2SetFMUstate (state refused, the instance is unchanged)"):
+            self._check_state(state)
             backup = self._snapshot()
             try:
                 self._restore(state)
-            except Exception:
+            except Exception as exc:
                 self._restore(backup)  # a state that cannot be applied leaves the instance as it was
-                raise
+                raise ValueError(f"FMU state field 'internal' (or a parameter combination) cannot be applied: "
+                                 f"{type(exc).__name__}: {exc}") from exc
 
     @staticmethod
     def _fmu_state_to_bytes(state: dict[str, Any]) -> bytes:
@@ -594,9 +731,6 @@ class DescribedSlave(Fmi2Slave):
     def initialize(self) -> None:
         """Validate parameters (raise ParameterError naming the parameter) and set initial outputs."""
 
-    def publish(self, t: float) -> None:
-        """After a successful step: set the outputs that are a function of the time t reached."""
-
     def step(self, current_time: float, step_size: float) -> bool:  # pragma: no cover - abstract
         raise NotImplementedError
 
@@ -606,3 +740,38 @@ class DescribedSlave(Fmi2Slave):
 
     def restore_internal_state(self, state: dict[str, Any]) -> None:
         """Inverse of ``internal_state``."""
+
+
+class TimeFunctionSlave(DescribedSlave):
+    """An FMU whose outputs are a function of time and parameters alone (no inputs): subclasses list
+    them in ``TIME_OUTPUTS`` and give ``outputs_at(t)``. Every value is checked where it is computed:
+    a non-finite one refuses initialization (naming the output) or the step (Discard, state kept)."""
+
+    TIME_OUTPUTS: ClassVar[tuple[str, ...]] = ()
+
+    def outputs_at(self, t: float) -> Sequence[float]:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def _publish(self, t: float) -> str | None:
+        """Set the outputs to their values at t, or (leaving them) say which one is not finite."""
+        try:
+            values = self.outputs_at(t)
+        except (ValueError, OverflowError) as exc:
+            return f"the outputs at t = {t!r} cannot be computed: {exc}"
+        for name, value in zip(self.TIME_OUTPUTS, values):
+            if not math.isfinite(value):
+                return f"output '{name}' would be {value!r} at t = {t!r}"
+        for name, value in zip(self.TIME_OUTPUTS, values):
+            setattr(self, name, value)
+        return None
+
+    def publish_initial(self, parameters: Sequence[str]) -> None:
+        """At initialization: the outputs at the start time, or a refusal naming ``parameters``."""
+        problem = self._publish(self._time)
+        if problem:
+            values = ", ".join(f"'{n}' = {getattr(self, n)!r}" for n in parameters)
+            raise ValueError(f"{problem}: parameters {values} give no finite output")
+
+    def step(self, current_time: float, step_size: float) -> bool:
+        problem = self._publish(self.next_time(current_time, step_size))
+        return self.discard(f"{problem}; the step is refused and the state is kept") if problem else True

@@ -14,10 +14,13 @@ from fmu_plant.kinematics import inverse_kinematics, joint_rates
 from fmu_plant.parameters import ParameterError, ParameterSpec, any_real, check_all, positive
 
 TRAJECTORY_PARAMETER_SPECS: tuple[ParameterSpec, ...] = (
-    any_real("center_x", 1.0, "m", "X of the circle centre, eq. (47)"),
-    any_real("center_y", 1.0, "m", "Y of the circle centre, eq. (47)"),
+    # a reachable centre lies within l1 + l2 <= 200 m of the base
+    ParameterSpec("center_x", 1.0, "m", "X of the circle centre, eq. (47)", low=-200.0, high=200.0),
+    ParameterSpec("center_y", 1.0, "m", "Y of the circle centre, eq. (47)", low=-200.0, high=200.0),
     positive("radius", 0.5, "m", "Circle radius, eq. (47)", high=100.0),
-    any_real("rate", 0.5, "rad/s", "Angular rate w of the path parameter, eq. (47)"),
+    # |w| <= 1e3: past the Nyquist rate pi / T = 314 rad/s of the paper's T = 0.01 s a sampled circle is
+    # aliased anyway, and r w^2 stays far from overflow for every radius
+    ParameterSpec("rate", 0.5, "rad/s", "Angular rate w of the path parameter, eq. (47)", low=-1e3, high=1e3),
     any_real("phase", math.pi / 2, "rad", "Phase of the path parameter, eq. (47)"),
     positive("l1", 1.0, "m", "Link 1 length used by the inverse kinematics (48)", high=100.0),
     positive("l2", 1.0, "m", "Link 2 length used by the inverse kinematics (48)", high=100.0),

@@ -2,12 +2,14 @@
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 from pathlib import Path
 
 from orchestration import interrupt
 from orchestration.build import DEFAULT_FMU_DIR, FMU_SOURCES, BuildError, build_fmus, ensure_built
+from orchestration.paths import OutputPathError, check_output_file, check_output_folder
 from orchestration.scenario import ScenarioError, available_scenarios, load_scenario
 
 DEFAULT_SCENARIO = "paper"
@@ -15,6 +17,7 @@ MAX_BLOCK = 20_000  # samples per block handed to the recorder at most (about 12
 
 
 def _cmd_build(args: argparse.Namespace) -> int:
+    check_output_folder(args.out, "--out")
     for path in build_fmus(args.models or None, args.out):
         print(path)
     return 0
@@ -26,11 +29,15 @@ def _cmd_scenarios(args: argparse.Namespace) -> int:
     return 0
 
 
-def _prepare(names: list, stop_time: float | None, fmu_dir: Path):
-    """Load the scenarios (names, paths or Scenario objects), apply --stop-time, and build the FMUs they need."""
+def _prepare(names: list, stop_time: float | None, fmu_dir: Path, check=None):
+    """Load the scenarios (names, paths or Scenario objects), apply --stop-time, call
+    ``check(scenarios)`` (output paths: it raises before anything is built or written), and build the
+    FMUs they need."""
     scenarios = [load_scenario(name) if isinstance(name, str) else name for name in names]
     if stop_time is not None:
         scenarios = [s.with_stop_time(stop_time) for s in scenarios]
+    if check is not None:
+        check(scenarios)
     return scenarios, ensure_built(sorted({i.fmu for s in scenarios for i in s.instances.values()}), fmu_dir)
 
 
@@ -87,7 +94,18 @@ def _cmd_run(args: argparse.Namespace) -> int:
         raise ScenarioError("--summary takes one scenario; run them one by one")
     if args.recording and len(args.scenarios) > 1:
         raise ScenarioError("--recording takes one scenario; without it each run writes recordings/<scenario>.rrd")
-    scenarios, paths = _prepare(args.scenarios or [DEFAULT_SCENARIO], args.stop_time, args.fmu_dir)
+    def check(scenarios) -> None:
+        if args.summary:
+            check_output_file(args.summary, "--summary")
+        if args.recording:
+            check_output_file(args.recording, "--recording")
+        elif not args.no_recording:
+            from orchestration.recording import default_recording_path
+
+            for scenario in scenarios:
+                check_output_file(default_recording_path(scenario.name), "recording")
+
+    scenarios, paths = _prepare(args.scenarios or [DEFAULT_SCENARIO], args.stop_time, args.fmu_dir, check)
     written: list[Path] = []
 
     def recording_for(scenario):
@@ -115,7 +133,8 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     from orchestration.recording import record_comparison
     from orchestration.summary import format_table
 
-    results, summaries = zip(*_run_each(*_prepare(args.scenarios, args.stop_time, args.fmu_dir)))
+    results, summaries = zip(*_run_each(*_prepare(args.scenarios, args.stop_time, args.fmu_dir,
+                                                  lambda _: check_output_file(args.recording, "--recording"))))
     print(format_table(summaries))
     print(f"recording: {record_comparison(results, args.recording)}")
     return _exit_code(summaries)
@@ -125,7 +144,11 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
     from orchestration.recording import record_comparison
     from orchestration.reproduce import compact_table, reproduce_scenarios, write_table
 
-    results, summaries = zip(*_run_each(*_prepare(reproduce_scenarios(), args.stop_time, args.fmu_dir),
+    def check(_) -> None:
+        check_output_folder(args.out, "--out")
+        check_output_file(args.recording, "--recording")
+
+    results, summaries = zip(*_run_each(*_prepare(reproduce_scenarios(), args.stop_time, args.fmu_dir, check),
                                         progress_label="reproduce"))
     md, cs, text = write_table(summaries, args.out)
     print(text)
@@ -168,7 +191,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     if args.workers is not None and args.workers < 1:
         raise ScenarioError(f"--workers {args.workers}: give at least 1")
     sweep = grid_from_assignments(args.sweep, args.set) if args.set else load_sweep(args.sweep)
-    out = args.out or Path("recordings") / sweep.name
+    out = check_output_folder(args.out or Path("recordings") / sweep.name, "--out")
     store = SweepStore(out)
     listener = _SweepListener(sweep, out, args.workers, args.scheduler)
     try:
@@ -200,6 +223,13 @@ def _fmu_files(names: list[str], fmu_dir: Path) -> list[Path]:
     unknown = [n for n in names if n not in FMU_SOURCES and not Path(n).is_file()]
     if unknown:
         raise BuildError(f"no FMU {unknown}: give a model ({', '.join(FMU_SOURCES)}) or a .fmu path")
+    from orchestration.validate import archive_problems
+
+    for name in names:
+        if name not in FMU_SOURCES:
+            problems = archive_problems(Path(name))
+            if problems:
+                raise BuildError(f"{name} is refused, nothing was extracted: {problems[0]}")
     built = ensure_built([n for n in names if n in FMU_SOURCES], fmu_dir)
     return [built[n] if n in FMU_SOURCES else Path(n) for n in names]
 
@@ -215,6 +245,7 @@ def _cmd_validate(args: argparse.Namespace) -> int:
 def _cmd_cross_check(args: argparse.Namespace) -> int:
     from orchestration.cross_check import SOURCE_SCENARIO, generate
 
+    check_output_folder(args.out, "--out")
     models = args.models or list(FMU_SOURCES)
     loop = sorted({i.fmu for i in load_scenario(SOURCE_SCENARIO).instances.values()})
     paths = ensure_built(sorted(set(models) | set(loop)), args.fmu_dir)
@@ -226,6 +257,7 @@ def _cmd_cross_check(args: argparse.Namespace) -> int:
 def _cmd_export_ssp(args: argparse.Namespace) -> int:
     from orchestration.ssp import export_ssp
 
+    check_output_file(args.out, "--out")
     scenario = load_scenario(args.scenario)
     if args.stop_time is not None:
         scenario = scenario.with_stop_time(args.stop_time)
@@ -280,9 +312,22 @@ def _cmd_bench(args: argparse.Namespace) -> int:
 
 
 def _positive_int(text: str) -> int:
-    value = int(text)
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
     if value < 1:
-        raise argparse.ArgumentTypeError(f"must be a whole number >= 1, got {text}")
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number >= 1")
+    return value
+
+
+def _time(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value > 0.0):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a finite number of seconds > 0")
     return value
 
 
@@ -303,11 +348,18 @@ def _add_fmu_dir(p: argparse.ArgumentParser) -> None:
 
 
 def _add_stop_time(p: argparse.ArgumentParser, help: str) -> None:
-    p.add_argument("--stop-time", type=float, help=help)
+    p.add_argument("--stop-time", type=_time, help=help)
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with its usage errors on one line (the usage itself is one ``-h`` away)."""
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} -h)\n")
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="sotc-cosim", description=__doc__)
+    parser = _Parser(prog="sotc-cosim", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
 
     p = sub.add_parser("build", help="build the FMUs (in a child process)")
@@ -343,7 +395,7 @@ def build_parser() -> argparse.ArgumentParser:
                    "with --set: a scenario name or path")
     p.add_argument("--set", action="append", default=[], metavar="INSTANCE.PARAM=V1,V2,...",
                    help="sweep FILE as a scenario over these values (several --set: a grid), without a sweep file")
-    p.add_argument("--workers", type=int, help="worker processes of the local cluster (default: one per core)")
+    p.add_argument("--workers", type=_positive_int, help="worker processes of the local cluster (default: one per core)")
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="an existing dask.distributed scheduler, tcp://host:8786 (default: a local cluster)")
     p.add_argument("--out", type=Path, help="results folder (default recordings/<sweep>); rerun into it to resume")
@@ -386,7 +438,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("cross-check", help="write a reference run of every FMU in the FMI Cross-Check layout")
     p.add_argument("models", nargs="*", metavar="MODEL", help="FMUs to export (default all)")
     p.add_argument("--out", type=Path, required=True, help="folder that receives fmus/2.0/cs/<platform>/...")
-    p.add_argument("--stop-time", type=float, default=5.0, help="length of each reference run, s (default 5)")
+    p.add_argument("--stop-time", type=_time, default=5.0, help="length of each reference run, s (default 5)")
     _add_fmu_dir(p)
     p.set_defaults(func=_cmd_cross_check)
 
@@ -407,10 +459,13 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     with interrupt.sigint_deferred():
         try:
+            fmu_dir = getattr(args, "fmu_dir", None)
+            if fmu_dir is not None and not fmu_dir.is_dir():  # an existing folder may be read-only: prebuilt
+                check_output_folder(fmu_dir, "--fmu-dir")
             code = args.func(args)
         except interrupt.Interrupted:
             code = interrupt.EXIT_CODE
-        except (ScenarioError, BuildError) as exc:
+        except (ScenarioError, BuildError, OutputPathError) as exc:
             if not interrupt.requested():
                 print(f"sotc-cosim: error: {exc}", file=sys.stderr)
                 return 2

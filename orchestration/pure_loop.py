@@ -5,7 +5,7 @@ Per step k (t_k = k T, computed from the step count, never by summing T):
 1. sample the reference r(t_k);
 2. controller.evaluate(t_k, y(t_k), r(t_k)) -> torque (direct feedthrough);
 3. record sample k;
-4. plant: rk4_step over [t_k, t_k + T) with the torque held (zero-order hold);
+4. plant: RK4 (``dynamics.integrate``) over [t_k, t_k + T) with the torque held (zero-order hold);
 5. controller.advance(t_k, T) (learning over the same interval).
 
 Samples are recorded at t_0 .. t_N inclusive (N = stop_time / T; 10,001 samples for 100 s at
@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from fmu_controller.base import ControllerCore
-from fmu_plant.dynamics import ArmParameters, rk4_step
+from fmu_plant.dynamics import ArmParameters, integrate
 from fmu_plant.trajectory import CircleTrajectory
 from orchestration.metrics import tracking_metrics
 
@@ -81,7 +81,7 @@ def simulate(
         outs[k] = out
         if k == n:
             break
-        state = rk4_step(state, out[0], out[1], step, substeps, arm)
+        state = integrate(state, out[0], out[1], step, substeps, arm)
         controller_core.advance(t, step)
     return LoopResult(ts, ys, refs, outs, names)
 

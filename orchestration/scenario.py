@@ -30,6 +30,45 @@ from typing import Any
 
 
 PAPER_TORQUE_LIMIT = 4.0  # rho, N.m (section 4)
+# a run holds every sample of every output in memory: 10^6 steps (10,000 s at T = 0.01 s, 100 paper
+# runs) of ~60 outputs is ~0.5 GB per instance; more is refused before anything is allocated
+MAX_STEPS = 1_000_000
+NANOSECOND = 1e-9  # the recordings' time resolution: a step must be a whole number of nanoseconds
+
+_NAME = {"type": "string", "pattern": r"^[A-Za-z_][A-Za-z0-9_-]*$"}
+_PORT = {"type": "string", "pattern": r"^[A-Za-z_][A-Za-z0-9_-]*\.[A-Za-z_][A-Za-z0-9_]*$"}
+_TIME = {"type": "number", "exclusiveMinimum": 0}
+# one scenario file as written (``extends`` resolved later, so nothing is required here but shapes)
+SCENARIO_SCHEMA: dict[str, Any] = {
+    "type": "object",
+    "additionalProperties": False,
+    "properties": {
+        "name": _NAME,
+        "extends": {"type": "string", "minLength": 1},
+        "description": {"type": "string"},
+        "stop_time": _TIME,
+        "step_size": _TIME,
+        "instances": {
+            "type": "object",
+            "propertyNames": _NAME,
+            "additionalProperties": {
+                "type": "object",
+                "additionalProperties": False,
+                "properties": {
+                    "fmu": _NAME,
+                    "parameters": {"type": "object", "propertyNames": _NAME,
+                                   "additionalProperties": {"type": "number"}},
+                },
+            },
+        },
+        "connect": {"type": "array", "items": {
+            "type": "object", "additionalProperties": False, "required": ["from", "to"],
+            "properties": {"from": _NAME, "to": _NAME}}},
+        "connection": {"type": "array", "items": {
+            "type": "object", "additionalProperties": False, "required": ["from", "to"],
+            "properties": {"from": _PORT, "to": _PORT}}},
+    },
+}
 
 
 class ScenarioError(ValueError):
@@ -152,10 +191,28 @@ def _read_raw(name_or_path: str, seen: tuple[str, ...] = ()) -> dict[str, Any]:
         raw = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ScenarioError(f"scenario '{label}' is not valid TOML: {exc}") from None
+    _check_schema(raw, label)
     parent = raw.pop("extends", None)
     if parent is None:
         return raw
     return _merge(_read_raw(parent, seen + (label,)), raw)
+
+
+def _check_schema(raw: dict[str, Any], label: str) -> None:
+    """Refuse a file whose shape is wrong, naming the key and what it may be (the first error)."""
+    from jsonschema import Draft202012Validator
+    from jsonschema.exceptions import best_match
+
+    error = best_match(Draft202012Validator(SCENARIO_SCHEMA).iter_errors(raw))
+    if error is None:
+        return
+    where = "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in error.absolute_path).lstrip(".")
+    message = error.message if len(error.message) <= 200 else error.message[:200] + "..."
+    if error.validator == "pattern":
+        message = f"{error.instance!r} is not a name (letters, digits, _ and -; 'instance.port' for a port)"
+    elif error.validator == "exclusiveMinimum":
+        message = f"{error.instance!r} must be a number > 0"
+    raise ScenarioError(f"scenario '{label}': {where or 'the file'}: {message}")
 
 
 def _merge(base: dict[str, Any], override: dict[str, Any]) -> dict[str, Any]:
@@ -178,7 +235,12 @@ def _merge(base: dict[str, Any], override: dict[str, Any]) -> dict[str, Any]:
 def load_scenario(name_or_path: str) -> Scenario:
     raw = _read_raw(name_or_path)
     raw.setdefault("name", Path(name_or_path).stem)
-    return _validated(_from_raw(raw))
+    try:
+        return _validated(_from_raw(raw))
+    except ScenarioError as exc:
+        if raw["name"] == name_or_path:
+            raise
+        raise ScenarioError(f"{name_or_path}: {exc}") from None
 
 
 def _from_raw(raw: dict[str, Any]) -> dict[str, Any]:
@@ -216,13 +278,25 @@ def _validated(fields: dict[str, Any]) -> Scenario:
     name = fields["name"]
     for key in ("stop_time", "step_size"):
         value = fields[key]
-        if not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
             raise ScenarioError(f"scenario '{name}': {key} must be a finite number > 0, got {value!r}")
+    step_ns = fields["step_size"] / NANOSECOND
+    if step_ns < 1.0 or abs(step_ns - round(step_ns)) > 1e-3:
+        raise ScenarioError(f"scenario '{name}': step_size {fields['step_size']!r} must be a whole number of "
+                            "nanoseconds (the recordings' time unit), at least 1e-09 s")
     steps = fields["stop_time"] / fields["step_size"]
+    if steps > MAX_STEPS:
+        raise ScenarioError(f"scenario '{name}': stop_time / step_size = {steps:.6g} steps; at most {MAX_STEPS:,} "
+                            "are allowed (every sample is held in memory)")
+    if round(steps) < 1:
+        raise ScenarioError(f"scenario '{name}': stop_time {fields['stop_time']!r} is shorter than one step of "
+                            f"{fields['step_size']!r}")
     if abs(steps - round(steps)) > 1e-9 * max(1.0, steps):
         raise ScenarioError(
             f"scenario '{name}': stop_time {fields['stop_time']} is not a whole number of steps of {fields['step_size']}"
         )
+    if not fields["instances"]:
+        raise ScenarioError(f"scenario '{name}': no instances; give at least one [instances.<name>] with an fmu")
     for src, dst in fields["by_name"]:
         for inst in (src, dst):
             if inst not in fields["instances"]:

@@ -71,7 +71,9 @@ class SummaryObserver:
             "error": result.error,
             "wall_time_s": result.wall_time_s,
         }
-        if result.samples == 0 or self.metrics is None:
+        # a failed run reports no metrics: its last samples may already be diverged (or cut short), and a
+        # number computed from them would read like a result
+        if result.failed or result.samples == 0 or self.metrics is None:
             return summary
         metrics = self.metrics.result()
         metrics["max_norm_tau"] = metrics.pop("max_tau_norm")

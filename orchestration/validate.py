@@ -2,6 +2,8 @@
 
 Per FMU:
 
+- ``archive``: no entry of the zip may leave its folder when extracted (an absolute path, a drive or
+  a ``..`` component); an FMU that fails this is not loaded for the other checks;
 - ``fmpy``: ``fmpy.validation.validate_fmu`` (schema, units, model structure);
 - ``fmutool``: the checkers ``fmutool -input X.fmu -check`` runs (XSD schema and FMI 2.0 semantic
   rules, fmu-manipulation-toolbox), called through its Python API; an ERROR record is a problem;
@@ -43,19 +45,16 @@ from pathlib import Path
 EXPECTED_STEP_SIZE = 0.01  # the paper's sampling period T
 # parameters that may take any real value (no physical bound): name pattern -> why
 FREE_PARAMETERS: dict[str, str] = {
-    "*_0": "initial state of the arm: any angle or velocity",
     "W0_*": "initial critic weights: any real number",
     "init_phi*": "an elbow angle: any real number",
-    "center_*": "circle centre coordinates: any position",
     "phase": "phase of the path parameter: any angle",
-    "rate": "angular rate of the path; its sign is the direction",
 }
 # dependency experiment: inputs are at their start values at t = 0, then follow a smooth signal
 # around them; at each probe instant (after that many steps) every input is perturbed in turn by each
 # of PERTURBATIONS
 PROBE_STEPS = (0, 1, 10, 40)
 PERTURBATIONS = (0.05, -0.7, 3.0, -30.0)
-CHECKS = ("fmpy", "fmutool", "units", "starts", "descriptions", "step", "ranges", "state", "standalone",
+CHECKS = ("archive", "fmpy", "fmutool", "units", "starts", "descriptions", "step", "ranges", "state", "standalone",
           "dependencies")
 
 
@@ -86,6 +85,20 @@ def _fmpy_problems(path: Path) -> list[str]:
     from fmpy.validation import validate_fmu
 
     return [str(p) for p in validate_fmu(str(path))]
+
+
+def archive_problems(path: Path) -> list[str]:
+    try:
+        with zipfile.ZipFile(path) as archive:
+            names = archive.namelist()
+    except (OSError, zipfile.BadZipFile) as exc:
+        return [f"not a readable zip archive: {exc}"]
+    problems = []
+    for name in names:
+        parts = name.replace("\\", "/").split("/")
+        if name.startswith(("/", "\\")) or ".." in parts or (len(name) > 1 and name[1] == ":"):
+            problems.append(f"entry '{name}' would be extracted outside the FMU's folder")
+    return problems
 
 
 class _Records(logging.Handler):
@@ -316,6 +329,9 @@ def validate_fmu_file(path: Path) -> FmuReport:
     from fmpy import read_model_description
 
     report = FmuReport(Path(path))
+    report.problems["archive"] = archive_problems(path)
+    if report.problems["archive"]:
+        return report
     report.problems["fmpy"] = _fmpy_problems(path)
     report.problems["fmutool"] = _fmutool_problems(path)
     try:
