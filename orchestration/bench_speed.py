@@ -140,18 +140,21 @@ def _patched(obj, name: str, value):
 @contextlib.contextmanager
 def _hosted_cores(timer: _Timer):
     """Time the cores where the FMUs run them: the FMUs' bundled copies of ``SotcCore.evaluate``,
-    ``SotcCore.advance``, ``rk4_step`` and ``CircleTrajectory.sample``, found in ``sys.modules``
+    ``SotcCore.advance``, ``integrate`` (the plant step) and ``CircleTrajectory.sample``, found in ``sys.modules``
     once the FMUs were loaded (pythonfmu keeps their modules; each instantiation re-runs the FMU
-    script, which imports the wrapped ``rk4_step``)."""
-    labels = {("SotcCore", "evaluate"): "controller evaluate", ("SotcCore", "advance"): "controller learn",
-              ("CircleTrajectory", "sample"): "reference", ("rk4_step", None): "plant step"}
+    script, which imports the wrapped ``integrate``)."""
+    # (name, method or None for a function, the module it must come from, bundled copies included)
+    labels = {("SotcCore", "evaluate", "fmu_controller.sotc"): "controller evaluate",
+              ("SotcCore", "advance", "fmu_controller.sotc"): "controller learn",
+              ("CircleTrajectory", "sample", "fmu_plant.trajectory"): "reference",
+              ("integrate", None, "fmu_plant.dynamics"): "plant step"}
     undo, wrapped, wrappers = [], {}, set()
     for module in list(sys.modules.values()):
         space = getattr(module, "__dict__", {})
-        for (name, method), label in labels.items():
+        for (name, method, home), label in labels.items():
             obj = space.get(name)
             owner, attr = (obj, method) if method else (module, name)
-            if obj is None or (method and not isinstance(obj, type)) or (not method and not callable(obj)):
+            if not str(getattr(obj, "__module__", "")).endswith(home) or (method and not isinstance(obj, type)):
                 continue
             original = getattr(owner, attr)
             if id(original) in wrappers:
@@ -180,7 +183,7 @@ def floor_cores(scenario) -> dict[str, float]:
     core = make_core()
     core.evaluate = timer.wrap("controller evaluate", core.evaluate)
     core.advance = timer.wrap("controller learn", core.advance)
-    with _patched(pure_loop, "rk4_step", timer.wrap("plant step", pure_loop.rk4_step)), \
+    with _patched(pure_loop, "integrate", timer.wrap("plant step", pure_loop.integrate)), \
             _patched(CircleTrajectory, "sample", timer.wrap("reference", CircleTrajectory.sample)):
         pure_loop.simulate(core, scenario.stop_time, scenario.step_size, **start)
     return {label: s * 1e6 / scenario.steps for label, s in timer.seconds.items()}
