@@ -99,9 +99,13 @@ def install(root: Path) -> Shipped:
     python = env_dir / bindir / ("python.exe" if sys.platform == "win32" else "python")
     site = Path(subprocess.run([str(python), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
                                check=True, capture_output=True, text=True).stdout.strip())
-    # the dependencies: this interpreter's site-packages, searched after the venv's own
-    (site / "zz_test_dependencies.pth").write_text(sysconfig.get_paths()["purelib"] + "\n")
     wheel = next(wheels.glob("sotc_cosim-*.whl"))
+    # the wheel first: once the .pth below is in place, pip would see the test runner's own copy of
+    # sotc-cosim (CI installs it non-editable) as already installed and skip the wheel
     subprocess.run([str(python), "-m", "pip", "install", "--no-deps", "--no-index", "-q", str(wheel)],
                    check=True, capture_output=True, text=True)
+    # the dependencies: this interpreter's site-packages, searched after the venv's own
+    (site / "zz_test_dependencies.pth").write_text(sysconfig.get_paths()["purelib"] + "\n")
+    if not (site / "orchestration" / "__init__.py").is_file():
+        raise RuntimeError(f"the wheel {wheel.name} did not install into {site}")
     return Shipped(root, python, env_dir / bindir / "sotc-cosim", src)
