@@ -55,11 +55,11 @@ class ControllerSlave(DescribedSlave):
         unknown = sorted(set(self.STATE_OUTPUTS) - set(self.CORE.output_names()))
         if unknown:
             raise ValueError(f"STATE_OUTPUTS {unknown} are not outputs of {self.CORE.__name__}")
+        self._input_dependent = tuple(name not in self.STATE_OUTPUTS for name in self.CORE.output_names())
         for index, name in enumerate(self.CORE.output_names()):
             unit, doc = units[name]
-            depends_on = () if name in self.STATE_OUTPUTS else INPUT_PORTS
-            self.declare_output(name, unit, doc, depends_on=depends_on,
-                                getter=self._output_getter(index, input_dependent=bool(depends_on)))
+            depends_on = INPUT_PORTS if self._input_dependent[index] else ()
+            self.declare_output(name, unit, doc, depends_on=depends_on, getter=self._output_getter(index))
         self._stale = True  # inputs or learning state changed since the core last evaluated
         self._invalid_inputs: str | None = None  # why the input-dependent outputs are NaN, or None
         self._last_valid: tuple[list[float], list[float]] | None = None  # inputs of the last good evaluation
@@ -69,14 +69,17 @@ class ControllerSlave(DescribedSlave):
         model = ArmParameters.from_mapping({s.name: values[s.name] for s in MODEL_PARAMETER_SPECS})
         return self.CORE(model, **{s.name: values[s.name] for s in self.CORE.PARAMETER_SPECS})
 
-    def _output_getter(self, index: int, input_dependent: bool):
-        def get() -> float:
-            if self._stale and self._initialized:
-                self._evaluate()
-            if input_dependent and self._invalid_inputs is not None:
-                return math.nan
-            return self._core.outputs[index]
-        return get
+    def _output_getter(self, index: int):
+        return lambda: self.output_values()[index]
+
+    def output_values(self) -> list[float]:
+        """Every output in ``CORE.output_names()`` order, evaluated at most once per change of the
+        inputs or of the learning state; NaN for the input-dependent ones while an input is bad."""
+        if self._stale and self._initialized:
+            self._evaluate()
+        if self._invalid_inputs is None:
+            return self._core.outputs
+        return [math.nan if dependent else v for v, dependent in zip(self._core.outputs, self._input_dependent)]
 
     def _inputs(self) -> tuple[list[float], list[float]]:
         return [getattr(self, n) for n in MEASUREMENT_PORTS], [getattr(self, n) for n in REFERENCE_PORTS]

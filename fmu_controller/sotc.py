@@ -23,12 +23,14 @@ One sample (``evaluate`` at t_k, then ``advance(t_k, T)``):
 from __future__ import annotations
 
 import math
+import operator
 from typing import Any, ClassVar, Sequence
 
 import numpy as np
 
 from fmu_controller.base import ControllerCore, OutputSpec
 from fmu_controller.saturation import ACCEL, JOINT, NONE, clip_box, limit_handling_spec, limit_torque, saturate_norm
+from fmu_controller.small_linalg import solve
 from fmu_controller.sotc_math import (
     N_BASIS,
     basis,
@@ -496,7 +498,7 @@ class SotcCore(ControllerCore):
         }
         self._last_inputs = {"t": float(t), "y": [phi1, phi2, dphi1, dphi2],
                              "r": [phi1_d, phi2_d, dphi1_d, dphi2_d, ddphi1_d, ddphi2_d]}
-        J = math.fsum(w * b for w, b in zip(W, basis(z)))
+        J = math.fsum(map(operator.mul, W, basis(z)))
         self.outputs = [
             tau1, tau2, ts1, ts2, ta1, ta2, cs1, cs2, ca1, ca2, zp1, zp2, zv1, zv2, *W,
             J, e1, omega, rew, 31.0 if law31 else 30.0, float(self.stack.count), cl_min_eig,
@@ -522,13 +524,13 @@ class SotcCore(ControllerCore):
             raise ValueError(f"advance: step size {dt} must be positive and finite")
         Wv = pend["W"]
         if self.implicit:
-            G = np.outer(pend["xi"], pend["eta"])
+            G = pend["xi"][:, None] * pend["eta"]  # the outer product xi eta^T
             if pend["cl_M"] is not None:
                 G += pend["cl_M"]
             G *= dt * self.alpha1
             rhs = Wv + dt * pend["wdot"] + G @ Wv
-            G[np.diag_indices(N_BASIS)] += 1.0
-            self.W = np.linalg.solve(G, rhs).tolist()
+            G.ravel()[::N_BASIS + 1] += 1.0  # + I (a view of the diagonal: no index arrays)
+            self.W = solve(G, rhs).tolist()
         else:
             self.W = (Wv + dt * pend["wdot"]).tolist()
         if self.chi_dot_form == "difference":

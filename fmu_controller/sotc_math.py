@@ -314,9 +314,14 @@ def omega_of_arg_rows(X: np.ndarray, s: float, r: np.ndarray) -> np.ndarray:
     cancellation-free form of x tanh x - ln cosh x as ``omega_term_of_arg``."""
     A = np.abs(X)
     small = A < 1.0
-    As = np.where(small, A, 0.0)
-    h = np.sinh(0.5 * As)
-    f_small = As * np.tanh(As) - np.log1p(2.0 * h * h)
-    e = np.exp(-2.0 * np.where(small, 1.0, A))
-    f_large = LN2 - np.log1p(e) - 2.0 * A * e / (1.0 + e)
-    return (2.0 * s * s) * (np.where(small, f_small, f_large) @ r)
+    if small.all():  # the usual case in a run: only the first form is computed (same values)
+        h = np.sinh(0.5 * A)
+        f = A * np.tanh(A) - np.log1p(2.0 * h * h)
+    else:
+        As = np.where(small, A, 0.0)
+        h = np.sinh(0.5 * As)
+        f_small = As * np.tanh(As) - np.log1p(2.0 * h * h)
+        e = np.exp(-2.0 * np.where(small, 1.0, A))
+        f_large = LN2 - np.log1p(e) - 2.0 * A * e / (1.0 + e)
+        f = np.where(small, f_small, f_large)
+    return (2.0 * s * s) * (f @ r)

@@ -31,6 +31,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from fmu_controller.small_linalg import smallest_eigenvalue, smallest_eigenvalues
 from fmu_controller.sotc_math import N_BASIS, basis_jacobian, omega_of_arg_rows
 
 SELECTIONS = ("maxeig", "fill", "fifo")
@@ -103,7 +104,7 @@ class CLStack:
         Xi = E * scale[:, None]
         self.M_rec = Xi.T @ E
         self.b_rec = Xi.T @ self.rew
-        self.min_eig_rec = float(np.linalg.eigvalsh(self.M_rec)[0]) if self.count else 0.0
+        self.min_eig_rec = smallest_eigenvalue(self.M_rec) if self.count else 0.0
         n = self.count
         Z, Di, Fe = self.z[:n], self.dinv[:n], self.fe[:n]
         s, r = self.s, self.r
@@ -145,7 +146,7 @@ class CLStack:
         scale = 1.0 / (1.0 + np.einsum("ij,ij->i", E, E)) ** 2
         Xi = E * scale[:, None]
         M = Xi.T @ E
-        return M, Xi.T @ rew, E, float(np.linalg.eigvalsh(M)[0])
+        return M, Xi.T @ rew, E, smallest_eigenvalue(M)
 
     # --- recording -------------------------------------------------------------------------------
 
@@ -171,7 +172,7 @@ class CLStack:
             sc = 1.0 / (1.0 + np.einsum("ij,ij->i", E, E)) ** 2
             cand = np.outer(eta, eta) * (1.0 / (1.0 + etaeta) ** 2)
             trial = M[None, :, :] - np.einsum("i,ij,ik->ijk", sc, E, E) + cand[None, :, :]
-            eigs = np.linalg.eigvalsh(trial)[:, 0]
+            eigs = smallest_eigenvalues(trial)
             row = int(np.argmax(eigs))
             if not eigs[row] > MAXEIG_GAIN * min_eig:
                 return False

@@ -68,6 +68,7 @@ from pythonfmu.enums import Fmi2Initial, Fmi2Status
 from fmu_plant.model_description import UNIT_BASES, VariableMeta, complete_model_description
 from fmu_plant.parameters import ParameterSpec
 
+PLAN_CACHE = 64  # value-reference lists whose read/write plans are kept per instance
 STEP_SIZE = 0.01  # the paper's sampling period T, also each FMU's DefaultExperiment stepSize
 # in resources/: parameter start values of a parameterised copy of the FMU (``sotc-cosim export-ssp``
 # writes one per SSP component with parameters, so that every engine applies them)
@@ -216,6 +217,7 @@ class DescribedSlave(Fmi2Slave):
         self._starts, self._starts_problem = self._read_parameter_starts()
         self._meta: dict[str, VariableMeta] = {}
         self._input_ranges: list[tuple[str, float | None, float | None]] = []  # name, low, high
+        self._bounded_inputs = False  # some input declares a min or max
         self._mode = INSTANTIATED
         self._initialized = False  # ``initialize`` succeeded with the current parameter values
         self._preview_stale = True  # initialization mode: a parameter changed since the last preview
@@ -225,6 +227,11 @@ class DescribedSlave(Fmi2Slave):
         self._start_time = 0.0
         self._steps = 0
         self._uniform_step: float | None = None  # h while uniform, nan once a step size changed
+        # value-reference lists seen by get_real/set_real -> their plans (``_read_plan``, ``_write_plan``)
+        self._read_plans: dict[tuple[int, ...], tuple[int, ...] | slice | None] = {}
+        self._write_plans: dict[tuple[int, ...], tuple[str, ...] | None] = {}
+        self._outputs_by_vr: dict[int, int] | None = None  # output value reference -> index
+        self._output_getters: tuple[Callable[[], float], ...] = ()
         # how each parameter is checked (a ParameterSpec, or (low, high) of an Integer): also applied to
         # the values of a restored FMU state
         self._parameter_checks: dict[str, ParameterSpec | tuple[int, int]] = {}
@@ -293,6 +300,7 @@ class DescribedSlave(Fmi2Slave):
             VariableMeta(unit, low, high, None),
         )
         self._input_ranges.append((name, low, high))
+        self._bounded_inputs = self._bounded_inputs or low is not None or high is not None
 
     def declare_output(
         self, name: str, unit: str, description: str, depends_on: Sequence[str] = (),
@@ -329,10 +337,15 @@ class DescribedSlave(Fmi2Slave):
         try:
             yield
         except Exception as exc:
-            self.log(f"{self.instance_name}: {call} failed: {exc}", Fmi2Status.error)
-            for obj in (self, type(self), self.log_queue):
-                ctypes.pythonapi.Py_IncRef(ctypes.py_object(obj))
+            self._failed(call, exc)
             raise
+
+    def _failed(self, call: str, exc: Exception) -> None:
+        """``_guarded``'s work, for the per-step calls that use a plain try (no context manager
+        per call): log ``exc`` with status Error and take the references the binary will release."""
+        self.log(f"{self.instance_name}: {call} failed: {exc}", Fmi2Status.error)
+        for obj in (self, type(self), self.log_queue):
+            ctypes.pythonapi.Py_IncRef(ctypes.py_object(obj))
 
     # --- variable access ----------------------------------------------------------------------
 
@@ -377,6 +390,52 @@ class DescribedSlave(Fmi2Slave):
             self._refuse_nonfinite(vrs, values)
         return values
 
+    # The per-step calls (a master reads every output and sets the inputs each step with the same
+    # value-reference lists) go through plans: the checks of ``_variable`` are done once per list,
+    # then a read is one ``output_values`` call and a list of indices, a write one setattr per input.
+
+    def _read_plan(self, vrs) -> tuple[int, ...] | slice | None:
+        """Indices into ``output_values()`` for a list of output value references (a slice when it
+        is all of them in order); None when the list names anything but Real outputs (those reads
+        take the general path)."""
+        key = tuple(vrs)
+        plan = self._read_plans.get(key, False)
+        if plan is False:
+            for vr in key:
+                self._variable(vr, Real)  # an unknown reference or a non-Real fails here, by name
+            index = self._output_index()
+            plan = tuple(index[vr] for vr in key) if all(vr in index for vr in key) else None
+            if plan == tuple(range(len(index))):
+                plan = slice(None)  # every output in declaration order (what a master asks): one copy
+            if len(self._read_plans) < PLAN_CACHE:
+                self._read_plans[key] = plan
+        return plan
+
+    def _output_index(self) -> dict[int, int]:
+        if self._outputs_by_vr is None:
+            outputs = [v for v in self.vars.values() if v.causality == Fmi2Causality.output and isinstance(v, Real)]
+            self._outputs_by_vr = {v.value_reference: i for i, v in enumerate(outputs)}
+            self._output_getters = tuple(v.getter for v in outputs)
+        return self._outputs_by_vr
+
+    def output_values(self) -> list[float]:
+        """Every Real output, in declaration order, at the current state (one pass over their
+        getters). Subclasses that hold their outputs together (the controllers) override this."""
+        self._output_index()
+        return [get() for get in self._output_getters]
+
+    def _write_plan(self, vrs) -> tuple[str, ...] | None:
+        """Attribute names for a list of input value references (settable in every state); None
+        when the list holds anything else (parameters, outputs, unknown references: general path)."""
+        key = tuple(vrs)
+        plan = self._write_plans.get(key, False)
+        if plan is False:
+            found = [self.vars.get(vr) for vr in key]
+            plan = (tuple(v.name for v in found)
+                    if all(isinstance(v, Real) and v.causality == Fmi2Causality.input for v in found) else None)
+            if len(self._write_plans) < PLAN_CACHE:
+                self._write_plans[key] = plan
+        return plan
     def _refuse_nonfinite(self, vrs, values: list) -> None:
         """Raise (the call then fails; pythonfmu can only say fmi2Fatal here, see docs/interop.md)
         naming the first requested output that is not finite and why, instead of returning it."""
@@ -386,12 +445,32 @@ class DescribedSlave(Fmi2Slave):
                                  f"{self._output_problem}")
 
     def set_real(self, vrs, values):
-        with self._guarded("fmi2SetReal"):
-            self._set(vrs, values, Real)
+        try:
+            plan = self._write_plan(vrs)
+            if plan is None:
+                self._set(vrs, values, Real)
+            else:
+                for name, value in zip(plan, values, strict=True):
+                    setattr(self, name, value)
+        except Exception as exc:
+            self._failed("fmi2SetReal", exc)
+            raise
 
     def get_real(self, vrs):
-        with self._guarded("fmi2GetReal"):
-            return self._get(vrs, Real, float)
+        try:
+            plan = self._read_plan(vrs)
+            if plan is None:
+                return self._get(vrs, Real, float)
+            if self._mode == INITIALIZATION and self._preview_stale:
+                self._preview()
+            values = self.output_values()
+            values = values[plan] if type(plan) is slice else [values[i] for i in plan]
+            if self._output_problem is not None:  # rare: only after an evaluation gave a non-finite output
+                self._refuse_nonfinite(vrs, values)
+            return values
+        except Exception as exc:
+            self._failed("fmi2GetReal", exc)
+            raise
 
     def set_integer(self, vrs, values):
         with self._guarded("fmi2SetInteger"):
@@ -511,7 +590,10 @@ class DescribedSlave(Fmi2Slave):
         return False
 
     def input_problem(self) -> str | None:
-        """Why the current inputs cannot be used (naming the first bad input), or None."""
+        """Why the current inputs cannot be used (naming the first bad input), or None. The usual
+        case costs one pass (``all_finite``, no declared range); otherwise each input is looked at."""
+        if not self._bounded_inputs and all_finite([getattr(self, n) for n, _, _ in self._input_ranges]):
+            return None
         for name, low, high in self._input_ranges:
             value = getattr(self, name)
             if not math.isfinite(value):

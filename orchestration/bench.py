@@ -1,4 +1,6 @@
-"""Measurements behind design choices (never timed tests): ``sotc-cosim bench integrator``.
+"""Measurements behind design choices (never timed tests): ``sotc-cosim bench [NAME ...]``.
+
+``speed`` (the default): see ``orchestration.bench_speed``.
 
 ``integrator``: the plant's fixed-step RK4 with N substeps against scipy's DOP853 (rtol 1e-10)
 on a 10 s torque profile with the torque held over each 0.01 s step, and the cost of one step.
@@ -264,10 +266,27 @@ def bench_sweep(fmu_dir, points: int = 8, stop_time: float = 10.0, rounds: int =
     return "\n".join(lines)
 
 
-# name -> benchmark taking the folder where FMUs are built and found
+def _speed(args) -> tuple[str, dict]:
+    from orchestration.bench_speed import bench_speed, format_markdown
+
+    data = bench_speed(args.fmu_dir, repeats=args.repeats, long=tuple(args.long), record_every=args.record_every,
+                       stop_time=args.stop_time)
+    return format_markdown(data), data
+
+
+def _text_only(bench):
+    def run(args) -> tuple[str, dict]:
+        text = bench(args.fmu_dir)
+        return text, {"benchmark": "text", "text": text}
+    return run
+
+
+# name -> benchmark taking the parsed ``sotc-cosim bench`` arguments, returning (report, JSON data)
 BENCHMARKS = {
-    "integrator": lambda fmu_dir: bench_integrator(),  # the plant core alone: no FMU
-    "recording": bench_recording,
-    "recording-blocks": bench_recording_blocks,
-    "sweep": bench_sweep,
+    "speed": _speed,
+    "integrator": _text_only(lambda fmu_dir: bench_integrator()),  # the plant core alone: no FMU
+    "recording": _text_only(bench_recording),
+    "recording-blocks": _text_only(bench_recording_blocks),
+    "sweep": _text_only(bench_sweep),
 }
+DEFAULT_BENCHMARKS = ("speed",)

@@ -14,6 +14,7 @@ from orchestration.paths import OutputPathError, check_output_file, check_output
 from orchestration.scenario import ScenarioError, available_scenarios, load_scenario
 
 DEFAULT_SCENARIO = "paper"
+MAX_BLOCK = 20_000  # samples per block handed to the recorder at most (about 12 MB of buffers for paper)
 
 
 def _cmd_build(args: argparse.Namespace) -> int:
@@ -43,34 +44,44 @@ def _prepare(names: list, stop_time: float | None, fmu_dir: Path, check=None):
     return scenarios, paths
 
 
-def _run_each(scenarios, paths, recording_for=None, progress_label: str | None = None) -> list:
+def _run_each(scenarios, paths, recording_for=None, keep_samples: bool = True, record_every: int = 1,
+              progress_label: str | None = None) -> list:
     """Run every scenario (a failure is reported and the next one still runs); ``recording_for``
     maps a scenario to the .rrd path its run streams to, or None for no recording;
-    ``progress_label``: show the progress under that label."""
+    ``progress_label``: show the progress under that label. Returns (result, summary) pairs;
+    ``keep_samples=False`` streams each run (bounded memory: the summary is computed on the way
+    and the result holds no samples)."""
     from orchestration.master import run
     from orchestration.progress import Progress
+    from orchestration.summary import SummaryObserver, summarize
 
     progress = Progress(len(scenarios), progress_label) if progress_label else None
-    results = []
+    out = []
     for scenario in scenarios:
         if interrupt.requested():  # Ctrl-C: no further scenario starts; the finished ones are kept
             break
         target = recording_for(scenario) if recording_for else None
+        summary = SummaryObserver()
+        observers = [] if keep_samples else [summary]
         if target is None:
-            result = run(scenario, paths)
+            result = run(scenario, paths, observer=observers or None, keep_samples=keep_samples)
         else:
             from orchestration.recording import BLOCK_SIZE, RunRecorder
 
-            with RunRecorder(target) as recorder:
-                result = run(scenario, paths, observer=recorder, block_size=BLOCK_SIZE)
+            # a thinned recording gets proportionally longer blocks: chunks of the usual size, and
+            # fewer of them (the recording stream's bookkeeping grows with their number)
+            block = min(BLOCK_SIZE * record_every, MAX_BLOCK)
+            with RunRecorder(target, every=record_every) as recorder:
+                result = run(scenario, paths, observer=[*observers, recorder], block_size=block,
+                             keep_samples=keep_samples)
         if result.failed and not result.interrupted:
             print(f"{scenario.name}: FAILED: {result.error}", file=sys.stderr)
-        results.append(result)
+        out.append((result, summarize(result) if keep_samples else summary.summary))
         if progress is not None:
             progress.update(not result.failed, f"{scenario.name} {'FAILED' if result.failed else 'ok'}")
     if progress is not None:
         progress.close()
-    return results
+    return out
 
 
 def _exit_code(summaries: list[dict]) -> int:
@@ -80,7 +91,7 @@ def _exit_code(summaries: list[dict]) -> int:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    from orchestration.summary import format_table, summarize, write_summary
+    from orchestration.summary import format_table, write_summary
 
     if args.summary and len(args.scenarios) > 1:
         raise ScenarioError("--summary takes one scenario; run them one by one")
@@ -111,7 +122,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
         written.append(target)
         return target
 
-    summaries = [summarize(r) for r in _run_each(scenarios, paths, recording_for)]
+    summaries = [s for _, s in _run_each(scenarios, paths, recording_for, keep_samples=False,
+                                          record_every=args.record_every)]
     if args.summary:
         write_summary(summaries[0], args.summary)
     print(format_table(summaries))
@@ -122,11 +134,10 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 def _cmd_compare(args: argparse.Namespace) -> int:
     from orchestration.recording import record_comparison
-    from orchestration.summary import format_table, summarize
+    from orchestration.summary import format_table
 
-    results = _run_each(*_prepare(args.scenarios, args.stop_time, args.fmu_dir,
-                                  lambda _: check_output_file(args.recording, "--recording")))
-    summaries = [summarize(r) for r in results]
+    results, summaries = zip(*_run_each(*_prepare(args.scenarios, args.stop_time, args.fmu_dir,
+                                                  lambda _: check_output_file(args.recording, "--recording"))))
     print(format_table(summaries))
     print(f"recording: {record_comparison(results, args.recording)}")
     return _exit_code(summaries)
@@ -135,14 +146,13 @@ def _cmd_compare(args: argparse.Namespace) -> int:
 def _cmd_reproduce(args: argparse.Namespace) -> int:
     from orchestration.recording import record_comparison
     from orchestration.reproduce import compact_table, reproduce_scenarios, write_table
-    from orchestration.summary import summarize
 
     def check(_) -> None:
         check_output_folder(args.out, "--out")
         check_output_file(args.recording, "--recording")
 
-    results = _run_each(*_prepare(reproduce_scenarios(), args.stop_time, args.fmu_dir, check), progress_label="reproduce")
-    summaries = [summarize(r) for r in results]
+    results, summaries = zip(*_run_each(*_prepare(reproduce_scenarios(), args.stop_time, args.fmu_dir, check),
+                                        progress_label="reproduce"))
     md, cs, text = write_table(summaries, args.out)
     print(text)
     print(compact_table(summaries))
@@ -262,13 +272,47 @@ def _cmd_export_ssp(args: argparse.Namespace) -> int:
 
 
 def _cmd_bench(args: argparse.Namespace) -> int:
-    from orchestration.bench import BENCHMARKS
+    import json
 
-    unknown = [n for n in args.names if n not in BENCHMARKS]
+    from orchestration.bench import BENCHMARKS, DEFAULT_BENCHMARKS
+
+    names = args.names or list(DEFAULT_BENCHMARKS)
+    unknown = [n for n in names if n not in BENCHMARKS]
     if unknown:
         raise ScenarioError(f"no benchmark {unknown}; known: {', '.join(BENCHMARKS)}")
-    for name in args.names or list(BENCHMARKS):
-        print(BENCHMARKS[name](args.fmu_dir))
+    if args.update_docs:
+        from orchestration.bench_speed import DOC_BLOCKS
+        from orchestration.build import PACKAGE_ROOT
+
+        if "speed" not in names:
+            raise ScenarioError("--update-docs writes the speed benchmark's tables: run it (sotc-cosim bench speed)")
+        missing = [f for f in DOC_BLOCKS.values() if not (PACKAGE_ROOT / f).is_file()]
+        if missing:
+            raise ScenarioError(f"--update-docs writes {', '.join(DOC_BLOCKS.values())} of a source checkout; "
+                                f"not found next to {PACKAGE_ROOT / 'orchestration'}")
+    old = None
+    if args.compare is not None:
+        try:
+            old = json.loads(args.compare.read_text())
+        except (OSError, ValueError) as exc:
+            raise ScenarioError(f"--compare {args.compare}: cannot read the JSON of an earlier bench: {exc}") from exc
+    results = {}
+    for name in names:
+        text, results[name] = BENCHMARKS[name](args)
+        print(text)
+    if old is not None and "speed" in results:
+        from orchestration.bench_speed import compare
+
+        print(compare(old.get("speed", old), results["speed"]))
+    if args.json is not None:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(json.dumps(results, indent=1) + "\n")
+        print(f"wrote {args.json}")
+    if args.update_docs:
+        from orchestration.bench_speed import update_docs
+
+        for path in update_docs(results["speed"], PACKAGE_ROOT):
+            print(f"wrote {path}")
     return 0
 
 
@@ -290,6 +334,18 @@ def _time(text: str) -> float:
     if not (math.isfinite(value) and value > 0.0):
         raise argparse.ArgumentTypeError(f"{text!r} is not a finite number of seconds > 0")
     return value
+
+
+def _stop_times(text: str) -> list[float]:
+    if text.strip().lower() == "none":
+        return []
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected stop times like 1000,10000 or 'none', got {text!r}") from None
+    if not all(v > 0 for v in values):
+        raise argparse.ArgumentTypeError(f"stop times must be > 0, got {text!r}")
+    return values
 
 
 def _add_fmu_dir(p: argparse.ArgumentParser) -> None:
@@ -327,6 +383,8 @@ def build_parser() -> argparse.ArgumentParser:
     rec.add_argument("--recording", type=Path, metavar="PATH",
                      help="write the Rerun recording here (one scenario; default recordings/<scenario>.rrd)")
     rec.add_argument("--no-recording", action="store_true", help="do not write a Rerun recording")
+    p.add_argument("--record-every", type=_positive_int, default=1, metavar="N",
+                   help="record every N-th sample only (long runs: a 10,000 s run is about 960 MB at N = 1)")
     p.set_defaults(func=_cmd_run)
 
     p = sub.add_parser("compare", help="run scenarios and overlay them in one Rerun recording (paper Figs 10-12)")
@@ -361,8 +419,19 @@ def build_parser() -> argparse.ArgumentParser:
     _add_fmu_dir(p)
     p.set_defaults(func=_cmd_reproduce)
 
-    p = sub.add_parser("bench", help="measurements behind design choices (prints ratios measured side by side)")
-    p.add_argument("names", nargs="*", metavar="NAME", help="benchmarks to run (default all)")
+    p = sub.add_parser("bench", help="measure speed and scaling (default), or the measurements behind design choices")
+    p.add_argument("names", nargs="*", metavar="NAME",
+                   help="benchmarks to run: speed (default), integrator, recording, recording-blocks, sweep")
+    p.add_argument("--repeats", type=_positive_int, default=3, help="alternated runs of each variant (default 3)")
+    p.add_argument("--long", type=_stop_times, default=[1000.0, 10000.0], metavar="S[,S...]",
+                   help="stop times of the long single runs, s (default 1000,10000; 'none' skips them)")
+    p.add_argument("--record-every", type=_positive_int, default=1, metavar="N",
+                   help="the long runs record every N-th sample (default 1: everything)")
+    p.add_argument("--json", type=Path, metavar="PATH", help="write the results as JSON (compare them later)")
+    p.add_argument("--compare", type=Path, metavar="OLD.json", help="print the change against an earlier --json")
+    _add_stop_time(p, "shorten the side-by-side runs of speed (default: the scenario's 100 s)")
+    p.add_argument("--update-docs", action="store_true",
+                   help="write docs/performance.json and the generated tables of docs/performance.md and README.md")
     _add_fmu_dir(p)
     p.set_defaults(func=_cmd_bench)
 

@@ -25,6 +25,7 @@ from orchestration.comparison import (
     COMPARED, LABELS, OTC_VARIANTS, TUNING_GRIDS, best_tuning, controller_of, handling_name, mse_sum, run_metrics, tuning,
 )
 from fmu_controller.saturation import LIMIT_HANDLINGS
+from orchestration.bench_speed import stored_block
 from orchestration.reproduce import PAPER_TABLE1
 from orchestration.sweep_results import paired_tail_errors, stored_rows, stored_sweep_block
 
@@ -286,6 +287,9 @@ BLOCKS: dict[str, Block] = {
     "sweep-controllers": Block("docs/robustness.md", lambda: stored_sweep_block("controllers", ROOT / "docs"), False),
     "controllers-verdict": Block("docs/robustness.md", controllers_verdict, False),
     "sweep-verdict": Block("README.md", controllers_verdict, False),
+    # the stored speed measurement (rerun: sotc-cosim bench --update-docs)
+    "speed": Block("docs/performance.md", lambda: stored_block(ROOT), False),
+    "speed-readme": Block("README.md", lambda: stored_block(ROOT), False),
 }
 
 

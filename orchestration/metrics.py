@@ -35,10 +35,6 @@ def limit_active(outputs: dict[str, np.ndarray], n: int) -> np.ndarray:
     return flags
 
 
-def _mse_from(e: np.ndarray, mask: np.ndarray) -> list[float] | None:
-    return _per_joint(np.mean(e[mask] ** 2, axis=0)) if mask.any() else None
-
-
 def _trapezoid(y: np.ndarray, t: np.ndarray) -> np.ndarray:
     """Trapezoid integral along axis 0 (numpy's name changed between versions; do it by hand)."""
     if len(t) < 2:
@@ -50,13 +46,6 @@ def _trapezoid(y: np.ndarray, t: np.ndarray) -> np.ndarray:
 
 def _per_joint(x: np.ndarray) -> list[float]:
     return [float(v) for v in x]
-
-
-def _max_abs_after(t: np.ndarray, e: np.ndarray, t0: float) -> list[float] | None:
-    mask = t >= t0 - 1e-12
-    if not mask.any():
-        return None
-    return _per_joint(np.max(np.abs(e[mask]), axis=0))
 
 
 def settle_time(t: np.ndarray, err: np.ndarray, band: float = SETTLE_BAND) -> float | None:
@@ -124,69 +113,167 @@ def tracking_metrics(
     - ``torque_limit``: the limit used.
     """
     t = np.asarray(t, dtype=float).reshape(-1)
-    e = np.asarray(e, dtype=float).reshape(len(t), 2)
-    tau = np.asarray(tau, dtype=float).reshape(len(t), 2)
-    n = len(t)
-    if n == 0:
+    if len(t) == 0:
         raise ValueError("tracking_metrics needs at least one sample")
-    if n > 1 and np.any(np.diff(t) <= 0.0):
-        raise ValueError("t must be strictly increasing")
-    duration = float(t[-1] - t[0])
-    stop = float(t[-1]) if stop_time is None else float(stop_time)
+    acc = TrackingMetrics(torque_limit, float(t[-1]) if stop_time is None else float(stop_time),
+                          with_cost=cost_rate is not None, with_e_dot=e_dot is not None,
+                          with_flags=limit_flags is not None)
+    acc.add(t, e, tau, cost_rate, e_dot, limit_flags)
+    return acc.result()
 
-    mse = np.mean(e**2, axis=0)
-    tau_norm = np.hypot(tau[:, 0], tau[:, 1])
-    tv = np.sum(np.abs(np.diff(tau, axis=0)), axis=0)
 
-    out: dict[str, Any] = {
-        "n_samples": int(n),
-        "duration": duration,
-        "mse": _per_joint(mse),
-        "rmse": _per_joint(np.sqrt(mse)),
-        "iae": _per_joint(_trapezoid(np.abs(e), t)),
-        "max_abs_error": _per_joint(np.max(np.abs(e), axis=0)),
-        "max_abs_error_after_20s": _max_abs_after(t, e, 20.0),
-        "max_abs_error_after_50s": _max_abs_after(t, e, 50.0),
-        "max_abs_error_last_half": _max_abs_after(t, e, stop / 2.0),
-        "settle_time_10mrad": [settle_time(t, e[:, 0]), settle_time(t, e[:, 1])],
-        "max_abs_tau": _per_joint(np.max(np.abs(tau), axis=0)),
-        "max_tau_norm": float(np.max(tau_norm)),
-        "samples_at_limit": int(np.sum(tau_norm >= torque_limit - LIMIT_TOLERANCE)),
-        "fraction_at_limit": float(np.sum(tau_norm >= torque_limit - LIMIT_TOLERANCE) / n),
-        "samples_over_limit": int(np.sum(tau_norm > torque_limit + LIMIT_TOLERANCE)),
-        "control_energy": float(np.dot(np.diff(t), tau_norm[:-1] ** 2)),
-        "tau_total_variation_rate": _per_joint(tv / duration) if duration > 0.0 else [0.0, 0.0],
-        "cost_integral": None,
-        "torque_limit": float(torque_limit),
-    }
-    late = t >= TRANSIENT_END - 1e-12
-    out["mse_after_5s"] = _mse_from(e, late)
-    out["last_limit_time"] = out["mse_after_limit"] = None
-    if limit_flags is not None:
-        flags = np.asarray(limit_flags, dtype=bool).reshape(-1)
-        hit = np.flatnonzero(flags)
-        after = np.ones(n, dtype=bool)
-        if len(hit):
-            out["last_limit_time"] = float(t[hit[-1]])
-            after[: hit[-1] + 1] = False
-        out["mse_after_limit"] = _mse_from(e, after)
-    out["tracking_cost"] = None
-    if e_dot is not None:
-        ed = np.asarray(e_dot, dtype=float).reshape(n, 2)
-        zz = np.sum(e**2, axis=1) + np.sum((ed + e) ** 2, axis=1)
-        out["tracking_cost"] = float(_trapezoid(zz, t))
-    if cost_rate is not None:
-        c = np.asarray(cost_rate, dtype=float).reshape(-1)
-        if len(c) != n:
-            raise ValueError(f"cost_rate has {len(c)} samples, t has {n}")
-        out["cost_integral"] = float(_trapezoid(c, t))
-    # floats must be finite for JSON; a diverged run reports None rather than NaN/inf
-    for key, value in out.items():
-        if isinstance(value, float) and not math.isfinite(value):
-            out[key] = None
-        elif isinstance(value, list):
-            out[key] = [None if isinstance(v, float) and not math.isfinite(v) else v for v in value]
-    return out
+class TrackingMetrics:
+    """``tracking_metrics`` over a run handed over in blocks of samples (``add``), holding O(1)
+    state: what the master streams is summarised without keeping the run. Fed the whole run as
+    one block it is ``tracking_metrics``; fed in blocks the sums differ only by rounding."""
+
+    def __init__(self, torque_limit: float, stop_time: float, with_cost: bool = False, with_e_dot: bool = False,
+                 with_flags: bool = False):
+        self.limit, self.stop, self.with_cost = float(torque_limit), float(stop_time), with_cost
+        self.with_e_dot, self.with_flags = with_e_dot, with_flags
+        self.late = [np.zeros(2), 0]  # sum of e^2 and count over t >= TRANSIENT_END
+        self.after_limit = [np.zeros(2), 0]  # the same since the last sample where the limit acts
+        self.last_limit_time: float | None = None
+        self.tracking_cost = 0.0
+        self.n = 0
+        self.t0 = self.t_last = math.nan
+        self.e2 = np.zeros(2)  # sum of e^2
+        self.iae = np.zeros(2)
+        self.max_e = np.zeros(2)
+        self.max_after = {20.0: None, 50.0: None, self.stop / 2.0: None}  # t0 -> max |e| per joint
+        self.max_tau = np.zeros(2)
+        self.max_norm = -math.inf
+        self.at_limit = self.over_limit = 0
+        self.energy = 0.0
+        self.tv = np.zeros(2)
+        self.cost = 0.0
+        # settle time: per joint the time of the sample after the last one outside the band, or
+        # None while the latest sample is outside; "never outside" is t0 (resolved in result())
+        self.settle: list[float | None] = [math.nan, math.nan]
+        self.last: tuple[float, np.ndarray, np.ndarray, float, float] | None = None  # t, |e|, tau, norm, cost
+
+    def add(self, t: np.ndarray, e: np.ndarray, tau: np.ndarray, cost_rate: np.ndarray | None = None,
+            e_dot: np.ndarray | None = None, limit_flags: np.ndarray | None = None) -> None:
+        t = np.asarray(t, dtype=float).reshape(-1)
+        m = len(t)
+        if m == 0:
+            return
+        e = np.asarray(e, dtype=float).reshape(m, 2)
+        tau = np.asarray(tau, dtype=float).reshape(m, 2)
+        c = self._column("cost_rate", cost_rate, self.with_cost, m)
+        if self.with_e_dot:
+            ed = np.asarray(self._column("e_dot", e_dot, True, 2 * m), dtype=float).reshape(m, 2)
+            zz = np.sum(e**2, axis=1) + np.sum((ed + e) ** 2, axis=1)  # z'z of ``tracking_cost``
+        ae = np.abs(e)
+        norm = np.hypot(tau[:, 0], tau[:, 1])
+        e2 = e * e
+        late = t >= TRANSIENT_END - 1e-12
+        self.late[0] += np.sum(e2[late], axis=0)
+        self.late[1] += int(np.sum(late))
+        if self.with_flags:
+            hits = np.flatnonzero(np.asarray(self._column("limit_flags", limit_flags, True, m), dtype=bool))
+            if len(hits):  # MSE after the limit restarts after the latest sample where it acts
+                self.last_limit_time = float(t[hits[-1]])
+                self.after_limit = [np.zeros(2), 0]
+            first = hits[-1] + 1 if len(hits) else 0
+            self.after_limit[0] += np.sum(e2[first:], axis=0)
+            self.after_limit[1] += m - first
+        if self.last is not None:  # the interval from the previous block's last sample
+            tp, aep, taup, normp, cp, zzp = self.last
+            t, ae, tau, norm = np.r_[tp, t], np.vstack([aep, ae]), np.vstack([taup, tau]), np.r_[normp, norm]
+            if self.with_cost:
+                c = np.r_[cp, c]
+            if self.with_e_dot:
+                zz = np.r_[zzp, zz]
+        else:
+            self.t0 = float(t[0])
+        if len(t) > 1 and np.any(np.diff(t) <= 0.0):
+            raise ValueError("t must be strictly increasing")
+        new = slice(0 if self.last is None else 1, None)  # the samples of this block
+        self.n += m
+        self.e2 += np.sum(e2, axis=0)
+        self.iae += _trapezoid(ae, t)
+        self.max_e = np.maximum(self.max_e, np.max(ae[new], axis=0))
+        tn = t[new]
+        for t_from in self.max_after:
+            mask = tn >= t_from - 1e-12
+            if mask.any():
+                peak = np.max(ae[new][mask], axis=0)
+                old = self.max_after[t_from]
+                self.max_after[t_from] = peak if old is None else np.maximum(old, peak)
+        for j in (0, 1):
+            outside = np.flatnonzero(ae[new][:, j] >= SETTLE_BAND)
+            if len(outside):
+                last = outside[-1]
+                self.settle[j] = float(tn[last + 1]) if last + 1 < len(tn) else None
+            elif self.settle[j] is None:
+                self.settle[j] = float(tn[0])  # the previous block ended outside; this one starts inside
+        self.max_tau = np.maximum(self.max_tau, np.max(np.abs(tau[new]), axis=0))
+        self.max_norm = max(self.max_norm, float(np.max(norm[new])))
+        self.at_limit += int(np.sum(norm[new] >= self.limit - LIMIT_TOLERANCE))
+        self.over_limit += int(np.sum(norm[new] > self.limit + LIMIT_TOLERANCE))
+        self.energy += float(np.dot(np.diff(t), norm[:-1] ** 2))
+        self.tv += np.sum(np.abs(np.diff(tau, axis=0)), axis=0)
+        if self.with_cost:
+            self.cost += float(_trapezoid(c, t))
+        if self.with_e_dot:
+            self.tracking_cost += float(_trapezoid(zz, t))
+        self.t_last = float(t[-1])
+        self.last = (self.t_last, ae[-1].copy(), tau[-1].copy(), float(norm[-1]),
+                     float(c[-1]) if self.with_cost else 0.0, float(zz[-1]) if self.with_e_dot else 0.0)
+
+    @staticmethod
+    def _column(name: str, values, needed: bool, size: int):
+        if not needed:
+            return None
+        if values is None:
+            raise ValueError(f"{name} is needed in every block (the accumulator was made with it)")
+        a = np.asarray(values).reshape(-1)
+        if len(a) != size:
+            raise ValueError(f"{name} has {len(a)} values, the block needs {size}")
+        return a
+
+    def result(self) -> dict[str, Any]:
+        n = self.n
+        if n == 0:
+            raise ValueError("tracking_metrics needs at least one sample")
+        duration = self.t_last - self.t0
+        mse = self.e2 / n
+        settle = [self.t0 if s is not None and math.isnan(s) else s for s in self.settle]  # NaN: never outside
+        after = {k: None if v is None else _per_joint(v) for k, v in self.max_after.items()}
+        out: dict[str, Any] = {
+            "n_samples": int(n),
+            "duration": float(duration),
+            "mse": _per_joint(mse),
+            "rmse": _per_joint(np.sqrt(mse)),
+            "iae": _per_joint(self.iae),
+            "max_abs_error": _per_joint(self.max_e),
+            "max_abs_error_after_20s": after[20.0],
+            "max_abs_error_after_50s": after[50.0],
+            "max_abs_error_last_half": after[self.stop / 2.0],
+            "settle_time_10mrad": settle,
+            "max_abs_tau": _per_joint(self.max_tau),
+            "max_tau_norm": float(self.max_norm),
+            "samples_at_limit": self.at_limit,
+            "fraction_at_limit": float(self.at_limit / n),
+            "samples_over_limit": self.over_limit,
+            "control_energy": self.energy,
+            "tau_total_variation_rate": _per_joint(self.tv / duration) if duration > 0.0 else [0.0, 0.0],
+            "cost_integral": self.cost if self.with_cost else None,
+            "torque_limit": self.limit,
+            "mse_after_5s": _per_joint(self.late[0] / self.late[1]) if self.late[1] else None,
+            "last_limit_time": self.last_limit_time,
+            "mse_after_limit": (_per_joint(self.after_limit[0] / self.after_limit[1])
+                                if self.with_flags and self.after_limit[1] else None),
+            "tracking_cost": self.tracking_cost if self.with_e_dot else None,
+        }
+        # floats must be finite for JSON; a diverged run reports None rather than NaN/inf
+        for key, value in out.items():
+            if isinstance(value, float) and not math.isfinite(value):
+                out[key] = None
+            elif isinstance(value, list):
+                out[key] = [None if isinstance(v, float) and not math.isfinite(v) else v for v in value]
+        return out
 
 
 def weight_total_variation(t: np.ndarray, weights: np.ndarray, t0: float, t1: float) -> float:

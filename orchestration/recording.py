@@ -235,12 +235,21 @@ class RunWriter:
             log(f"{ws}/path/desired", rr.LineStrips2D.from_fields(colors=[DESIRED], radii=[0.004],
                                                                    draw_order=DESIRED_DRAW_ORDER), static=True)
 
-    def send_block(self, rows: dict[str, np.ndarray]) -> None:
+    def send_block(self, rows: dict[str, np.ndarray], every: int = 1) -> None:
+        """The next samples (per instance an array (m, n_outputs)). ``every`` > 1 sends the signals
+        at every ``every``-th step only (k % every == 0); the events still look at every sample."""
         m = len(next(iter(rows.values()))) if rows else 0
         if m == 0:
             return
         steps = np.arange(self.next_step, self.next_step + m, dtype=np.int64)
         self.next_step += m
+        self._send_events(steps, {key: rows[inst][:, i] for key, (inst, i) in self.where.items()})
+        if every > 1:
+            keep = np.flatnonzero(steps % every == 0)
+            if len(keep) == 0:
+                return
+            steps, rows = steps[keep], {inst: r[keep] for inst, r in rows.items()}
+            m = len(keep)
         index = time_columns(steps, self.step_ns)
         col = {key: rows[inst][:, i] for key, (inst, i) in self.where.items()}
         send = self.stream.send_columns
@@ -260,7 +269,6 @@ class RunWriter:
             target = np.column_stack([col["reference.x_d"], col["reference.y_d"]])
             send(f"{ws}/target", index, rr.Points2D.columns(positions=target))
             send(f"{ws}/path/desired", index, rr.LineStrips2D.columns(strips=self._segments("desired", target)))
-        self._send_events(steps, col)
 
     def _segments(self, name: str, points: np.ndarray) -> np.ndarray:
         """Per step the segment from the previous sample's point to this one (the first: a dot)."""
@@ -366,8 +374,11 @@ class RunRecorder:
             result = run(scenario, fmu_paths, observer=rec, block_size=BLOCK_SIZE)
     """
 
-    def __init__(self, path: str | Path):
+    def __init__(self, path: str | Path, every: int = 1):
+        if every < 1:
+            raise ValueError(f"record every N-th sample needs N >= 1, got {every}")
         self.path = Path(path)
+        self.every = every  # decimation for long runs: every N-th sample's signals (events: all)
         self.stream: rr.RecordingStream | None = None
         self.writer: RunWriter | None = None
         self.closed = False
@@ -378,6 +389,7 @@ class RunRecorder:
         self.stream = self.writer.stream = _new_stream(self.path, run_blueprint(self.writer))
         self.stream.send_recording_name(scenario.name)
         send_scenario_properties(self.stream, scenario, parameters)
+        self.stream.send_property("recording", rr.AnyValues(record_every=self.every))
         send_view_properties(self.stream)
         self.writer.send_static()
         self.stream.flush()
@@ -385,7 +397,7 @@ class RunRecorder:
     def block(self, time: np.ndarray, rows: dict[str, np.ndarray]) -> None:
         if len(time) and round(time[0] / self.writer.scenario.step_size) != self.writer.next_step:
             raise ValueError(f"block starts at t = {time[0]} s, expected sample {self.writer.next_step}")
-        self.writer.send_block(rows)
+        self.writer.send_block(rows, self.every)
         self.stream.flush()  # the block is in the file before the run goes on
 
     def finish(self, result: RunResult) -> None:

@@ -301,6 +301,37 @@ def test_compare_keeps_runs_of_the_same_scenario_apart(fmu_paths, tmp_path):
     assert {"/paper-ct/tracking/e1", "/paper-ct-2/tracking/e1"} <= set(ents)
 
 
+def test_record_every_keeps_every_nth_step_and_every_event(fmu_paths, tmp_path):
+    """`--record-every N` for long runs: signals at k % N == 0 with their exact values and times,
+    events (here PE off at 0.4 s, CL on) still at the step where they happen."""
+    full, thin = tmp_path / "full.rrd", tmp_path / "thin.rrd"
+    scenario = load_scenario("paper").with_stop_time(3.0)
+    with RunRecorder(full) as rec:
+        result = run(scenario, fmu_paths, observer=rec, block_size=128)
+    with RunRecorder(thin, every=7) as rec:
+        run(scenario, fmu_paths, observer=rec, block_size=128, keep_samples=False)
+    _verify(thin)
+    a, b = read_entities(full), read_entities(thin)
+    kept = np.arange(0, 301, 7)
+    for inst in result.outputs:
+        e = b[f"/fmu/{inst}"]
+        assert np.array_equal(e["step"], kept) and np.array_equal(e["sim_time"], kept * STEP_NS)
+        assert np.array_equal(scalars(e), stack(result, inst)[kept])
+    events = [k for k in a if k.startswith("/events")]
+    assert events and all(np.array_equal(a[k]["step"], b[k]["step"]) and a[k]["TextLog:text"] == b[k]["TextLog:text"]
+                          for k in events if k != "/events/run")
+    assert thin.stat().st_size < full.stat().st_size
+
+
+def test_cli_record_every_is_checked(fmu_dir, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(SystemExit) as exc:
+        main(["run", "paper-ct", "--record-every", "0", "--fmu-dir", str(fmu_dir)])
+    assert exc.value.code == 2 and "--record-every" in capsys.readouterr().err
+    assert main(["run", "paper-ct", "--stop-time", "1", "--record-every", "10", "--fmu-dir", str(fmu_dir)]) == 0
+    assert list(read_entities(tmp_path / "recordings" / "paper-ct.rrd")["/fmu/plant"]["step"]) == list(range(0, 101, 10))
+
+
 def test_fig9_bounds_hold_the_arm_base_and_the_whole_circle_with_a_margin():
     from orchestration.recording_blueprint import WORKSPACE_X, WORKSPACE_Y
 

@@ -142,3 +142,27 @@ def test_sigint_on_a_batch_keeps_finished_runs_and_starts_no_more(shipped, shipp
     assert status == {"paper-ct": "ok", "paper-lqr": "interrupted"}, proc.stdout
     assert not (work / "recordings" / "paper.rrd").exists()
     _verify(work / "recordings" / "paper-ct.rrd", second)
+
+
+def test_bench_measures_and_writes_json(shipped, shipped_fmu_dir):
+    """The speed benchmark as a user runs it (shortened); --update-docs needs a source checkout."""
+    work = shipped.workdir("bench")
+    common = ("--repeats", "1", "--long", "none", "--stop-time", "1", "--fmu-dir", str(shipped_fmu_dir))
+    proc = shipped.cli("bench", *common, "--json", "b.json", cwd=work)
+    _ok(proc)
+    data = json.loads((work / "b.json").read_text())["speed"]
+    assert set(data["runs"]) == {"floor", "cosim", "cosim_recorded"} and "vs floor" in proc.stdout
+    proc = shipped.cli("bench", *common, "--compare", "b.json", cwd=work)
+    _ok(proc)
+    assert "change since" in proc.stdout
+    proc = shipped.cli("bench", *common, "--update-docs", cwd=work)
+    assert proc.returncode == 2 and "source checkout" in proc.stderr and "Traceback" not in proc.stderr
+
+
+def test_a_long_run_streams_and_records_every_nth_sample(shipped, shipped_fmu_dir):
+    work = shipped.workdir("record-every")
+    proc = shipped.cli("run", "paper", "--stop-time", "20", "--record-every", "10", "--summary", "s.json",
+                       "--fmu-dir", str(shipped_fmu_dir), cwd=work)
+    _ok(proc)
+    assert json.loads((work / "s.json").read_text())["samples"] == 2001
+    _verify(work / "recordings" / "paper.rrd")

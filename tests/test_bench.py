@@ -1,0 +1,67 @@
+"""`sotc-cosim bench`: what it measures and writes (never how fast: no timed assertions), and the
+generated tables in the docs (``speed`` blocks) are checked with every docgen block (test_docgen)."""
+from __future__ import annotations
+
+import json
+import math
+
+import pytest
+
+from orchestration.bench_speed import child_run, compare
+from orchestration.cli import main
+
+
+@pytest.fixture(scope="module")
+def short_bench(fmu_dir, tmp_path_factory):
+    out = tmp_path_factory.mktemp("bench") / "b.json"
+    assert main(["bench", "--repeats", "2", "--long", "none", "--stop-time", "2", "--fmu-dir", str(fmu_dir),
+                 "--json", str(out)]) == 0
+    return json.loads(out.read_text())["speed"]
+
+
+def test_bench_reports_floor_cosim_and_recording_side_by_side_with_its_method(short_bench):
+    d = short_bench
+    assert d["method"]["repeats"] == 2 and d["method"]["steps"] == 200
+    assert d["machine"]["cores"] >= 1 and d["machine"]["cpu"]
+    for name in ("floor", "cosim", "cosim_recorded"):
+        r = d["runs"][name]
+        assert len(r["runs"]) == 2 and 0 < r["min"] <= r["median"] <= r["max"]
+    assert d["ratios"]["recorded_over_floor"] == pytest.approx(
+        d["runs"]["cosim_recorded"]["median"] / d["runs"]["floor"]["median"])
+    assert d["rrd_mb"] > 0
+
+
+def test_the_cost_split_adds_up_to_the_instrumented_run(short_bench):
+    split = short_bench["split"]
+    parts = split["us_per_step"]
+    cores = {f"{c} (core, inside the FMU)" for c in ("plant step", "controller evaluate", "controller learn", "reference")}
+    assert cores | {"FMI get/set/doStep plumbing", "master's own work", "recording"} == set(parts)
+    assert all(parts[c] > 0 for c in cores) and parts["FMI get/set/doStep plumbing"] > 0
+    assert math.isclose(sum(parts.values()), split["total_us_per_step"], rel_tol=1e-9)
+    assert set(split["fmi_calls_us_per_step"]) == {"get", "set", "doStep"}
+    assert {f"{c} (core, inside the FMU)" for c in split["floor_us_per_step"]} == cores  # the same cores in the floor
+
+
+def test_compare_prints_each_figure_old_and_new(short_bench, fmu_dir, tmp_path, capsys):
+    old = dict(short_bench, runs={k: dict(v, median=2 * v["median"]) for k, v in short_bench["runs"].items()})
+    text = compare(old, short_bench)
+    assert "floor median s" in text and "-50%" in text
+    (tmp_path / "old.json").write_text(json.dumps({"speed": old}))
+    capsys.readouterr()
+    assert main(["bench", "integrator", "--compare", str(tmp_path / "old.json"), "--fmu-dir", str(fmu_dir)]) == 0
+    assert main(["bench", "--compare", str(tmp_path / "missing.json"), "--fmu-dir", str(fmu_dir)]) == 2
+
+
+def test_bench_refuses_bad_arguments_with_one_line(fmu_dir, capsys):
+    assert main(["bench", "nosuch", "--fmu-dir", str(fmu_dir)]) == 2
+    assert "known: speed" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exc:
+        main(["bench", "--long", "10,-1"])
+    assert exc.value.code == 2
+
+
+def test_a_long_run_is_measured_in_a_child_process(fmu_dir, tmp_path):
+    r = child_run(2.0, fmu_dir, tmp_path / "x.rrd", record_every=5)
+    assert r["stop_time"] == 2.0 and r["record_every"] == 5
+    assert r["peak_rss_mb"] > 10 and r["rrd_mb"] > 0 and r["wall_s"] > 0
+    assert not (tmp_path / "x.rrd").exists()  # the recording is measured, then removed
