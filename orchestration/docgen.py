@@ -292,7 +292,18 @@ class Block:
     slow: bool  # needs more than a few dozen 100 s runs
 
 
+def integrator_table() -> str:
+    """docs/integration.md: the accuracy of RK4 with N substeps against DOP853 (timings: the bench)."""
+    from orchestration.bench import integrator_errors
+
+    errors = integrator_errors()
+    rows = [[str(n), f"{q:.2e}", f"{w:.2e}", "-" if i == 0 else f"{errors[i - 1][1] / q:.1f}"]
+            for i, (n, q, w) in enumerate(errors)]
+    return table(["N substeps", "max abs phi error [rad]", "max abs dphi error [rad/s]", "phi error of N/2 over N"], rows)
+
+
 BLOCKS: dict[str, Block] = {
+    "integrator": Block("docs/integration.md", integrator_table, False),
     "results": Block("README.md", results_table, False),
     "results-verdict": Block("README.md", results_verdict, False),
     "handlings": Block("docs/baselines.md", handlings_table, False),
