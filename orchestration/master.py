@@ -157,7 +157,7 @@ class _Loaded:
 
     def set_parameters(self, values: dict[str, float]) -> None:
         for pname, value in values.items():
-            problem = parameter_problem(self.md, pname, value)
+            problem = parameter_problem(self.md, pname, value, check_range=False)
             if problem:
                 raise ScenarioError(f"{self.name}: {problem}")
             var = self.vars[pname]

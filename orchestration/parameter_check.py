@@ -27,8 +27,10 @@ def model_description(fmu: Path):
     return _model_description(str(fmu), Path(fmu).stat().st_mtime_ns)
 
 
-def parameter_problem(md, name: str, value: float) -> str | None:
-    """Why ``value`` cannot be given to parameter ``name`` of the FMU described by ``md``, or None."""
+def parameter_problem(md, name: str, value: float, check_range: bool = True) -> str | None:
+    """Why ``value`` cannot be given to parameter ``name`` of the FMU described by ``md``, or None.
+    ``check_range=False``: name and type only, the range is left to the FMU (the master's own
+    check, so that an API caller still sees the FMU's refusal as a failed run)."""
     var = next((v for v in md.modelVariables if v.name == name), None)
     if var is None or var.causality != "parameter":
         known = sorted(v.name for v in md.modelVariables if v.causality == "parameter")
@@ -37,6 +39,8 @@ def parameter_problem(md, name: str, value: float) -> str | None:
         return f"'{name}': parameters of type {var.type} are not supported"
     if var.type == "Integer" and (not math.isfinite(value) or float(value) != int(value)):
         return f"'{name}' must be a whole number, got {value!r}"
+    if not check_range:
+        return None
     low = float(var.min) if var.min is not None else -math.inf
     high = float(var.max) if var.max is not None else math.inf
     if not low <= float(value) <= high:

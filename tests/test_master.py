@@ -58,12 +58,18 @@ def test_invalid_parameter_fails_the_run_with_the_reason_and_frees_everything(fm
 
 def test_a_failed_run_does_not_stop_the_others(fmu_dir, tmp_path, capsys, monkeypatch):
     monkeypatch.chdir(tmp_path)  # its recordings go to tmp_path/recordings
-    bad = _scenario_file(tmp_path, "[instances.controller]\nparameters = { kp = -5.0 }\n")
+    # every value inside its declared range, but p3 = 1 makes D(phi) singular: the plant FMU refuses it
+    bad = _scenario_file(tmp_path, "[instances.plant]\nparameters = { p3 = 1.0 }\n")
     code = main(["run", str(bad), "paper-ct", "--stop-time", "0.5", "--fmu-dir", str(fmu_dir)])
     out, err = capsys.readouterr()
     assert code == 1
-    assert "custom: FAILED" in err and "'kp'" in err
+    assert "custom: FAILED" in err and "'p3'" in err
     assert "paper-ct" in out and "ok" in out.split("paper-ct", 1)[1].splitlines()[0]
+    # a value outside its declared range is refused before anything runs: one line, exit 2
+    outside = _scenario_file(tmp_path, "[instances.controller]\nparameters = { kp = -5.0 }\n")
+    assert main(["run", str(outside), "paper-ct", "--stop-time", "0.5", "--fmu-dir", str(fmu_dir)]) == 2
+    out, err = capsys.readouterr()
+    assert err.count("\n") == 1 and "'kp' = -5.0 is outside its valid range" in err and out == ""
 
 
 @pytest.mark.parametrize(
