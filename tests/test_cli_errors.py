@@ -202,3 +202,13 @@ def test_unusable_output_folder_is_refused_before_building(command, tmp_path, no
         assert main([str(bad) if a == "{}" else a for a in command]) == 2
         assert str(bad) in _one_line_error(capsys.readouterr().err)
     assert sorted(tmp_path.iterdir()) == before
+
+
+def test_version_is_printed(capsys):
+    from importlib.metadata import version
+
+    from orchestration.cli import main
+
+    with pytest.raises(SystemExit) as stop:
+        main(["--version"])
+    assert stop.value.code == 0 and capsys.readouterr().out.strip() == f"sotc-cosim {version('sotc-cosim')}"
