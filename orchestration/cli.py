@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import os
 import sys
@@ -196,6 +197,8 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     if args.scheduler is not None and not args.scheduler.strip():
         raise ScenarioError("--scheduler '': give a Dask scheduler address such as tcp://host:8786, or leave it out")
     sweep = grid_from_assignments(args.sweep, args.set) if args.set else load_sweep(args.sweep)
+    if args.stop_time is not None:
+        sweep = dataclasses.replace(sweep, base=sweep.base.with_stop_time(args.stop_time))
     out = check_output_folder(args.out or Path("recordings") / sweep.name, "--out")
     store = SweepStore(out)
     listener = _SweepListener(sweep, out, args.workers, args.scheduler)
@@ -214,6 +217,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         again += ["--workers", str(args.workers)] if args.workers else []
         again += ["--scheduler", args.scheduler] if args.scheduler else []
         again += ["--record"] if args.record else []
+        again += ["--stop-time", repr(args.stop_time)] if args.stop_time is not None else []
         print(f"interrupted: the {len(outcome.rows)} finished points are kept in {out}; resume with: "
               f"{' '.join(again)}", file=sys.stderr)
         return 130
@@ -418,6 +422,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--retry-failed", action="store_true", help="run the stored failed points again")
     p.add_argument("--doc", type=Path, metavar="MD",
                    help="also write the results into this markdown file's generated block (plots beside it)")
+    _add_stop_time(p, "the base scenario's stop time, s (an axis over stop_time still sets its own)")
     _add_fmu_dir(p)
     p.set_defaults(func=_cmd_sweep)
 

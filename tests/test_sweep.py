@@ -1,5 +1,6 @@
 """Sweep files: parsing, validation before anything runs, combinations, seeded random axes, the
 shipped sweeps, the tables and the per-point task (divergence, refusals) in this process."""
+import json
 import math
 
 import numpy as np
@@ -362,3 +363,13 @@ def test_set_makes_a_grid_over_a_scenario_without_a_sweep_file(fmu_dir, tmp_path
     assert code == 1 and "2 points, 1 already in" in capsys.readouterr().out
     jsonl = (tmp_path / "recordings" / "paper-ct-sweep" / "points.jsonl").read_text().splitlines()
     assert len(jsonl) == 3  # the failed point has a second line; the last line of a key wins
+
+
+def test_stop_time_option_sets_the_base_scenario(fmu_dir, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    out = tmp_path / "short"
+    assert main(["sweep", "paper-ct", "--set", "controller.kp=25,50", "--stop-time", "0.2", "--workers", "1",
+                 "--out", str(out), "--fmu-dir", str(fmu_dir)]) == 0
+    rows = [json.loads(line) for line in (out / "points.jsonl").read_text().splitlines()]
+    assert len(rows) == 2 and {r["summary"]["stop_time"] for r in rows} == {0.2}
+    assert {r["summary"]["steps"] for r in rows} == {20}
