@@ -27,6 +27,7 @@ from orchestration.comparison import (
 from fmu_controller.saturation import LIMIT_HANDLINGS
 from orchestration.bench_speed import stored_block
 from orchestration.reproduce import PAPER_TABLE1
+from orchestration.sotc_study import NO_LEARNING
 from orchestration.sweep_results import paired_tail_errors, stored_rows, stored_sweep_block
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -107,9 +108,6 @@ def results_table() -> str:
 
 
 _ADDED = {"accel": ", a handling of the bound (5) the paper does not give"}
-
-
-NO_LEARNING = {"alpha1": 1e-9, "alpha2": 1e-9}  # the critic frozen at its initial weights (paper-notes readings)
 
 
 def _reading_label(scenario: str, overrides: dict[str, float]) -> str:

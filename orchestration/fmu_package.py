@@ -37,6 +37,8 @@ from pathlib import Path
 from xml.dom.minidom import parseString
 from xml.etree.ElementTree import Element, tostring
 
+from fmu_plant.host_check import parse_requirement
+
 BUNDLED = ("fmu_plant", "fmu_controller", "pythonfmu")  # top-level packages renamed into <stem>_lib
 DISTRIBUTION = "sotc-cosim"
 # CPython versions the project's test suite runs the built FMUs on (requires-python >= 3.11)
@@ -76,7 +78,7 @@ def rename_imports(text: str, lib: str) -> str:
     return _IMPORT.sub(lambda m: f"{m[1]}{m[2]}{m[3]}{lib}.{m[4]}", text)
 
 
-def _imports(tree: ast.AST) -> set[str]:
+def top_level_imports(tree: ast.AST) -> set[str]:
     """Top-level names of every absolute import anywhere in ``tree`` (functions included)."""
     names = set()
     for node in ast.walk(tree):
@@ -96,9 +98,8 @@ def project_requirements() -> dict[str, str]:
         lines = tomllib.loads(pyproject.read_text())["project"]["dependencies"]
     out = {}
     for line in lines:
-        req = line.split(";")[0].split("#")[0].strip()
-        name = re.match(r"[A-Za-z0-9_.-]+", req).group(0)
-        spec = ",".join(sorted((s.strip() for s in req[len(name):].split(",") if s.strip()),
+        name, spec = parse_requirement(line.split(";")[0].split("#")[0])
+        spec = ",".join(sorted((s for s in spec.split(",") if s),
                                key=lambda s: (not s.startswith((">", "=")), s)))  # lower bound first
         out[name.lower()] = f"{name}{spec}"
     return out
@@ -190,7 +191,7 @@ def import_closure(starts: list[Path], packages: dict[str, Path]) -> dict[Path, 
 
 def _check_imports(text: str, lib: str, where: Path) -> set[str]:
     """Refuse a bundled package imported under its own name; return the third-party top-level imports."""
-    names = _imports(ast.parse(text, str(where)))
+    names = top_level_imports(ast.parse(text, str(where)))
     escaped = names & set(BUNDLED)
     if escaped:
         raise PackagingError(f"{where}: import of {sorted(escaped)} was not renamed into {lib}")

@@ -25,13 +25,13 @@ from pathlib import Path
 from typing import Protocol, Sequence
 
 import numpy as np
-from fmpy import extract, read_model_description
+from fmpy import extract
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Slave, fmi2Real, fmi2True, fmi2ValueReference, fmi2Warning
 
 from orchestration import interrupt
 from orchestration.fmi_direct import forget_callbacks, make_callbacks
-from orchestration.parameter_check import parameter_problem
+from orchestration.parameter_check import model_description, parameter_problem
 from orchestration.scenario import Scenario, ScenarioError
 
 STATUS_LABELS = ("OK", "WARNING", "DISCARD", "ERROR", "FATAL", "PENDING")
@@ -113,7 +113,7 @@ class _Loaded:
 
     def __init__(self, name: str, fmu_file: Path, workdir: Path, logs: list[LogRecord], clock: _Clock):
         self.name = name
-        self.md = read_model_description(str(fmu_file))
+        self.md = model_description(fmu_file)  # parsed once per FMU file (runs, sweep points, the CLI's check)
         if self.md.coSimulation is None:
             raise ScenarioError(f"{fmu_file} does not support co-simulation")
         self.unzipdir = extract(str(fmu_file), unzipdir=str(workdir / name))

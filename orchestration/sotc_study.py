@@ -112,6 +112,9 @@ def cmd_settings(_: argparse.Namespace) -> None:
               f" law (31) {np.mean(res.out('tuning_law') == 31):.2%}")
 
 
+# the critic frozen at its initial weights (the "no learning" readings, and the README verdict)
+NO_LEARNING: dict[str, float] = {"alpha1": 1e-9, "alpha2": 1e-9}
+
 READINGS: list[tuple[str, dict[str, float]]] = [
     ("chosen reading", {}),
     ("chi_a: as printed, +Lambda1 z_v", {"chi_a_form": 1}),
@@ -132,9 +135,9 @@ READINGS: list[tuple[str, dict[str, float]]] = [
     ("eta from (7) as printed (no coupling terms)", {"eta_form": 1}),
     ("CL from 0.4 s and eta as printed", {"cl_start_time": 0.4, "eta_form": 1}),
     ("no CL", {"cl_enabled": 0}),
-    ("no learning (alpha1 = alpha2 = 1e-9)", {"alpha1": 1e-9, "alpha2": 1e-9}),
-    ("no learning, F_v(z_phi, z_v) := 0", {"alpha1": 1e-9, "alpha2": 1e-9, "fv_error_form": 1}),
-    ("no learning, bound (5) radial", {"alpha1": 1e-9, "alpha2": 1e-9, "limit_handling": 0}),
+    ("no learning (alpha1 = alpha2 = 1e-9)", NO_LEARNING),
+    ("no learning, F_v(z_phi, z_v) := 0", {**NO_LEARNING, "fv_error_form": 1}),
+    ("no learning, bound (5) radial", {**NO_LEARNING, "limit_handling": 0}),
     ("as printed throughout", {"chi_a_form": 1, "limit_handling": 0, "saturation_form": 1, "cl_selection": 1,
                                "cl_replay": 1, "weight_integrator": 1}),
 ]

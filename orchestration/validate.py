@@ -37,7 +37,6 @@ from __future__ import annotations
 import fnmatch
 import logging
 import math
-import re
 import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -203,6 +202,9 @@ def _standalone_problems(path: Path) -> list[str]:
     import ast
     import sys
 
+    from fmu_plant.host_check import parse_requirement
+    from orchestration.fmu_package import top_level_imports
+
     stem = _slave_module(path)
     if not stem:
         return ["resources/slavemodule.txt is missing: not a pythonfmu FMU"]
@@ -212,8 +214,7 @@ def _standalone_problems(path: Path) -> list[str]:
             requirements = z.read("resources/requirements.txt").decode().split()
         except KeyError:
             return ["resources/requirements.txt is missing: a host cannot tell what to install"]
-    allowed = {lib, "__future__"} | {re.match(r"[A-Za-z0-9_.-]+", r).group(0).lower().replace("-", "_")
-                                     for r in requirements if r.strip()}
+    allowed = {lib, "__future__"} | {parse_requirement(r)[0].lower().replace("-", "_") for r in requirements}
     problems = []
     for name, text in sorted(_python_bundle(path).items()):
         if name != f"resources/{stem}.py" and not name.startswith(f"resources/{lib}/"):
@@ -223,12 +224,8 @@ def _standalone_problems(path: Path) -> list[str]:
         except SyntaxError as exc:
             problems.append(f"{name} does not parse: {exc}")
             continue
-        for node in ast.walk(tree):
-            tops = ([a.name for a in node.names] if isinstance(node, ast.Import) else
-                    [node.module] if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module else [])
-            for top in (t.split(".")[0] for t in tops):
-                if top not in allowed and top not in sys.stdlib_module_names:
-                    problems.append(f"{name} imports '{top}', which is neither bundled in {lib} nor in requirements.txt")
+        for top in sorted(top_level_imports(tree) - allowed - set(sys.stdlib_module_names)):
+            problems.append(f"{name} imports '{top}', which is neither bundled in {lib} nor in requirements.txt")
     return problems
 
 
