@@ -319,8 +319,13 @@ def _shutdown(client, cluster, futures, interrupted: bool) -> None:
     (a point in the middle of a long run would otherwise finish first)."""
     if client is None:
         return
+    log = logging.getLogger("distributed")
+    level = log.level
     if interrupted:
         client.cancel(futures, force=True)
+        # the workers are killed on purpose: their connections closing mid-send is expected, and
+        # distributed would log each one with a traceback on the user's terminal
+        log.setLevel(logging.CRITICAL)
         if cluster is not None:
             for nanny in list(cluster.workers.values()):
                 process = getattr(nanny, "process", None)
@@ -330,6 +335,9 @@ def _shutdown(client, cluster, futures, interrupted: bool) -> None:
                         os.kill(pid, 9)  # a worker process this command started
                     except ProcessLookupError:
                         pass
-    client.close(timeout=10)
-    if cluster is not None:
-        cluster.close(timeout=10)
+    try:
+        client.close(timeout=10)
+        if cluster is not None:
+            cluster.close(timeout=10)
+    finally:
+        log.setLevel(level)
