@@ -5,7 +5,7 @@ outputs the torque to hold over [t, t + T) (direct feedthrough: ``tau`` depends 
 the same instant). Learning, if any, happens in ``advance`` during ``doStep(t, T)``.
 
 Cores are plain numpy/float code with no FMI import: the FMU wrapper (``fmu_controller.slave``)
-and the pure closed loop (``orchestration.pure_loop``) call the same methods.
+and the pure closed loop (``orchestration.study.pure_loop``) call the same methods.
 """
 from __future__ import annotations
 
@@ -13,8 +13,8 @@ from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from typing import Any, ClassVar, Sequence
 
+from fmi_slave.parameters import ParameterSpec, check_all
 from fmu_plant.dynamics import ARM_PARAMETER_SPECS, ArmParameters
-from fmu_plant.parameters import ParameterSpec, check_all
 
 # Port names: inputs are named exactly like the outputs that feed them.
 MEASUREMENT_PORTS = ("phi1", "phi2", "dphi1", "dphi2")

@@ -30,10 +30,10 @@ from __future__ import annotations
 import math
 from typing import Sequence
 
+from fmi_slave.parameters import ParameterSpec, positive
 from fmu_controller.base import ControllerCore, OutputSpec
 from fmu_controller.saturation import ACCEL, limit_handling_spec, limit_torque
 from fmu_plant.dynamics import inertia_entries, inverse_dynamics
-from fmu_plant.parameters import ParameterSpec, positive
 
 # the paper's torque bound rho, section 4
 DEFAULT_TAU_MAX = 4.0

@@ -4,7 +4,9 @@ A thin adapter: ``fmu_controller.computed_torque.CtCore`` does the maths, ``Cont
 the ports (shared by every controller FMU).
 """
 from fmu_controller.computed_torque import CtCore
-from fmu_controller.slave import ControllerSlave as Fmi2Slave  # the name pythonfmu's binary looks for
+from fmu_controller.slave import (
+    ControllerSlave as Fmi2Slave,  # the name pythonfmu's binary looks for
+)
 
 
 class CtController(Fmi2Slave):

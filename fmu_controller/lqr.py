@@ -27,9 +27,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from fmi_slave.parameters import ParameterSpec
 from fmu_controller.computed_torque import LIMIT_SPEC, TAU_MAX_SPEC, LinearisingCore
 from fmu_controller.riccati import solve_care
-from fmu_plant.parameters import ParameterSpec
 
 
 def error_system() -> tuple[np.ndarray, np.ndarray]:

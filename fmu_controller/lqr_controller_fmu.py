@@ -2,7 +2,9 @@
 dynamics, saturated on the torque norm. A thin adapter over ``fmu_controller.lqr.LqrCore``.
 """
 from fmu_controller.lqr import LqrCore
-from fmu_controller.slave import ControllerSlave as Fmi2Slave  # the name pythonfmu's binary looks for
+from fmu_controller.slave import (
+    ControllerSlave as Fmi2Slave,  # the name pythonfmu's binary looks for
+)
 
 
 class LqrController(Fmi2Slave):

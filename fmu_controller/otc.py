@@ -67,6 +67,13 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from fmi_slave.parameters import (
+    ParameterError,
+    ParameterSpec,
+    any_real,
+    nonnegative,
+    positive,
+)
 from fmu_controller.base import ControllerCore, OutputSpec
 from fmu_controller.computed_torque import DEFAULT_TAU_MAX
 from fmu_controller.riccati import solve_care
@@ -80,7 +87,6 @@ from fmu_controller.sotc_math import (
     value_gradient,
 )
 from fmu_plant.dynamics import bias_torque, inertia_entries, inertia_matrix
-from fmu_plant.parameters import ParameterError, ParameterSpec, any_real, nonnegative, positive
 
 # The quadratic basis sigma(z) of (OTC-7) is the SOTC's zeta(z) of section 4 (same 10 monomials, same
 # order), and the probing signal of (OTC-10) is the SOTC's PE(t): both come from sotc_math.

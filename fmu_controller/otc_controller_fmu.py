@@ -3,7 +3,9 @@ section 4, reconstructed from Kong et al. (2021) as documented in docs/baselines
 by design. A thin adapter over ``fmu_controller.otc.OtcCore``.
 """
 from fmu_controller.otc import OtcCore
-from fmu_controller.slave import ControllerSlave as Fmi2Slave  # the name pythonfmu's binary looks for
+from fmu_controller.slave import (
+    ControllerSlave as Fmi2Slave,  # the name pythonfmu's binary looks for
+)
 
 
 class OtcController(Fmi2Slave):

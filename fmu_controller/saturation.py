@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import math
 
-from fmu_plant.parameters import ParameterSpec, integer_code
+from fmi_slave.parameters import ParameterSpec, integer_code
 
 LIMIT_HANDLINGS = ("radial", "joint", "accel", "none")
 RADIAL, JOINT, ACCEL, NONE = range(4)

@@ -16,12 +16,16 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from fmi_slave.parameters import ParameterError
+from fmi_slave.slave import DescribedSlave, all_finite
 from fmu_controller.base import (
-    INPUT_UNITS, MEASUREMENT_PORTS, MODEL_PARAMETER_SPECS, REFERENCE_PORTS, ControllerCore,
+    INPUT_UNITS,
+    MEASUREMENT_PORTS,
+    MODEL_PARAMETER_SPECS,
+    REFERENCE_PORTS,
+    ControllerCore,
 )
-from fmu_plant.dynamics import ArmParameters
-from fmu_plant.parameters import ParameterError
-from fmu_plant.slave_base import DescribedSlave, all_finite
+from fmu_plant.dynamics import STEP_SIZE, ArmParameters
 
 INPUT_PORTS = MEASUREMENT_PORTS + REFERENCE_PORTS
 INPUT_DOCS = {
@@ -37,6 +41,8 @@ class ControllerSlave(DescribedSlave):
     """Subclasses set ``CORE`` (a ControllerCore subclass) and ``description``, and list in
     ``STATE_OUTPUTS`` the diagnostics computed from the learning state and time only: those declare
     no dependency on the inputs (``sotc-cosim validate`` checks both declarations by experiment)."""
+
+    STEP_SIZE = STEP_SIZE  # the DefaultExperiment's step: T of the arm model (fmu_plant.dynamics)
 
     CORE: ClassVar[type[ControllerCore]]
     STATE_OUTPUTS: ClassVar[tuple[str, ...]] = ()

@@ -28,8 +28,23 @@ from typing import Any, ClassVar, Sequence
 
 import numpy as np
 
+from fmi_slave.parameters import (
+    ParameterError,
+    ParameterSpec,
+    any_real,
+    nonnegative,
+    positive,
+)
 from fmu_controller.base import ControllerCore, OutputSpec
-from fmu_controller.saturation import ACCEL, JOINT, NONE, clip_box, limit_handling_spec, limit_torque, saturate_norm
+from fmu_controller.saturation import (
+    ACCEL,
+    JOINT,
+    NONE,
+    clip_box,
+    limit_handling_spec,
+    limit_torque,
+    saturate_norm,
+)
 from fmu_controller.small_linalg import solve
 from fmu_controller.sotc_math import (
     N_BASIS,
@@ -44,8 +59,12 @@ from fmu_controller.sotc_math import (
 from fmu_controller.sotc_stack import REPLAYS as CL_REPLAYS
 from fmu_controller.sotc_stack import SELECTIONS as CL_SELECTIONS
 from fmu_controller.sotc_stack import CLStack
-from fmu_plant.dynamics import ArmParameters, bias_torque, forward_dynamics, inertia_entries
-from fmu_plant.parameters import ParameterError, ParameterSpec, any_real, nonnegative, positive
+from fmu_plant.dynamics import (
+    ArmParameters,
+    bias_torque,
+    forward_dynamics,
+    inertia_entries,
+)
 
 TANH1 = math.tanh(1.0)
 # the implicit z_v (``SotcCore._solve_zv``): plain and damped Newton iterations, step halvings, and

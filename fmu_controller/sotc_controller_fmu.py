@@ -5,7 +5,9 @@ A thin adapter: ``fmu_controller.sotc.SotcCore`` does the maths (feedforward (4)
 saturated law (28), critic learning (30)/(31) with concurrent learning), ``ControllerSlave`` the
 ports shared by every controller FMU. The critic learns in ``doStep`` over [t, t + T).
 """
-from fmu_controller.slave import ControllerSlave as Fmi2Slave  # the name pythonfmu's binary looks for
+from fmu_controller.slave import (
+    ControllerSlave as Fmi2Slave,  # the name pythonfmu's binary looks for
+)
 from fmu_controller.sotc import SotcCore
 
 

@@ -9,12 +9,20 @@ Outputs at a communication point are the state there, so no output depends direc
 """
 from __future__ import annotations
 
+from fmi_slave.parameters import ParameterError, ParameterSpec
+from fmi_slave.slave import (
+    DescribedSlave as Fmi2Slave,  # the name pythonfmu's binary looks for
+)
 from fmu_plant.dynamics import (
-    ARM_PARAMETER_SPECS, MAX_SUBSTEPS, STEP_SIZE, ArmParameters, IntegrationError, integrate, substeps_needed,
+    ARM_PARAMETER_SPECS,
+    MAX_SUBSTEPS,
+    STEP_SIZE,
+    ArmParameters,
+    IntegrationError,
+    integrate,
+    substeps_needed,
 )
 from fmu_plant.kinematics import elbow_position, forward_kinematics
-from fmu_plant.parameters import ParameterError, ParameterSpec
-from fmu_plant.slave_base import DescribedSlave as Fmi2Slave  # the name pythonfmu's binary looks for
 
 INITIAL_STATE_SPECS = (
     # |phi| <= 1e3 rad: any angle modulo 2 pi, far from where phi1 + phi2 of (49) could overflow
@@ -29,6 +37,7 @@ DEFAULT_SUBSTEPS = 4
 
 
 class ArmPlant(Fmi2Slave):
+    STEP_SIZE = STEP_SIZE  # the DefaultExperiment's step: T of the arm model (fmu_plant.dynamics)
     description = "Two-link robot arm with Coulomb-like friction (Dien et al. 2023, eq. (1)/(46))"
 
     def __init__(self, **kwargs):

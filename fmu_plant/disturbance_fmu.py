@@ -4,12 +4,16 @@ Outputs are a function of time only (no inputs): connect them to the plant's inp
 """
 from __future__ import annotations
 
+from fmi_slave.parameters import check_all
+from fmi_slave.slave import (
+    TimeFunctionSlave as Fmi2Slave,  # the name pythonfmu's binary looks for
+)
+from fmu_plant.dynamics import STEP_SIZE
 from fmu_plant.perturbation import DISTURBANCE_PARAMETER_SPECS, disturbance_torque
-from fmu_plant.parameters import check_all
-from fmu_plant.slave_base import TimeFunctionSlave as Fmi2Slave  # the name pythonfmu's binary looks for
 
 
 class Disturbance(Fmi2Slave):
+    STEP_SIZE = STEP_SIZE  # the DefaultExperiment's step: T of the arm model (fmu_plant.dynamics)
     description = "Step and sinusoidal disturbance torques for the arm's inputs d1, d2 (robustness studies)"
     TIME_OUTPUTS = ("d1", "d2")
 

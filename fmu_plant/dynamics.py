@@ -23,7 +23,13 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
-from fmu_plant.parameters import ParameterError, ParameterSpec, check_all, nonnegative, positive
+from fmi_slave.parameters import (
+    ParameterError,
+    ParameterSpec,
+    check_all,
+    nonnegative,
+    positive,
+)
 
 STEP_SIZE = 0.01  # s, the paper's sampling period T: the step the stiffness check at construction assumes
 MAX_SUBSTEPS = 1000  # RK4 substeps per communication step, at most (a bound independent of the input)

@@ -8,14 +8,18 @@ from __future__ import annotations
 
 import math
 
+from fmi_slave.parameters import check_all
+from fmi_slave.slave import (
+    DescribedSlave as Fmi2Slave,  # the name pythonfmu's binary looks for
+)
+from fmu_plant.dynamics import STEP_SIZE
 from fmu_plant.perturbation import MAX_SEED, NOISE_PARAMETER_SPECS, NoiseSequence
-from fmu_plant.parameters import check_all
-from fmu_plant.slave_base import DescribedSlave as Fmi2Slave  # the name pythonfmu's binary looks for
 
 PORTS = (("phi1", "rad"), ("phi2", "rad"), ("dphi1", "rad/s"), ("dphi2", "rad/s"))
 
 
 class MeasurementNoise(Fmi2Slave):
+    STEP_SIZE = STEP_SIZE  # the DefaultExperiment's step: T of the arm model (fmu_plant.dynamics)
     description = "Seeded Gaussian measurement noise on the arm's angles and velocities (robustness studies)"
 
     def __init__(self, **kwargs):

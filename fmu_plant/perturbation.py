@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 
-from fmu_plant.parameters import ParameterSpec, nonnegative
+from fmi_slave.parameters import ParameterSpec, nonnegative
 
 
 def _torque(name: str, description: str) -> ParameterSpec:

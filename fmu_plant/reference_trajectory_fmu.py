@@ -5,8 +5,15 @@ Outputs at a communication point t are the reference at t; they depend on time o
 """
 from __future__ import annotations
 
-from fmu_plant.slave_base import TimeFunctionSlave as Fmi2Slave  # the name pythonfmu's binary looks for
-from fmu_plant.trajectory import REFERENCE_SIGNALS, TRAJECTORY_PARAMETER_SPECS, CircleTrajectory
+from fmi_slave.slave import (
+    TimeFunctionSlave as Fmi2Slave,  # the name pythonfmu's binary looks for
+)
+from fmu_plant.dynamics import STEP_SIZE
+from fmu_plant.trajectory import (
+    REFERENCE_SIGNALS,
+    TRAJECTORY_PARAMETER_SPECS,
+    CircleTrajectory,
+)
 
 SIGNAL_DOCS = {
     "phi1_d": ("rad", "Reference angle of joint 1, eq. (48)"),
@@ -21,6 +28,7 @@ SIGNAL_DOCS = {
 
 
 class ReferenceTrajectory(Fmi2Slave):
+    STEP_SIZE = STEP_SIZE  # the DefaultExperiment's step: T of the arm model (fmu_plant.dynamics)
     description = "Circular end-effector path (47) and its joint-space reference (48)"
     TIME_OUTPUTS = REFERENCE_SIGNALS
 

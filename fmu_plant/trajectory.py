@@ -10,8 +10,14 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, fields
 
+from fmi_slave.parameters import (
+    ParameterError,
+    ParameterSpec,
+    any_real,
+    check_all,
+    positive,
+)
 from fmu_plant.kinematics import inverse_kinematics, joint_rates
-from fmu_plant.parameters import ParameterError, ParameterSpec, any_real, check_all, positive
 
 TRAJECTORY_PARAMETER_SPECS: tuple[ParameterSpec, ...] = (
     # a reachable centre lies within l1 + l2 <= 200 m of the base

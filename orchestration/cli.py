@@ -8,11 +8,17 @@ import os
 import sys
 from pathlib import Path
 
-from orchestration import interrupt
-from orchestration.parameter_check import check_scenarios
-from orchestration.build import DEFAULT_FMU_DIR, FMU_SOURCES, BuildError, build_fmus, ensure_built
+from orchestration.fmu_build.build import (
+    DEFAULT_FMU_DIR,
+    FMU_SOURCES,
+    BuildError,
+    build_fmus,
+    ensure_built,
+)
 from orchestration.paths import OutputPathError, check_output_file, check_output_folder
-from orchestration.scenario import ScenarioError, available_scenarios, load_scenario
+from orchestration.run import interrupt
+from orchestration.run.parameter_check import check_scenarios
+from orchestration.run.scenario import ScenarioError, available_scenarios, load_scenario
 
 DEFAULT_SCENARIO = "paper"
 MAX_BLOCK = 20_000  # samples per block handed to the recorder at most (about 12 MB of buffers for paper)
@@ -52,9 +58,9 @@ def _run_each(scenarios, paths, recording_for=None, keep_samples: bool = True, r
     ``progress_label``: show the progress under that label. Returns (result, summary) pairs;
     ``keep_samples=False`` streams each run (bounded memory: the summary is computed on the way
     and the result holds no samples)."""
-    from orchestration.master import run
     from orchestration.progress import Progress
-    from orchestration.summary import SummaryObserver, summarize
+    from orchestration.run.master import run
+    from orchestration.run.summary import SummaryObserver, summarize
 
     progress = Progress(len(scenarios), progress_label) if progress_label else None
     out = []
@@ -67,7 +73,7 @@ def _run_each(scenarios, paths, recording_for=None, keep_samples: bool = True, r
         if target is None:
             result = run(scenario, paths, observer=observers or None, keep_samples=keep_samples)
         else:
-            from orchestration.recording import BLOCK_SIZE, RunRecorder
+            from orchestration.recording.writer import BLOCK_SIZE, RunRecorder
 
             # a thinned recording gets proportionally longer blocks: chunks of the usual size, and
             # fewer of them (the recording stream's bookkeeping grows with their number)
@@ -92,7 +98,7 @@ def _exit_code(summaries: list[dict]) -> int:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    from orchestration.summary import format_table, write_summary
+    from orchestration.run.summary import format_table, write_summary
 
     if args.summary and len(args.scenarios) > 1:
         raise ScenarioError("--summary takes one scenario; run them one by one")
@@ -104,7 +110,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         if args.recording:
             check_output_file(args.recording, "--recording")
         elif not args.no_recording:
-            from orchestration.recording import default_recording_path
+            from orchestration.recording.writer import default_recording_path
 
             for scenario in scenarios:
                 check_output_file(default_recording_path(scenario.name), "recording")
@@ -115,7 +121,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     def recording_for(scenario):
         if args.no_recording:
             return None
-        from orchestration.recording import default_recording_path
+        from orchestration.recording.writer import default_recording_path
 
         target = args.recording or default_recording_path(scenario.name)
         if target in written:  # the same scenario twice: keep both
@@ -134,8 +140,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 
 def _cmd_compare(args: argparse.Namespace) -> int:
-    from orchestration.recording import record_comparison
-    from orchestration.summary import format_table
+    from orchestration.recording.writer import record_comparison
+    from orchestration.run.summary import format_table
 
     results, summaries = zip(*_run_each(*_prepare(args.scenarios, args.stop_time, args.fmu_dir,
                                                   lambda _: check_output_file(args.recording, "--recording"))))
@@ -145,8 +151,12 @@ def _cmd_compare(args: argparse.Namespace) -> int:
 
 
 def _cmd_reproduce(args: argparse.Namespace) -> int:
-    from orchestration.recording import record_comparison
-    from orchestration.reproduce import compact_table, reproduce_scenarios, write_table
+    from orchestration.recording.writer import record_comparison
+    from orchestration.study.reproduce import (
+        compact_table,
+        reproduce_scenarios,
+        write_table,
+    )
 
     def check(_) -> None:
         check_output_folder(args.out, "--out")
@@ -188,9 +198,9 @@ class _SweepListener:
 
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
-    from orchestration.sweep import execute
-    from orchestration.sweep_file import grid_from_assignments, load_sweep
-    from orchestration.sweep_results import SweepStore, write_doc, write_reports
+    from orchestration.sweep.results import SweepStore, write_doc, write_reports
+    from orchestration.sweep.runner import execute
+    from orchestration.sweep.spec import grid_from_assignments, load_sweep
 
     if args.workers is not None and args.workers < 1:
         raise ScenarioError(f"--workers {args.workers}: give at least 1")
@@ -232,7 +242,7 @@ def _fmu_files(names: list[str], fmu_dir: Path) -> list[Path]:
     unknown = [n for n in names if n not in FMU_SOURCES and not Path(n).is_file()]
     if unknown:
         raise BuildError(f"no FMU {unknown}: give a model ({', '.join(FMU_SOURCES)}) or a .fmu path")
-    from orchestration.validate import archive_problems
+    from orchestration.compliance.validate import archive_problems
 
     for name in names:
         if name not in FMU_SOURCES:
@@ -244,7 +254,7 @@ def _fmu_files(names: list[str], fmu_dir: Path) -> list[Path]:
 
 
 def _cmd_validate(args: argparse.Namespace) -> int:
-    from orchestration.validate import format_report, validate_fmus
+    from orchestration.compliance.validate import format_report, validate_fmus
 
     report = validate_fmus(_fmu_files(args.fmus, args.fmu_dir))
     print(format_report(report))
@@ -252,7 +262,7 @@ def _cmd_validate(args: argparse.Namespace) -> int:
 
 
 def _cmd_cross_check(args: argparse.Namespace) -> int:
-    from orchestration.cross_check import SOURCE_SCENARIO, generate
+    from orchestration.compliance.cross_check import SOURCE_SCENARIO, generate
 
     check_output_folder(args.out, "--out")
     models = args.models or list(FMU_SOURCES)
@@ -264,7 +274,7 @@ def _cmd_cross_check(args: argparse.Namespace) -> int:
 
 
 def _cmd_export_ssp(args: argparse.Namespace) -> int:
-    from orchestration.ssp import export_ssp
+    from orchestration.compliance.ssp import export_ssp
 
     check_output_file(args.out, "--out")
     scenario = load_scenario(args.scenario)
@@ -278,15 +288,15 @@ def _cmd_export_ssp(args: argparse.Namespace) -> int:
 def _cmd_bench(args: argparse.Namespace) -> int:
     import json
 
-    from orchestration.bench import BENCHMARKS, DEFAULT_BENCHMARKS
+    from orchestration.bench.design import BENCHMARKS, DEFAULT_BENCHMARKS
 
     names = args.names or list(DEFAULT_BENCHMARKS)
     unknown = [n for n in names if n not in BENCHMARKS]
     if unknown:
         raise ScenarioError(f"no benchmark {unknown}; known: {', '.join(BENCHMARKS)}")
     if args.update_docs:
-        from orchestration.bench_speed import DOC_BLOCKS
-        from orchestration.build import PACKAGE_ROOT
+        from orchestration.bench.speed import DOC_BLOCKS
+        from orchestration.fmu_build.build import PACKAGE_ROOT
 
         if "speed" not in names:
             raise ScenarioError("--update-docs writes the speed benchmark's tables: run it (sotc-cosim bench speed)")
@@ -305,7 +315,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
         text, results[name] = BENCHMARKS[name](args)
         print(text)
     if old is not None and "speed" in results:
-        from orchestration.bench_speed import compare
+        from orchestration.bench.speed import compare
 
         print(compare(old.get("speed", old), results["speed"]))
     if args.json is not None:
@@ -313,7 +323,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
         args.json.write_text(json.dumps(results, indent=1) + "\n")
         print(f"wrote {args.json}")
     if args.update_docs:
-        from orchestration.bench_speed import update_docs
+        from orchestration.bench.speed import update_docs
 
         for path in update_docs(results["speed"], PACKAGE_ROOT):
             print(f"wrote {path}")

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from orchestration.build import FMU_SOURCES, ensure_built
+from orchestration.fmu_build.build import FMU_SOURCES, ensure_built
 
 
 @pytest.fixture(scope="session")

@@ -1,10 +1,10 @@
-"""The test suite's direct FMI driver: ``orchestration.fmi_direct.FmuInstance`` with the
+"""The test suite's direct FMI driver: ``orchestration.run.fmi_direct.FmuInstance`` with the
 (file, unzip folder, instance name) signature the tests use."""
 from __future__ import annotations
 
 from pathlib import Path
 
-from orchestration.fmi_direct import FmuInstance
+from orchestration.run.fmi_direct import FmuInstance
 
 
 class DrivenFmu(FmuInstance):

@@ -1,5 +1,5 @@
 """A small co-simulation loop over built FMUs for tests that need FMI calls between steps
-(state save/restore, several instances, reset): same call order as ``orchestration.master``.
+(state save/restore, several instances, reset): same call order as ``orchestration.run.master``.
 
 ``loop_models(model)`` picks the FMUs a model is exercised with: the plant and the reference join a
 model when they feed at least one of its inputs (every controller then runs in its closed loop);
@@ -14,7 +14,6 @@ from pathlib import Path
 
 import numpy as np
 from fmpy import read_model_description
-
 from fmu_driver import DrivenFmu
 
 T = 0.01

@@ -12,7 +12,6 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).parent))
 
 from fmpy.fmi1 import FMICallException  # noqa: E402
-
 from fmu_driver import DrivenFmu  # noqa: E402
 
 T = 0.01

@@ -4,7 +4,7 @@
 
 Runs every shipped scenario through the FMUs (no recording) and writes, under ``tests/data/``:
 
-- ``reference_summaries.json``: each scenario's summary (``orchestration.summary.summarize``)
+- ``reference_summaries.json``: each scenario's summary (``orchestration.run.summary.summarize``)
   without its wall time;
 - ``reference_paper.npz``: every output of every instance of the ``paper`` run at every
   ``DECIMATE``-th sample and at the last one, keyed ``instance.variable``, plus ``time``.
@@ -65,9 +65,9 @@ NUDGES = (("phi1_0", np.inf), ("phi1_0", -np.inf), ("phi2_0", np.inf))  # one ul
 
 
 def _sensitivity(paths: dict) -> dict[str, dict[str, float]]:
-    from orchestration.master import run
-    from orchestration.scenario import available_scenarios, load_scenario
-    from orchestration.summary import summarize
+    from orchestration.run.master import run
+    from orchestration.run.scenario import available_scenarios, load_scenario
+    from orchestration.run.summary import summarize
 
     out: dict[str, dict[str, float]] = {}
     for name in available_scenarios():
@@ -94,10 +94,10 @@ def _sensitivity(paths: dict) -> dict[str, dict[str, float]]:
 
 
 def main(argv: list[str]) -> int:
-    from orchestration.build import FMU_SOURCES, ensure_built
-    from orchestration.master import run
-    from orchestration.scenario import available_scenarios, load_scenario
-    from orchestration.summary import summarize
+    from orchestration.fmu_build.build import FMU_SOURCES, ensure_built
+    from orchestration.run.master import run
+    from orchestration.run.scenario import available_scenarios, load_scenario
+    from orchestration.run.summary import summarize
 
     DATA.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="sotc_ref_") as tmp:

@@ -4,11 +4,16 @@ import math
 import numpy as np
 import pytest
 
+from fmi_slave.parameters import ParameterError
 from fmu_plant.dynamics import (
-    ArmParameters, coriolis_matrix, forward_dynamics, inertia_entries, inertia_matrix, inverse_dynamics,
+    ArmParameters,
+    coriolis_matrix,
+    forward_dynamics,
+    inertia_entries,
+    inertia_matrix,
+    inverse_dynamics,
 )
 from fmu_plant.kinematics import forward_kinematics, inverse_kinematics
-from fmu_plant.parameters import ParameterError
 
 RNG = np.random.default_rng(7)
 P = ArmParameters()

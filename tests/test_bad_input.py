@@ -10,10 +10,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 from fmpy.fmi1 import FMICallException
+from fmu_driver import DrivenFmu
 from scipy.integrate import solve_ivp
 
-from fmu_driver import DrivenFmu
-from fmu_plant.dynamics import ArmParameters, IntegrationError, forward_dynamics, integrate, rk4_step
+from fmu_plant.dynamics import (
+    ArmParameters,
+    IntegrationError,
+    forward_dynamics,
+    integrate,
+    rk4_step,
+)
 
 T = 0.01
 HANG_SECONDS = 20  # the audit saw minutes; a refused or working call takes well under a second

@@ -1,6 +1,6 @@
 """Tests of the baseline controller cores: computed torque (CtCore), LQR (LqrCore), OTC (OtcCore).
 
-Closed-loop checks use the pure sampled loop ``orchestration.pure_loop.simulate`` (the FMU
+Closed-loop checks use the pure sampled loop ``orchestration.study.pure_loop.simulate`` (the FMU
 master's call order without FMUs); the numbers in docs/baselines.md come from `sotc-cosim reproduce`.
 """
 from __future__ import annotations
@@ -11,16 +11,21 @@ import math
 import numpy as np
 import pytest
 
+from fmi_slave.parameters import ParameterError
 from fmu_controller.computed_torque import CtCore
 from fmu_controller.lqr import LqrCore, error_system, lqr_gain
 from fmu_controller.otc import OtcCore
 from fmu_controller.saturation import clip_box, saturate_norm
-from fmu_controller.sotc_math import basis, basis_jacobian, matrix_to_weights, probing_signal
+from fmu_controller.sotc_math import (
+    basis,
+    basis_jacobian,
+    matrix_to_weights,
+    probing_signal,
+)
 from fmu_plant.dynamics import forward_dynamics, inertia_matrix, inverse_dynamics
-from fmu_plant.parameters import ParameterError
 from fmu_plant.trajectory import CircleTrajectory
-from orchestration.metrics import tracking_metrics
-from orchestration.pure_loop import simulate
+from orchestration.run.metrics import tracking_metrics
+from orchestration.study.pure_loop import simulate
 
 STOP_TIME = 100.0  # s, the paper's run
 

@@ -7,7 +7,7 @@ import math
 
 import pytest
 
-from orchestration.bench_speed import child_run, compare
+from orchestration.bench.speed import child_run, compare
 from orchestration.cli import main
 
 

@@ -26,7 +26,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from fmu_driver import DrivenFmu
 
 HOST_SOURCE = Path(__file__).resolve().parent.parent / "docs" / "c_host" / "host.c"

@@ -15,7 +15,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from orchestration.cli import main
-from orchestration.scenario import MAX_STEPS, Scenario, ScenarioError, load_scenario
+from orchestration.run.scenario import MAX_STEPS, Scenario, ScenarioError, load_scenario
 
 PAPER_HEAD = 'extends = "paper"\n'
 SCENARIO_CASES = {  # file text -> what the message must name

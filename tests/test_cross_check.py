@@ -9,9 +9,9 @@ from fmpy.cross_check import validate_result
 from fmpy.cross_check.validate_vendor_repo import validate_test_fmu
 from fmpy.util import read_csv, read_ref_opt_file
 
-from orchestration.build import FMU_SOURCES
 from orchestration.cli import main
-from orchestration.cross_check import model_dir
+from orchestration.compliance.cross_check import model_dir
+from orchestration.fmu_build.build import FMU_SOURCES
 
 STOP = 3.0
 # fmpy passes doStep the step h_k = t_{k+1} - t_k of its time grid, which differs from 0.01 by an
@@ -47,9 +47,9 @@ def test_layout_and_resimulation_with_fmpy(cross_check_dir, model):
 
 def test_plant_reference_reproduces_the_closed_loop_it_was_driven_from(cross_check_dir, fmu_paths):
     """The plant's inputs are the loop's torques: driven alone by them it retraces the loop bitwise."""
-    from orchestration.master import run
-    from orchestration.scenario import load_scenario
-    from orchestration.cross_check import SOURCE_SCENARIO
+    from orchestration.compliance.cross_check import SOURCE_SCENARIO
+    from orchestration.run.master import run
+    from orchestration.run.scenario import load_scenario
 
     loop = run(load_scenario(SOURCE_SCENARIO).with_stop_time(STOP), fmu_paths)
     reference = read_csv(model_dir(cross_check_dir, "ArmPlant") / "ArmPlant_ref.csv")

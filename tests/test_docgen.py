@@ -3,7 +3,7 @@ from pathlib import Path
 
 import pytest
 
-from orchestration import docgen
+from orchestration.reports import docgen
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -21,14 +21,14 @@ SLOW = [n for n, b in docgen.BLOCKS.items() if b.slow]
 @pytest.mark.parametrize("name", FAST)
 def test_quick_generated_block_matches_the_code(name):
     assert docgen.committed(name) == docgen.render(name), \
-        f"run: python -m orchestration.docgen write {name}"
+        f"run: python -m orchestration.reports.docgen write {name}"
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", SLOW)
 def test_long_generated_block_matches_the_code(name):
     assert docgen.committed(name) == docgen.render(name), \
-        f"run: python -m orchestration.docgen write {name}"
+        f"run: python -m orchestration.reports.docgen write {name}"
 
 
 def test_a_hand_edited_number_is_caught(tmp_path, monkeypatch):

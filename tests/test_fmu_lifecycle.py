@@ -1,7 +1,7 @@
 """FMU lifecycle: independent instances, fmi2Reset, terminate/free orders, and calls made in the
 wrong state, for every FMU in FMU_SOURCES.
 
-Decisions (implemented in ``fmu_plant/slave_base.py``), per FMI 2.0 state:
+Decisions (implemented in ``fmi_slave/slave.py``), per FMI 2.0 state:
 
 | call                          | instantiated | initialization | stepping | terminated |
 | ----------------------------- | ------------ | -------------- | -------- | ---------- |
@@ -27,10 +27,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 from fmpy.fmi1 import FMICallException
-
 from fmu_driver import DrivenFmu
 from fmu_loop import drive, same_bits
-from orchestration.build import FMU_SOURCES
+
+from orchestration.fmu_build.build import FMU_SOURCES
 
 T = 0.01
 STATES = ("instantiated", "initialization", "stepping", "terminated")

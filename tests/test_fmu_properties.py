@@ -25,11 +25,11 @@ from contextlib import contextmanager
 
 import pytest
 from fmpy.fmi1 import FMICallException
+from fmu_driver import DrivenFmu
 from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 
-from fmu_driver import DrivenFmu
-from orchestration.build import FMU_SOURCES
+from orchestration.fmu_build.build import FMU_SOURCES
 
 T = 0.01
 SETTINGS = settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow])

@@ -15,9 +15,9 @@ perturb the run).
 import numpy as np
 import pytest
 from fmpy.fmi1 import FMICallException
-
 from fmu_loop import Loop, loop_models, same_bits
-from orchestration.build import FMU_SOURCES
+
+from orchestration.fmu_build.build import FMU_SOURCES
 
 K, M = 25, 30  # crosses t = 0.4 s, where the SOTC's probing and CL recording stop
 

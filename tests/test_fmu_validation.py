@@ -2,7 +2,7 @@
 import pytest
 from fmpy.validation import validate_fmu
 
-from orchestration.build import FMU_SOURCES
+from orchestration.fmu_build.build import FMU_SOURCES
 
 
 @pytest.mark.parametrize("model", list(FMU_SOURCES))

@@ -2,7 +2,7 @@
 ``fmpy.ssp.simulate_ssp`` and the Open Simulation Platform engine (libcosim via libcosimpy).
 
 - each SSP engine equals, bit for bit, a direct-FMI emulation of its documented step semantics
-  (``orchestration.interop.run_jacobi``), so every difference to the master is explained by them;
+  (``orchestration.compliance.interop.run_jacobi``), so every difference to the master is explained by them;
 - where the semantics agree the trajectories agree: libcosim propagates initial values, so its first
   step holds the same torque as the master's and the plant state at t_1 is identical; the
   reference trajectory depends on time only and differs by rounding of the time grid alone;
@@ -15,9 +15,15 @@ import numpy as np
 import pytest
 
 from orchestration.cli import main
-from orchestration.interop import max_difference, run_fmpy_ssp, run_jacobi, run_libcosim, run_master
-from orchestration.scenario import load_scenario
-from orchestration.ssp import export_ssp
+from orchestration.compliance.interop import (
+    max_difference,
+    run_fmpy_ssp,
+    run_jacobi,
+    run_libcosim,
+    run_master,
+)
+from orchestration.compliance.ssp import export_ssp
+from orchestration.run.scenario import load_scenario
 
 STOP = 3.0
 # measured max |libcosim - master| over the paper's first 3 s (see docs/interop.md), with margin
@@ -163,8 +169,8 @@ def test_every_engine_applies_the_exported_parameters(fmu_paths, tmp_path):
 def test_a_parameterised_copy_starts_from_its_values_and_refuses_unknown_names(fmu_paths, tmp_path):
     from fmpy import read_model_description
 
-    from orchestration.fmi_direct import FmuInstance
-    from orchestration.ssp import parameterised_copy
+    from orchestration.compliance.ssp import parameterised_copy
+    from orchestration.run.fmi_direct import FmuInstance
 
     source = fmu_paths["ArmPlant"]
     md = read_model_description(str(source))

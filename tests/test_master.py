@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from orchestration.cli import main
-from orchestration.master import run
-from orchestration.scenario import ScenarioError, load_scenario
+from orchestration.run.master import run
+from orchestration.run.scenario import ScenarioError, load_scenario
 
 
 def test_paper_ct_tracks_the_circle_within_the_torque_bound(fmu_dir, tmp_path, monkeypatch):
@@ -100,7 +100,7 @@ def test_results_carry_every_parameter_the_fmus_ran_with(fmu_paths):
 
 
 def test_fmu_messages_are_stamped_with_their_sample(fmu_paths, tmp_path):
-    from orchestration.master import _Clock, _LogSink
+    from orchestration.run.master import _Clock, _LogSink
 
     bad = run(load_scenario(str(_scenario_file(tmp_path, "[instances.plant]\nparameters = { p1 = -1.0 }\n"))), fmu_paths)
     assert bad.failed and [r.sample for r in bad.logs if "'p1'" in r.message] == [-1]  # set-up

@@ -1,4 +1,4 @@
-"""Hand-computable cases for orchestration.metrics.tracking_metrics."""
+"""Hand-computable cases for orchestration.run.metrics.tracking_metrics."""
 from __future__ import annotations
 
 import json
@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from orchestration.metrics import TrackingMetrics, settle_time, tracking_metrics
+from orchestration.run.metrics import TrackingMetrics, settle_time, tracking_metrics
 
 T = 0.01
 
@@ -179,7 +179,7 @@ def test_post_transient_and_after_limit_metrics_leave_out_what_they_say():
 
 
 def test_limit_active_reads_every_flag_the_controller_has():
-    from orchestration.metrics import limit_active
+    from orchestration.run.metrics import limit_active
 
     out = {"tau_a_bounded": np.array([0.0, 1.0, 0.0, 0.0]), "tau_limited": np.array([0.0, 0.0, 0.0, 1.0]),
            "W1": np.ones(4)}

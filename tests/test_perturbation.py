@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from fmu_plant.perturbation import NOISE_BLOCK, NoiseSequence, disturbance_torque
-from orchestration.master import run
-from orchestration.scenario import load_scenario
+from orchestration.run.master import run
+from orchestration.run.scenario import load_scenario
 
 
 def test_disturbance_is_a_step_plus_a_sinusoid():

@@ -4,12 +4,11 @@ import math
 import numpy as np
 import pytest
 from fmpy.fmi1 import FMICallException
-
-from fmu_plant.dynamics import ArmParameters
-from fmu_plant.kinematics import forward_kinematics
-from fmu_plant.parameters import ParameterError
 from fmu_driver import DrivenFmu
-from orchestration.bench import dop853_zoh, excitation_torque as torque_profile
+
+from fmu_plant.kinematics import forward_kinematics
+from orchestration.bench.design import dop853_zoh
+from orchestration.bench.design import excitation_torque as torque_profile
 
 T = 0.01
 

@@ -14,10 +14,15 @@ from fmpy import read_model_description
 from rerun.chunk import RrdReader
 
 from orchestration.cli import main
-from orchestration.master import run
-from orchestration.recording import APPLICATION_ID, BLOCK_SIZE, RunRecorder, record_comparison
-from orchestration.recording_blueprint import VIEW_DESCRIPTIONS
-from orchestration.scenario import load_scenario
+from orchestration.recording.blueprint import VIEW_DESCRIPTIONS
+from orchestration.recording.writer import (
+    APPLICATION_ID,
+    BLOCK_SIZE,
+    RunRecorder,
+    record_comparison,
+)
+from orchestration.run.master import run
+from orchestration.run.scenario import load_scenario
 
 STEP_NS = 10_000_000  # T = 0.01 s
 
@@ -214,9 +219,9 @@ def test_an_exception_during_the_run_still_finalises_the_file(fmu_paths, tmp_pat
 KILLED_SCRIPT = textwrap.dedent('''
     import sys, time
     from pathlib import Path
-    from orchestration.master import run
-    from orchestration.recording import RunRecorder
-    from orchestration.scenario import load_scenario
+    from orchestration.run.master import run
+    from orchestration.recording.writer import RunRecorder
+    from orchestration.run.scenario import load_scenario
 
     class StopsAfterThreeBlocks:
         def __init__(self, recorder):
@@ -333,7 +338,7 @@ def test_cli_record_every_is_checked(fmu_dir, tmp_path, monkeypatch, capsys):
 
 
 def test_fig9_bounds_hold_the_arm_base_and_the_whole_circle_with_a_margin():
-    from orchestration.recording_blueprint import WORKSPACE_X, WORKSPACE_Y
+    from orchestration.recording.blueprint import WORKSPACE_X, WORKSPACE_Y
 
     theta = np.linspace(0.0, 2.0 * np.pi, 361)
     xs = np.concatenate(([0.0, 1.88], 1.0 + 0.5 * np.sin(0.5 * theta + np.pi / 2)))  # base, E(0), circle (47)

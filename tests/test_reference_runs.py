@@ -10,11 +10,11 @@ import math
 
 import numpy as np
 import pytest
-
-from orchestration.master import run
-from orchestration.scenario import available_scenarios, load_scenario
-from orchestration.summary import summarize
 from make_reference_runs import DATA, comparable_summary, reference_indices
+
+from orchestration.run.master import run
+from orchestration.run.scenario import available_scenarios, load_scenario
+from orchestration.run.summary import summarize
 
 RTOL = 1e-12
 SENSITIVITY_FACTOR = 10.0
@@ -79,7 +79,7 @@ def test_summary_equals_the_reference_run(name, fmu_paths):
 @pytest.mark.slow
 def test_a_streamed_run_has_the_reference_summary_without_holding_its_samples(fmu_paths):
     """What `sotc-cosim run` does: the master streams blocks to the summary, keeps no arrays."""
-    from orchestration.summary import SummaryObserver
+    from orchestration.run.summary import SummaryObserver
 
     obs = SummaryObserver()
     result = run(load_scenario("paper"), fmu_paths, observer=obs, keep_samples=False)

@@ -6,13 +6,17 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from rerun.chunk import RrdReader
 
-import orchestration.summary as summary_module
+import orchestration.run.summary as summary_module
 from orchestration.cli import main
-from orchestration.comparison import run_metrics
-from orchestration.reproduce import COLUMNS, PAPER_TABLE1, REPRODUCE_RUNS, REPRODUCE_SCENARIOS
+from orchestration.study.comparison import run_metrics
+from orchestration.study.reproduce import (
+    COLUMNS,
+    PAPER_TABLE1,
+    REPRODUCE_RUNS,
+    REPRODUCE_SCENARIOS,
+)
 
 
 def _read(path):

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from orchestration.sweep_file import load_sweep
-from orchestration.sweep_results import table_csv
+from orchestration.sweep.results import table_csv
+from orchestration.sweep.spec import load_sweep
 
 DOCS = Path(__file__).resolve().parent.parent / "docs"
 

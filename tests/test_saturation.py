@@ -4,14 +4,18 @@ import math
 import numpy as np
 import pytest
 
+from fmi_slave.parameters import ParameterError
 from fmu_controller.computed_torque import CtCore
 from fmu_controller.lqr import LqrCore
 from fmu_controller.otc import OtcCore
 from fmu_controller.saturation import (
-    LIMIT_HANDLINGS, SHRINK_STEPS, limit_torque, saturate_norm, shrink_into_disc,
+    LIMIT_HANDLINGS,
+    SHRINK_STEPS,
+    limit_torque,
+    saturate_norm,
+    shrink_into_disc,
 )
 from fmu_controller.sotc import SotcCore
-from fmu_plant.parameters import ParameterError
 
 D = (3.957, 0.438, 0.196)  # inertia entries (D11, D12, D22) at phi2 = 0 (paper's constants)
 

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from orchestration.build import FMU_SOURCES
+from orchestration.fmu_build.build import FMU_SOURCES
 
 RERUN = str(Path(sys.executable).with_name("rerun"))
 CONTROLLER_SCENARIOS = ("paper", "paper-otc", "paper-ct", "paper-lqr")

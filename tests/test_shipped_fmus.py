@@ -6,14 +6,13 @@ from __future__ import annotations
 import html
 import json
 import math
-import os
 import subprocess
 import zipfile
 from pathlib import Path
 
 import pytest
 
-from orchestration.build import FMU_SOURCES
+from orchestration.fmu_build.build import FMU_SOURCES
 
 MODELS = list(FMU_SOURCES)
 DRIVER = """
@@ -120,7 +119,7 @@ def _variant_build(shipped, tmp_path: Path) -> Path:
     kin.write_text(text.replace(old, "    return 1.0 + l1 * math.cos(phi1) + l2 * math.cos(a), l1 * math.sin(phi1) + l2 * math.sin(a)"))
     out = tmp_path / "variant-fmus"
     env = shipped.env(PYTHONPATH=str(src))
-    proc = subprocess.run([str(shipped.python), "-m", "orchestration.build", "--out", str(out), "ArmPlant"],
+    proc = subprocess.run([str(shipped.python), "-m", "orchestration.fmu_build.build", "--out", str(out), "ArmPlant"],
                           cwd=src, env=env, capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr
     return out / "ArmPlant.fmu"

@@ -12,21 +12,21 @@ import numpy as np
 import pytest
 from scipy import integrate, optimize
 
+from fmi_slave.parameters import ParameterError
 from fmu_controller import sotc_math as sm
 from fmu_controller.saturation import accel_projection
 from fmu_controller.sotc import SotcCore
 from fmu_plant.dynamics import ArmParameters, inertia_matrix, rk4_step
-from fmu_plant.parameters import ParameterError
 from fmu_plant.trajectory import CircleTrajectory
-from orchestration.metrics import weight_total_variation as metrics_weight_tv
-from orchestration.pure_loop import metrics, simulate
-from orchestration.scenario import load_scenario
+from orchestration.run.metrics import weight_total_variation as metrics_weight_tv
+from orchestration.run.scenario import load_scenario
+from orchestration.study.pure_loop import metrics, simulate
 
 T = 0.01
 
 
 def scenario_params(name: str) -> dict[str, float]:
-    """The SOTC parameters a scenario file (orchestration/scenarios/<name>.toml) sets."""
+    """The SOTC parameters a scenario file (orchestration/run/scenarios/<name>.toml) sets."""
     return dict(load_scenario(name).instances["controller"].parameters)
 
 
@@ -559,7 +559,7 @@ def test_cl_settles_the_weights_while_pe_alone_keeps_them_moving(paper_run, pe_o
 def test_learned_critic_is_a_valid_value_near_the_lqr_solution(paper_run):
     """W of the paper setting is positive definite (a value function must be; the paper's W is not)
     and within 40 % of the LQR value of the linearised error dynamics at a mid-circle configuration."""
-    from orchestration.sotc_study import PAPER_W, lqr_weights
+    from orchestration.study.sotc_study import PAPER_W, lqr_weights
 
     ctrl, _ = paper_run
     assert np.linalg.eigvalsh(sm.weights_to_matrix(ctrl.W))[0] > 0.0

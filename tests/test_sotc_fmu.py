@@ -4,13 +4,13 @@ import math
 import numpy as np
 import pytest
 from fmpy.fmi1 import FMICallException
-
 from fmu_driver import DrivenFmu
-from orchestration.master import run
-from orchestration.recording import BLOCK_SIZE, RunRecorder
-from orchestration.metrics import weight_total_variation
-from orchestration.scenario import load_scenario
-from orchestration.summary import summarize
+
+from orchestration.recording.writer import BLOCK_SIZE, RunRecorder
+from orchestration.run.master import run
+from orchestration.run.metrics import weight_total_variation
+from orchestration.run.scenario import load_scenario
+from orchestration.run.summary import summarize
 
 WEIGHTS = [f"W{k}" for k in range(1, 11)]
 
@@ -81,9 +81,9 @@ def test_invalid_parameters_are_refused_at_initialization(fmu_paths, tmp_path, p
 
 def test_fmu_loop_equals_the_pure_core_loop(paper):
     """The FMUs add nothing and lose nothing: the master's run equals the pure sampled loop of the
-    same cores (orchestration.pure_loop), sample by sample, to the last bit."""
+    same cores (orchestration.study.pure_loop), sample by sample, to the last bit."""
     from fmu_controller.sotc import SotcCore
-    from orchestration.pure_loop import simulate
+    from orchestration.study.pure_loop import simulate
 
     pure = simulate(SotcCore(**load_scenario("paper").instances["controller"].parameters))
     p, c = paper.outputs["plant"], paper.outputs["controller"]

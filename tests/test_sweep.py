@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from orchestration.cli import main
-from orchestration.sweep import PointGuard, point_key, run_point
-from orchestration.sweep_file import load_sweep, parse_sweep
-from orchestration.sweep_results import doc_block, summary_markdown, table_csv
+from orchestration.sweep.results import doc_block, summary_markdown, table_csv
+from orchestration.sweep.runner import PointGuard, point_key, run_point
+from orchestration.sweep.spec import load_sweep, parse_sweep
 
 BASE = {"scenario": "paper-ct", "stop_time": 1.0}
 
@@ -80,7 +80,7 @@ def test_controller_settings_reach_only_the_points_of_that_controller():
 
 
 def test_tuning_best_asks_the_comparison_search_under_each_points_limit_handling(monkeypatch):
-    from orchestration import comparison
+    from orchestration.study import comparison
 
     asked = []
 
@@ -196,7 +196,7 @@ def test_shipped_sweeps_load():
     first, *others = by_ctrl.values()
     assert len(by_ctrl) == 4 and all(o == first for o in others)
     # the same tuning effort: each baseline runs the best point of its tuning search under the sweep's handling
-    from orchestration.comparison import best_tuning
+    from orchestration.study.comparison import best_tuning
 
     handling = controllers.fixed["controller.limit_handling"]
     for p in pts:
@@ -240,7 +240,7 @@ def test_table_and_summary_are_written_from_the_rows():
 
 
 def test_tail_errors_are_paired_by_the_points_other_settings():
-    from orchestration.sweep_results import paired_tail_errors
+    from orchestration.sweep.results import paired_tail_errors
 
     def row(ctrl, f1, e, status="ok", **tuned):
         return {"settings": {"controller": ctrl, "plant.f1": f1, **tuned}, "status": status,
@@ -253,7 +253,7 @@ def test_tail_errors_are_paired_by_the_points_other_settings():
 
 
 def test_doc_block_replaces_only_its_own_block():
-    from orchestration.docgen import replace_block
+    from orchestration.reports.docgen import replace_block
 
     s = sweep_of(name="tiny", axis=[{"name": "controller.kp", "values": [1, 2, 3]}])
     block = doc_block(s, _rows(s), 3, ["sweeps/tiny/controller.kp.png"])
@@ -265,7 +265,7 @@ def test_doc_block_replaces_only_its_own_block():
 
 
 def test_a_diverging_point_and_a_refused_point_are_failed_rows(fmu_dir):
-    from orchestration.sweep import fmu_blobs
+    from orchestration.sweep.runner import fmu_blobs
 
     s = sweep_of(state_bound=0.3, axis=[{"name": "controller.kp", "values": [25.0, -1.0]}])
     blobs = fmu_blobs(s.model_names(), fmu_dir)
@@ -338,7 +338,7 @@ def test_progress_is_a_bar_on_a_terminal_and_plain_lines_otherwise(capsys):
 
 
 def test_set_makes_a_grid_over_a_scenario_without_a_sweep_file(fmu_dir, tmp_path, monkeypatch, capsys):
-    from orchestration.sweep_file import grid_from_assignments
+    from orchestration.sweep.spec import grid_from_assignments
 
     s = grid_from_assignments("paper-ct", ["controller.kp=25,100", "plant.f1=8,9"])
     assert s.name == "paper-ct-sweep" and [p.settings for p in s.points()][1] == {"controller.kp": 25.0, "plant.f1": 9.0}

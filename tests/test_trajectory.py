@@ -4,8 +4,8 @@ import math
 import numpy as np
 import pytest
 
+from fmi_slave.parameters import ParameterError
 from fmu_plant.kinematics import forward_kinematics
-from fmu_plant.parameters import ParameterError
 from fmu_plant.trajectory import CircleTrajectory
 
 TRAJ = CircleTrajectory()

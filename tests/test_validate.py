@@ -1,14 +1,18 @@
 """``sotc-cosim validate``: every built FMU passes; deliberately broken copies fail on the right check."""
 import shutil
-import zipfile
 import xml.etree.ElementTree as ET
+import zipfile
 from pathlib import Path
 
 import pytest
 
-from orchestration.build import FMU_SOURCES
 from orchestration.cli import main
-from orchestration.validate import format_report, validate_fmu_file, validate_fmus
+from orchestration.compliance.validate import (
+    format_report,
+    validate_fmu_file,
+    validate_fmus,
+)
+from orchestration.fmu_build.build import FMU_SOURCES
 
 
 def broken_copy(src: Path, dst: Path, edit) -> Path:

@@ -1,0 +1,1 @@
+"""Measurements behind design choices (design) and the speed of the product (speed)."""

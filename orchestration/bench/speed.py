@@ -1,0 +1,394 @@
+"""``sotc-cosim bench`` (benchmark ``speed``): what a 100 s ``paper`` experiment costs, and how the
+cost scales, measured side by side in one invocation (never in a test).
+
+1. The floor: the same experiment as the in-process loop over the pure cores
+   (``orchestration.study.pure_loop.simulate``: no FMI, no recording).
+2. The same through the FMUs and the fmpy master, as ``sotc-cosim run`` does it (streamed, summary
+   on the way), without and with the Rerun recording. 1-2 are alternated ``repeats`` times;
+   medians, min and max are reported, with the ratios of the medians.
+3. The cost per step of one recorded co-simulation, split: the cores (plant RK4 step, reference,
+   controller evaluate and learn, timed inside the FMUs), the FMI plumbing (time inside fmpy's
+   get/set/doStep calls minus those cores: ctypes, pythonfmu, the slave classes), the master's own
+   work (the rest of the master's wall time) and the recorder's own time.
+4. Long runs, each ``sotc-cosim run paper --stop-time S`` with recording in a fresh child process:
+   wall time per simulated second against the same child run of 100 s, the peak RSS of the child
+   (``ru_maxrss``: interpreter and libraries included) and the size of the recording.
+"""
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import platform
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from datetime import datetime, timezone
+from pathlib import Path
+
+SCENARIO = "paper"
+LONG_RUNS = (1000.0, 10000.0)
+TARGETS = {  # issue 13
+    "recorded_wall_s": 1.0,  # 100 s paper through the FMUs with recording, wall time
+    "recorded_over_floor": 1.5,
+    "long_linearity": 0.10,  # 10,000 s run within 10 % of 100x the 100 s run
+    "peak_rss_mb": 300.0,
+}
+
+
+def machine() -> dict:
+    model = "unknown"
+    with contextlib.suppress(OSError):
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                model = line.split(":", 1)[1].strip()
+                break
+    import fmpy
+    import numpy
+
+    return {"cpu": model, "cores": os.cpu_count(), "python": platform.python_version(),
+            "numpy": numpy.__version__, "fmpy": fmpy.__version__, "platform": platform.platform(),
+            "load_average_at_start": list(os.getloadavg())}
+
+
+def floor_core(scenario):
+    """The controller core and plant settings of ``scenario`` for the pure loop (SOTC only)."""
+    from fmu_controller.sotc import SotcCore
+
+    if scenario.controller_fmu() != "SotcController":
+        raise ValueError(f"the speed bench runs an SOTC scenario, {scenario.name} has {scenario.controller_fmu()}")
+    ctrl = {k: float(v) for k, v in scenario.instances["controller"].parameters.items()}
+    plant = scenario.instances["plant"].parameters
+    start = dict(phi0=(plant.get("phi1_0", 0.5), plant.get("phi2_0", -0.5)),
+                 dphi0=(plant.get("dphi1_0", 0.0), plant.get("dphi2_0", 0.0)))
+    return (lambda: SotcCore(**ctrl)), start
+
+
+def _stats(samples: list[float]) -> dict:
+    return {"median": statistics.median(samples), "min": min(samples), "max": max(samples), "runs": samples}
+
+
+def side_by_side(scenario, paths, repeats: int) -> dict:
+    """Floor, co-simulation and recorded co-simulation, alternated ``repeats`` times."""
+    from orchestration.recording.writer import BLOCK_SIZE, RunRecorder
+    from orchestration.run.master import run
+    from orchestration.run.summary import SummaryObserver
+    from orchestration.study.pure_loop import simulate
+
+    make_core, start = floor_core(scenario)
+    walls: dict[str, list[float]] = {"floor": [], "cosim": [], "cosim_recorded": []}
+    with tempfile.TemporaryDirectory(prefix="sotc_bench_") as tmp:
+        with RunRecorder(Path(tmp) / "warm.rrd") as rec:  # imports, first blueprint, FMU extraction
+            run(scenario.with_stop_time(1.0), paths, observer=rec, keep_samples=False)
+        for _ in range(repeats):
+            t0 = time.perf_counter()
+            simulate(make_core(), scenario.stop_time, scenario.step_size, **start)
+            walls["floor"].append(time.perf_counter() - t0)
+            t0 = time.perf_counter()
+            result = run(scenario, paths, observer=SummaryObserver(), keep_samples=False)
+            walls["cosim"].append(time.perf_counter() - t0)
+            _check(result)
+            t0 = time.perf_counter()
+            with RunRecorder(Path(tmp) / "run.rrd") as rec:
+                result = run(scenario, paths, observer=[SummaryObserver(), rec], block_size=BLOCK_SIZE,
+                             keep_samples=False)
+            walls["cosim_recorded"].append(time.perf_counter() - t0)
+            _check(result)
+        rrd_bytes = (Path(tmp) / "run.rrd").stat().st_size
+    runs = {k: _stats(v) for k, v in walls.items()}
+    med = {k: v["median"] for k, v in runs.items()}
+    return {"runs": runs, "rrd_mb": rrd_bytes / 1e6, "ratios": {
+        "cosim_over_floor": med["cosim"] / med["floor"],
+        "recorded_over_floor": med["cosim_recorded"] / med["floor"],
+        "recording_overhead": med["cosim_recorded"] / med["cosim"],
+    }}
+
+
+def _check(result) -> None:
+    if result.failed:
+        raise RuntimeError(f"benchmark run failed: {result.error}")
+
+
+class _Timer:
+    """Adds up the time spent in wrapped callables, per label."""
+
+    def __init__(self):
+        self.seconds: dict[str, float] = {}
+
+    def wrap(self, label: str, fn):
+        def timed(*args, **kwargs):
+            t0 = time.perf_counter()
+            try:
+                return fn(*args, **kwargs)
+            finally:
+                self.seconds[label] = self.seconds.get(label, 0.0) + time.perf_counter() - t0
+        return timed
+
+
+@contextlib.contextmanager
+def _patched(obj, name: str, value):
+    old = getattr(obj, name)
+    setattr(obj, name, value)
+    try:
+        yield
+    finally:
+        setattr(obj, name, old)
+
+
+@contextlib.contextmanager
+def _hosted_cores(timer: _Timer):
+    """Time the cores where the FMUs run them: the FMUs' bundled copies of ``SotcCore.evaluate``,
+    ``SotcCore.advance``, ``integrate`` (the plant step) and ``CircleTrajectory.sample``, found in ``sys.modules``
+    once the FMUs were loaded (pythonfmu keeps their modules; each instantiation re-runs the FMU
+    script, which imports the wrapped ``integrate``)."""
+    # (name, method or None for a function, the module it must come from, bundled copies included)
+    labels = {("SotcCore", "evaluate", "fmu_controller.sotc"): "controller evaluate",
+              ("SotcCore", "advance", "fmu_controller.sotc"): "controller learn",
+              ("CircleTrajectory", "sample", "fmu_plant.trajectory"): "reference",
+              ("integrate", None, "fmu_plant.dynamics"): "plant step"}
+    undo, wrapped, wrappers = [], {}, set()
+    for module in list(sys.modules.values()):
+        space = getattr(module, "__dict__", {})
+        for (name, method, home), label in labels.items():
+            obj = space.get(name)
+            owner, attr = (obj, method) if method else (module, name)
+            if not str(getattr(obj, "__module__", "")).endswith(home) or (method and not isinstance(obj, type)):
+                continue
+            original = getattr(owner, attr)
+            if id(original) in wrappers:
+                continue  # the same class or function seen through another module: timed already
+            if id(original) not in wrapped:
+                wrapped[id(original)] = timer.wrap(label, original)
+                wrappers.add(id(wrapped[id(original)]))
+            undo.append((owner, attr, original))
+            setattr(owner, attr, wrapped[id(original)])
+    if not any(owner.__name__ == "SotcCore" for owner, _, _ in undo if isinstance(owner, type)):
+        raise RuntimeError("the speed bench found no SotcCore in the loaded FMUs' modules")
+    try:
+        yield
+    finally:
+        for owner, attr, original in reversed(undo):
+            setattr(owner, attr, original)
+
+
+def floor_cores(scenario) -> dict[str, float]:
+    """Microseconds per step of the same cores in the floor's loop (an instrumented pure loop)."""
+    from fmu_plant.trajectory import CircleTrajectory
+    from orchestration.study import pure_loop
+
+    make_core, start = floor_core(scenario)
+    timer = _Timer()
+    core = make_core()
+    core.evaluate = timer.wrap("controller evaluate", core.evaluate)
+    core.advance = timer.wrap("controller learn", core.advance)
+    with _patched(pure_loop, "integrate", timer.wrap("plant step", pure_loop.integrate)), \
+            _patched(CircleTrajectory, "sample", timer.wrap("reference", CircleTrajectory.sample)):
+        pure_loop.simulate(core, scenario.stop_time, scenario.step_size, **start)
+    return {label: s * 1e6 / scenario.steps for label, s in timer.seconds.items()}
+
+
+def cost_split(scenario, paths) -> dict:
+    """Microseconds per step of each part of one recorded co-simulation step (see module doc)."""
+    from orchestration.bench.design import _TimedRecorder
+    from orchestration.recording.writer import BLOCK_SIZE, RunRecorder
+    from orchestration.run import master
+    from orchestration.run.summary import SummaryObserver
+
+    _check(master.run(scenario.with_stop_time(scenario.step_size), paths))  # the FMUs' modules are loaded
+    cores, fmi = _Timer(), _Timer()
+    with tempfile.TemporaryDirectory(prefix="sotc_bench_") as tmp, _hosted_cores(cores), \
+            _patched(master._Loaded, "read_outputs", fmi.wrap("get", master._Loaded.read_outputs)), \
+            _patched(master._Loaded, "do_step", fmi.wrap("doStep", master._Loaded.do_step)), \
+            _patched(master._Inputs, "push", fmi.wrap("set", master._Inputs.push)):
+        recorder = _TimedRecorder(RunRecorder(Path(tmp) / "split.rrd"))
+        with recorder.recorder:
+            result = master.run(scenario, paths, observer=[SummaryObserver(), recorder], block_size=BLOCK_SIZE,
+                                keep_samples=False)
+    _check(result)
+    per_step = 1e6 / scenario.steps
+    fmi_s = sum(fmi.seconds.values())
+    split = {f"{label} (core, inside the FMU)": s * per_step for label, s in sorted(cores.seconds.items())}
+    split["FMI get/set/doStep plumbing"] = (fmi_s - sum(cores.seconds.values())) * per_step
+    split["master's own work"] = (result.wall_time_s - fmi_s - recorder.seconds) * per_step
+    split["recording"] = recorder.seconds * per_step
+    return {"us_per_step": split, "total_us_per_step": result.wall_time_s * per_step,
+            "fmi_calls_us_per_step": {k: v * per_step for k, v in fmi.seconds.items()},
+            "floor_us_per_step": floor_cores(scenario)}
+
+
+def child_run(stop_time: float, fmu_dir: Path, record: Path, record_every: int) -> dict:
+    """One ``sotc-cosim run`` in a fresh interpreter; its wall time, peak RSS and recording size."""
+    code = (
+        "import json, resource, sys, time\n"
+        "import orchestration.run.master, orchestration.recording.writer, orchestration.run.summary\n"
+        "from orchestration.cli import main\n"
+        "t0 = time.perf_counter()\n"
+        "code = main(sys.argv[1:])\n"
+        "wall = time.perf_counter() - t0\n"
+        "print(json.dumps({'exit': code, 'wall_s': wall,"
+        " 'peak_rss_mb': resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}))\n"
+    )
+    argv = ["run", SCENARIO, "--stop-time", f"{stop_time:g}", "--fmu-dir", str(fmu_dir), "--recording", str(record),
+            "--record-every", str(record_every)]
+    proc = subprocess.run([sys.executable, "-c", code, *argv], capture_output=True, text=True)
+    if proc.returncode != 0:
+        raise RuntimeError(f"child run of {stop_time:g} s failed: {proc.stderr.strip()[-500:]}")
+    out = json.loads(proc.stdout.strip().splitlines()[-1])
+    if out["exit"] != 0:
+        raise RuntimeError(f"child run of {stop_time:g} s failed: {proc.stdout[-500:]}")
+    size = record.stat().st_size
+    record.unlink()
+    return {"stop_time": stop_time, "wall_s": out["wall_s"], "wall_per_sim_s_ms": 1e3 * out["wall_s"] / stop_time,
+            "peak_rss_mb": out["peak_rss_mb"], "rrd_mb": size / 1e6, "record_every": record_every}
+
+
+def long_runs(fmu_dir: Path, stop_times, record_every: int) -> list[dict]:
+    with tempfile.TemporaryDirectory(prefix="sotc_bench_long_") as tmp:
+        base = child_run(100.0, fmu_dir, Path(tmp) / "base.rrd", record_every)
+        runs = [base]
+        for s in stop_times:
+            r = child_run(float(s), fmu_dir, Path(tmp) / f"run{s:g}.rrd", record_every)
+            r["vs_100s"] = r["wall_s"] / (base["wall_s"] * s / 100.0)  # 1.0: exactly linear
+            runs.append(r)
+    return runs
+
+
+def bench_speed(fmu_dir: Path, repeats: int = 3, long: tuple[float, ...] = LONG_RUNS, record_every: int = 1,
+                stop_time: float | None = None) -> dict:
+    """Every measurement of the module doc; ``stop_time`` shortens the side-by-side runs (smoke tests)."""
+    from orchestration.fmu_build.build import ensure_built
+    from orchestration.run.scenario import load_scenario
+
+    scenario = load_scenario(SCENARIO)
+    if stop_time is not None:
+        scenario = scenario.with_stop_time(stop_time)
+    paths = ensure_built(sorted({i.fmu for i in scenario.instances.values()}), fmu_dir)
+    data = {
+        "benchmark": "speed", "date": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
+        "machine": machine(),
+        "method": {"scenario": SCENARIO, "stop_time": scenario.stop_time, "steps": scenario.steps,
+                   "repeats": repeats, "statistic": "median (min-max) of alternated runs in one process",
+                   "long_runs": "one run each in a fresh child process, with recording"},
+    }
+    data.update(side_by_side(scenario, paths, repeats))
+    data["split"] = cost_split(scenario, paths)
+    data["long"] = long_runs(fmu_dir, long, record_every) if long else []
+    data["targets"] = check_targets(data)
+    return data
+
+
+def check_targets(data: dict) -> dict:
+    out = {
+        "100 s paper through the FMUs with recording < 1 s wall":
+            data["runs"]["cosim_recorded"]["median"] * 100.0 / data["method"]["stop_time"] < TARGETS["recorded_wall_s"],
+        "co-simulation with recording <= 1.5x the floor": data["ratios"]["recorded_over_floor"] <= TARGETS["recorded_over_floor"],
+    }
+    runs = sorted(data["long"], key=lambda r: r["stop_time"])
+    if len(runs) > 1:
+        longest, before = runs[-1], runs[-2]
+        name = f"{longest['stop_time']:,.0f} s"
+        # literally: no more than 10 % above 100x the 100 s run (fixed costs make it come out below)
+        out[f"{name} run at most {1 + TARGETS['long_linearity']:.2f}x linear from the 100 s run"] = \
+            longest["vs_100s"] <= 1.0 + TARGETS["long_linearity"]
+        if before["stop_time"] > 100.0:  # the marginal cost per simulated second, fixed costs diluted
+            out[f"{name}: wall per simulated s within 10 % of the {before['stop_time']:,.0f} s run"] = \
+                abs(longest["wall_per_sim_s_ms"] / before["wall_per_sim_s_ms"] - 1.0) <= TARGETS["long_linearity"]
+        out["peak RSS < 300 MB with recording"] = max(r["peak_rss_mb"] for r in runs) < TARGETS["peak_rss_mb"]
+    return out
+
+
+# --- reports ------------------------------------------------------------------------------------
+
+def _runs_rows(data: dict) -> list[tuple[str, str, str]]:
+    labels = {"floor": "floor: pure cores in-process (no FMI, no recording)",
+              "cosim": "through the FMUs (fmpy master), no recording",
+              "cosim_recorded": "through the FMUs, recorded (`sotc-cosim run paper`)"}
+    ref = data["runs"]["floor"]["median"]
+    return [(labels[k], f"{v['median']:.3f} s ({v['min']:.3f}-{v['max']:.3f})", f"{v['median'] / ref:.2f}x")
+            for k, v in data["runs"].items()]
+
+
+def _best(data: dict, run: str, base: str) -> float:
+    return data["runs"][run]["min"] / data["runs"][base]["min"]
+
+
+def format_markdown(data: dict) -> str:
+    """The generated block of docs/performance.md and the README (from the JSON of one bench run)."""
+    m, meth = data["machine"], data["method"]
+    lines = [
+        f"Measured {data['date']} with `sotc-cosim bench` on {m['cpu']} ({m['cores']} cores; Python {m['python']}, "
+        f"numpy {m['numpy']}, fmpy {m['fmpy']}; load average at start {m['load_average_at_start'][0]:.2f}). "
+        f"`{meth['scenario']}`, {meth['stop_time']:g} s = {meth['steps']:,} steps; {meth['statistic']}, "
+        f"{meth['repeats']} each.",
+        "",
+        f"| {meth['stop_time']:g} s `paper` | wall time | vs floor |",
+        "| --- | --- | --- |",
+        *(f"| {a} | {b} | {c} |" for a, b, c in _runs_rows(data)),
+        "",
+        f"Recording overhead {data['ratios']['recording_overhead']:.2f}x; the recording of these "
+        f"{meth['stop_time']:g} s is {data['rrd_mb']:.1f} MB. The fastest runs (other load on a shared "
+        f"machine only adds time) give {_best(data, 'cosim', 'floor'):.2f}x for the co-simulation and "
+        f"{_best(data, 'cosim_recorded', 'floor'):.2f}x recorded against the floor, recording overhead "
+        f"{_best(data, 'cosim_recorded', 'cosim'):.2f}x.",
+        "",
+        "| per step (one recorded run, instrumented) | us | share | the same core in the floor's loop, us |",
+        "| --- | --- | --- | --- |",
+    ]
+    split, total = data["split"]["us_per_step"], data["split"]["total_us_per_step"]
+    floor = data["split"].get("floor_us_per_step", {})
+    for k, v in split.items():
+        same = floor.get(k.replace(" (core, inside the FMU)", ""))
+        lines.append(f"| {k} | {v:.1f} | {v / total:.0%} | {'' if same is None else f'{same:.1f}'} |")
+    lines.append(f"| total | {total:.1f} | 100% | {sum(floor.values()):.1f} |" if floor else f"| total | {total:.1f} | 100% | |")
+    if data["long"]:
+        lines += ["", "| single run, recorded (child process) | wall time | ms per simulated s | vs linear from 100 s "
+                  "| peak RSS | recording |", "| --- | --- | --- | --- | --- | --- |"]
+        for r in data["long"]:
+            lin = f"{r['vs_100s']:.3f}" if "vs_100s" in r else "(base)"
+            every = "" if r["record_every"] == 1 else f" (every {r['record_every']}th sample)"
+            lines.append(f"| {r['stop_time']:,.0f} s | {r['wall_s']:.1f} s | {r['wall_per_sim_s_ms']:.2f} | {lin} "
+                         f"| {r['peak_rss_mb']:.0f} MB | {r['rrd_mb']:.0f} MB{every} |")
+    lines += ["", "| target (issue 13) | met |", "| --- | --- |",
+              *(f"| {k} | {'yes' if ok else '**no**'} |" for k, ok in data["targets"].items())]
+    return "\n".join(lines)
+
+
+def _figures(data: dict) -> dict[str, float]:
+    out = {f"{k} median s": v["median"] for k, v in data["runs"].items()}
+    out.update({k: v for k, v in data["ratios"].items()})
+    out.update({f"{k} us/step": v for k, v in data["split"]["us_per_step"].items()})
+    out.update({f"{r['stop_time']:g} s run wall s": r["wall_s"] for r in data["long"]})
+    out.update({f"{r['stop_time']:g} s run peak RSS MB": r["peak_rss_mb"] for r in data["long"]})
+    return out
+
+
+def compare(old: dict, new: dict) -> str:
+    """Each figure both runs have: old, new and the change."""
+    a, b = _figures(old), _figures(new)
+    lines = [f"change since {old.get('date', '?')}:", f"{'figure':<48} {'old':>10} {'new':>10} {'change':>8}"]
+    for key in (k for k in b if k in a):
+        change = f"{b[key] / a[key] - 1.0:+.0%}" if a[key] else "-"
+        lines.append(f"{key:<48} {a[key]:>10.4g} {b[key]:>10.4g} {change:>8}")
+    return "\n".join(lines)
+
+
+# the generated blocks (``orchestration.reports.docgen``) that show the stored measurement, per file
+DOC_BLOCKS = {"speed": "docs/performance.md", "speed-readme": "README.md"}
+MEASUREMENT = "docs/performance.json"
+
+
+def stored_block(root: Path) -> str:
+    """The tables of the stored measurement (``docs/performance.json``), as docgen renders them."""
+    return format_markdown(json.loads((root / MEASUREMENT).read_text()))
+
+
+def update_docs(data: dict, root: Path) -> list[Path]:
+    """Store ``data`` as the measurement and regenerate its blocks in the docs."""
+    from orchestration.reports import docgen
+
+    (root / MEASUREMENT).write_text(json.dumps(data, indent=1) + "\n")
+    for name in DOC_BLOCKS:
+        docgen.write(name, root)
+    return [root / MEASUREMENT, *(root / f for f in DOC_BLOCKS.values())]

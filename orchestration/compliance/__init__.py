@@ -1,0 +1,1 @@
+"""FMU compliance and interoperability: validate, FMI cross-check, SSP export, other engines."""

@@ -1,0 +1,379 @@
+"""``sotc-cosim validate``: check built FMUs against the FMI standard and the project's invariants.
+
+Per FMU:
+
+- ``archive``: no entry of the zip may leave its folder when extracted (an absolute path, a drive or
+  a ``..`` component); an FMU that fails this is not loaded for the other checks;
+- ``fmpy``: ``fmpy.validation.validate_fmu`` (schema, units, model structure);
+- ``fmutool``: the checkers ``fmutool -input X.fmu -check`` runs (XSD schema and FMI 2.0 semantic
+  rules, fmu-manipulation-toolbox), called through its Python API; an ERROR record is a problem;
+- ``units``: every Real variable (ports and parameters) names a unit defined in UnitDefinitions;
+- ``starts``: every input has a start value, and every start value of an input or parameter in the
+  XML is exactly (bitwise) the value a fresh instance holds;
+- ``descriptions``: the model and every variable have a description;
+- ``step``: DefaultExperiment stepSize is the paper's T = 0.01 s;
+- ``ranges``: every parameter declares a min or a max (both, if both sides are bounded), unless it is
+  in ``FREE_PARAMETERS`` (initial conditions and positions, which any real value may take), and its
+  start value lies within them;
+- ``state``: canGetAndSetFMUstate and canSerializeFMUstate are declared;
+- ``dependencies``: checked by experiment on an initialized instance, right after initialization and
+  after one step: perturbing an input and reading the outputs at the same instant must leave every
+  output that does not declare that input exactly unchanged, restoring the input must restore the
+  outputs, and each output that declares dependencies must change for some perturbation of them.
+
+- ``standalone``: every pythonfmu FMU in a process shares one interpreter and one ``sys.modules``,
+  so the FMU's Python lives under names of its own: the script ``resources/<stem>.py`` named in
+  ``slavemodule.txt`` and the package ``resources/<stem>_lib/``, no other Python file, and every
+  import is of the standard library, of ``<stem>_lib`` or of a package in ``resources/requirements.txt``.
+
+Across the set: two FMUs whose script modules have the same name must bundle the same code (a copy
+of one build); otherwise the second would run the first one's modules.
+
+This module must not import ``fmu_plant``/``fmu_controller``: the FMUs it loads import their own
+bundled copies, and a source-tree copy already in ``sys.modules`` would be used instead.
+"""
+from __future__ import annotations
+
+import fnmatch
+import logging
+import math
+import zipfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from fmu_plant.dynamics import STEP_SIZE  # the paper's sampling period T
+
+# parameters that may take any real value (no physical bound): name pattern -> why
+FREE_PARAMETERS: dict[str, str] = {
+    "W0_*": "initial critic weights: any real number",
+    "init_phi*": "an elbow angle: any real number",
+    "phase": "phase of the path parameter: any angle",
+}
+# dependency experiment: inputs are at their start values at t = 0, then follow a smooth signal
+# around them; at each probe instant (after that many steps) every input is perturbed in turn by each
+# of PERTURBATIONS
+PROBE_STEPS = (0, 1, 10, 40)
+PERTURBATIONS = (0.05, -0.7, 3.0, -30.0)
+CHECKS = ("archive", "fmpy", "fmutool", "units", "starts", "descriptions", "step", "ranges", "state", "standalone",
+          "dependencies")
+
+
+@dataclass
+class FmuReport:
+    path: Path
+    model: str = "?"
+    problems: dict[str, list[str]] = field(default_factory=lambda: {c: [] for c in CHECKS})
+
+    @property
+    def ok(self) -> bool:
+        return not any(self.problems.values())
+
+
+@dataclass
+class ValidationReport:
+    fmus: list[FmuReport]
+    set_problems: list[str]
+
+    @property
+    def ok(self) -> bool:
+        return not self.set_problems and all(f.ok for f in self.fmus)
+
+
+# --- the checks ---------------------------------------------------------------------------------
+
+def _fmpy_problems(path: Path) -> list[str]:
+    from fmpy.validation import validate_fmu
+
+    return [str(p) for p in validate_fmu(str(path))]
+
+
+def archive_problems(path: Path) -> list[str]:
+    try:
+        with zipfile.ZipFile(path) as archive:
+            names = archive.namelist()
+    except (OSError, zipfile.BadZipFile) as exc:
+        return [f"not a readable zip archive: {exc}"]
+    problems = []
+    for name in names:
+        parts = name.replace("\\", "/").split("/")
+        if name.startswith(("/", "\\")) or ".." in parts or (len(name) > 1 and name[1] == ":"):
+            problems.append(f"entry '{name}' would be extracted outside the FMU's folder")
+    return problems
+
+
+class _Records(logging.Handler):
+    def __init__(self) -> None:
+        super().__init__(level=logging.ERROR)
+        self.messages: list[str] = []
+
+    def emit(self, record: logging.LogRecord) -> None:
+        self.messages.append(record.getMessage())
+
+
+def _fmutool_problems(path: Path) -> list[str]:
+    """What ``fmutool -input PATH -check`` reports as errors (its exit code 7)."""
+    try:
+        from fmu_manipulation_toolbox.checker import OperationGenericCheck, get_checkers
+        from fmu_manipulation_toolbox.operations import FMU, FMUError
+    except ImportError:
+        return ["fmu-manipulation-toolbox is not installed (pip install 'sotc-cosim[test]'): fmutool -check not run"]
+
+    logger = logging.getLogger("fmu_manipulation_toolbox")
+    records = _Records()
+    logger.addHandler(records)
+    propagate, logger.propagate = logger.propagate, False
+    try:
+        checkers = [checker() for checker in get_checkers()]
+        with FMU(str(path)) as fmu:
+            for checker in checkers:
+                fmu.apply_operation(checker, None)
+    except FMUError as exc:
+        return [f"fmutool cannot read the FMU: {exc}"]
+    finally:
+        logger.removeHandler(records)
+        logger.propagate = propagate
+    problems = list(records.messages)
+    generic = next((c for c in checkers if isinstance(c, OperationGenericCheck)), None)
+    if generic is not None and not generic.compliant_with_version and not problems:
+        problems.append("fmutool: not compliant with the FMI schema")
+    return problems
+
+
+def _metadata_problems(md, report: FmuReport) -> None:
+    p = report.problems
+    defined = {u.name for u in md.unitDefinitions}
+    if not md.description:
+        p["descriptions"].append("the model has no description")
+    for v in md.modelVariables:
+        if not v.description:
+            p["descriptions"].append(f"'{v.name}' has no description")
+        if v.type == "Real" and v.causality in ("parameter", "input", "output"):
+            if not v.unit:
+                p["units"].append(f"'{v.name}' ({v.causality}) has no unit")
+            elif v.unit not in defined:
+                p["units"].append(f"'{v.name}': unit '{v.unit}' is not in UnitDefinitions")
+        if v.causality == "input" and v.start is None:
+            p["starts"].append(f"input '{v.name}' has no start value")
+        if v.causality == "parameter":
+            p["ranges"] += _range_problems(v)
+    experiment = md.defaultExperiment
+    step = None if experiment is None or experiment.stepSize is None else float(experiment.stepSize)
+    if step != STEP_SIZE:
+        p["step"].append(f"DefaultExperiment stepSize is {step}, expected {STEP_SIZE}")
+    cs = md.coSimulation
+    if cs is None:
+        p["state"].append("no CoSimulation element")
+    else:
+        for flag in ("canGetAndSetFMUstate", "canSerializeFMUstate"):
+            if not getattr(cs, flag):
+                p["state"].append(f"{flag} is not declared true")
+
+
+def _range_problems(v) -> list[str]:
+    low = None if v.min is None else float(v.min)
+    high = None if v.max is None else float(v.max)
+    free = any(fnmatch.fnmatchcase(v.name, pattern) for pattern in FREE_PARAMETERS)
+    problems = []
+    if low is None and high is None and not free:
+        problems.append(f"parameter '{v.name}' has neither min nor max (and is not in FREE_PARAMETERS)")
+    if low is not None and high is not None and low > high:
+        problems.append(f"parameter '{v.name}': min {low} > max {high}")
+    if v.start is not None:
+        start = float(v.start)
+        if (low is not None and start < low) or (high is not None and start > high):
+            problems.append(f"parameter '{v.name}': start {start} is outside [{low}, {high}]")
+    return problems
+
+
+def _slave_module(path: Path) -> str | None:
+    with zipfile.ZipFile(path) as z:
+        try:
+            return z.read("resources/slavemodule.txt").decode().strip()
+        except KeyError:
+            return None
+
+
+def _python_bundle(path: Path) -> dict[str, bytes]:
+    """Every Python file under resources/ (zip name -> bytes)."""
+    with zipfile.ZipFile(path) as z:
+        return {n: z.read(n) for n in z.namelist() if n.startswith("resources/") and n.endswith(".py")}
+
+
+def _standalone_problems(path: Path) -> list[str]:
+    import ast
+    import sys
+
+    from fmi_slave.host_check import parse_requirement
+    from orchestration.fmu_build.packaging import top_level_imports
+
+    stem = _slave_module(path)
+    if not stem:
+        return ["resources/slavemodule.txt is missing: not a pythonfmu FMU"]
+    lib = f"{stem}_lib"
+    with zipfile.ZipFile(path) as z:
+        try:
+            requirements = z.read("resources/requirements.txt").decode().split()
+        except KeyError:
+            return ["resources/requirements.txt is missing: a host cannot tell what to install"]
+    allowed = {lib, "__future__"} | {parse_requirement(r)[0].lower().replace("-", "_") for r in requirements}
+    problems = []
+    for name, text in sorted(_python_bundle(path).items()):
+        if name != f"resources/{stem}.py" and not name.startswith(f"resources/{lib}/"):
+            problems.append(f"{name} lies outside {stem}.py and {lib}/: another FMU may bring the same module name")
+        try:
+            tree = ast.parse(text, name)
+        except SyntaxError as exc:
+            problems.append(f"{name} does not parse: {exc}")
+            continue
+        for top in sorted(top_level_imports(tree) - allowed - set(sys.stdlib_module_names)):
+            problems.append(f"{name} imports '{top}', which is neither bundled in {lib} nor in requirements.txt")
+    return problems
+
+
+# --- the dependency experiment ------------------------------------------------------------------
+
+def _same(a: float, b: float) -> bool:
+    return a == b or (math.isnan(a) and math.isnan(b))
+
+
+def _drive(start: float, index: int, t: float) -> float:
+    """Input values of the dependency experiment: away from the start value, varying in time."""
+    return start + 0.3 * math.cos(2.0 * t + index)
+
+
+def _start_problems(fmu, md) -> list[str]:
+    """The start values in the XML must be exactly what a fresh instance holds (bitwise): an importer
+    that applies XML starts (libcosim does) must not end up with a different model."""
+    problems = []
+    for v in md.modelVariables:
+        if v.start is None or v.causality not in ("parameter", "input") or v.type not in ("Real", "Integer"):
+            continue
+        if v.type == "Real":
+            actual, declared = fmu.getReal([v.valueReference])[0], float(v.start)
+        else:
+            actual, declared = fmu.getInteger([v.valueReference])[0], int(v.start)
+        if not _same(float(actual), float(declared)):
+            problems.append(f"'{v.name}': start {v.start!r} in the XML, {actual!r} in a fresh instance")
+    return problems
+
+
+def _dependency_problems(path: Path, md, start_problems: list[str]) -> list[str]:
+    from fmpy.fmi1 import FMICallException
+
+    from orchestration.run.fmi_direct import FmuInstance
+
+    inputs = [v for v in md.modelVariables if v.causality == "input" and v.type == "Real"]
+    outputs = [u for u in md.outputs if u.variable.type == "Real"]
+    problems: list[str] = []
+    changed_by_declared = {u.variable.name: False for u in outputs}
+    out_vr = [u.variable.valueReference for u in outputs]
+    try:
+        instance = FmuInstance(path, "validate")
+    except Exception as exc:
+        return [f"the experiment could not instantiate the FMU: {exc}"]
+    fmu = instance.fmu
+    try:
+        start_problems += _start_problems(fmu, md)
+        step = float(md.defaultExperiment.stepSize) if md.defaultExperiment else STEP_SIZE
+        instance.initialize()
+        start = [float(v.start if v.start is not None else 0.0) for v in inputs]
+        k = 0
+        for probe in PROBE_STEPS:
+            while True:
+                base = {v.name: _drive(s, i, k * step) if k else s for i, (v, s) in enumerate(zip(inputs, start))}
+                instance.set(**base)
+                if k == probe:
+                    break
+                fmu.doStep(currentCommunicationPoint=k * step, communicationStepSize=step)
+                k += 1
+            where = f"at t = {k * step:g} s"
+            y0 = fmu.getReal(out_vr)
+            for v in inputs:
+                for delta in PERTURBATIONS:
+                    fmu.setReal([v.valueReference], [base[v.name] + delta])
+                    y1 = fmu.getReal(out_vr)
+                    fmu.setReal([v.valueReference], [base[v.name]])
+                    y2 = fmu.getReal(out_vr)
+                    for u, a, b, c in zip(outputs, y0, y1, y2):
+                        name = u.variable.name
+                        declared = any(d.name == v.name for d in u.dependencies)
+                        if not _same(a, b):
+                            if declared:
+                                changed_by_declared[name] = True
+                            else:
+                                problems.append(
+                                    f"'{name}' changes when input '{v.name}' changes by {delta} {where}, "
+                                    "but does not declare that dependency")
+                        if not _same(a, c):
+                            problems.append(f"'{name}' does not return to {a!r} when input '{v.name}' is "
+                                            f"restored {where} (got {c!r})")
+        fmu.terminate()
+    except FMICallException as exc:
+        reasons = "; ".join(m for s, m in instance.messages if s >= 2)
+        return problems + [f"the experiment could not run the FMU: {exc}; logged: {reasons}"]
+    finally:
+        instance.free()
+    for u in outputs:
+        if u.dependencies and not changed_by_declared[u.variable.name]:
+            names = ", ".join(d.name for d in u.dependencies)
+            problems.append(f"'{u.variable.name}' declares dependencies on {names}, but no perturbation of "
+                            "them changed it (declare only what the output depends on)")
+    return sorted(set(problems), key=problems.index)
+
+
+# --- driver -------------------------------------------------------------------------------------
+
+def validate_fmu_file(path: Path) -> FmuReport:
+    from fmpy import read_model_description
+
+    report = FmuReport(Path(path))
+    report.problems["archive"] = archive_problems(path)
+    if report.problems["archive"]:
+        return report
+    report.problems["fmpy"] = _fmpy_problems(path)
+    report.problems["fmutool"] = _fmutool_problems(path)
+    try:
+        md = read_model_description(str(path), validate=False)
+    except Exception as exc:  # an unreadable modelDescription: fmpy/fmutool say why
+        report.problems["descriptions"].append(f"cannot read modelDescription.xml: {exc}")
+        return report
+    report.model = md.coSimulation.modelIdentifier if md.coSimulation else md.modelName
+    _metadata_problems(md, report)
+    report.problems["standalone"] = _standalone_problems(path)
+    report.problems["dependencies"] = _dependency_problems(path, md, report.problems["starts"])
+    return report
+
+
+def validate_fmus(paths: list[Path]) -> ValidationReport:
+    reports = [validate_fmu_file(Path(p)) for p in paths]
+    set_problems = []
+    seen: dict[str, tuple[Path, dict[str, bytes]]] = {}
+    for r in reports:
+        stem = _slave_module(r.path)
+        if stem is None:
+            continue
+        bundle = _python_bundle(r.path)
+        if stem in seen and seen[stem][1] != bundle:
+            set_problems.append(f"script module '{stem}' of {r.path} bundles other code than {seen[stem][0]}: "
+                                "in one process the second would run the first one's modules")
+        seen.setdefault(stem, (r.path, bundle))
+    return ValidationReport(reports, set_problems)
+
+
+def format_report(report: ValidationReport, details: bool = True) -> str:
+    width = max([len("FMU")] + [len(r.model) for r in report.fmus])
+    cols = [max(len(c), 6) for c in CHECKS]
+    lines = ["  ".join(["FMU".ljust(width)] + [c.ljust(w) for c, w in zip(CHECKS, cols)] + ["verdict"])]
+    for r in report.fmus:
+        cells = ["ok" if not r.problems[c] else f"FAIL({len(r.problems[c])})" for c in CHECKS]
+        lines.append("  ".join([r.model.ljust(width)] + [x.ljust(w) for x, w in zip(cells, cols)]
+                               + ["pass" if r.ok else "FAIL"]))
+    lines.append(f"set: {'every script module name stands for one bundle' if not report.set_problems else 'FAIL'}")
+    if details:
+        for r in report.fmus:
+            for check in CHECKS:
+                for problem in r.problems[check]:
+                    lines.append(f"  {r.model} [{check}] {problem}")
+        lines += [f"  set: {p}" for p in report.set_problems]
+    lines.append("all FMUs pass" if report.ok else "validation FAILED")
+    return "\n".join(lines)

@@ -1,0 +1,1 @@
+"""Building the FMUs in a child process, each bundling its code under names unique to its build."""

@@ -1,0 +1,136 @@
+"""Build the FMUs from the installed sources, always in a child process.
+
+pythonfmu's builder imports the model script to write the modelDescription; if that happened in
+the process that later simulates, the simulation would silently run the already-imported source
+tree instead of the FMU. So ``build_fmus`` runs ``python -m orchestration.fmu_build.build`` as a subprocess,
+which packages each FMU with ``orchestration.fmu_build.packaging`` (every bundled module under a name unique
+to the model and build, so any mix of FMUs runs side by side in one interpreter).
+
+A ``<Model>.sources.sha256`` file beside each FMU records the digest of what it was built from (its
+sources, pythonfmu's Python half, and this packaging code), so ``ensure_built`` rebuilds exactly
+the FMUs whose inputs changed. The digest also names the FMU's bundled modules.
+"""
+from __future__ import annotations
+
+import argparse
+import hashlib
+import subprocess
+import sys
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+from orchestration.fmu_build import packaging as fmu_package
+
+DEFAULT_FMU_DIR = Path("build") / "fmus"
+PACKAGE_ROOT = Path(__file__).resolve().parents[2]  # folder holding fmu_plant/, fmu_controller/
+
+
+@dataclass(frozen=True)
+class FmuSource:
+    model: str  # modelIdentifier == FMU file stem
+    script: str  # path relative to PACKAGE_ROOT
+    packages: tuple[str, ...]  # packages bundled (renamed) under resources/
+    equations: tuple[str, ...] = ()  # modules whose docstrings summarise the FMU's equations
+
+
+FMU_SOURCES: dict[str, FmuSource] = {
+    s.model: s
+    for s in (
+        FmuSource("ArmPlant", "fmu_plant/arm_plant_fmu.py", ("fmi_slave", "fmu_plant"),
+                  ("fmu_plant/dynamics.py", "fmu_plant/kinematics.py")),
+        FmuSource("ReferenceTrajectory", "fmu_plant/reference_trajectory_fmu.py", ("fmi_slave", "fmu_plant"),
+                  ("fmu_plant/trajectory.py", "fmu_plant/kinematics.py")),
+        FmuSource("CtController", "fmu_controller/ct_controller_fmu.py", ("fmi_slave", "fmu_plant", "fmu_controller"),
+                  ("fmu_controller/computed_torque.py",)),
+        FmuSource("SotcController", "fmu_controller/sotc_controller_fmu.py", ("fmi_slave", "fmu_plant", "fmu_controller"),
+                  ("fmu_controller/sotc.py",)),
+        FmuSource("OtcController", "fmu_controller/otc_controller_fmu.py", ("fmi_slave", "fmu_plant", "fmu_controller"),
+                  ("fmu_controller/otc.py",)),
+        FmuSource("LqrController", "fmu_controller/lqr_controller_fmu.py", ("fmi_slave", "fmu_plant", "fmu_controller"),
+                  ("fmu_controller/lqr.py",)),
+        *(FmuSource(m, f"fmu_plant/{s}_fmu.py", ("fmi_slave", "fmu_plant"), ("fmu_plant/perturbation.py",)) for m, s in (("Disturbance", "disturbance"), ("MeasurementNoise", "measurement_noise"))),
+    )
+}
+
+
+class BuildError(RuntimeError):
+    pass
+
+
+def _source_files(source: FmuSource) -> list[Path]:
+    files = [PACKAGE_ROOT / source.script, Path(__file__).resolve(), Path(fmu_package.__file__).resolve()]
+    for pkg in source.packages:
+        files += sorted((PACKAGE_ROOT / pkg).glob("*.py"))
+    return sorted(set(files)) + fmu_package.pythonfmu_sources()
+
+
+def source_digest(source: FmuSource) -> str:
+    """What the FMU is built from: its sources, pythonfmu's Python half and the packaging code."""
+    h = hashlib.sha256(source.model.encode())
+    for f in _source_files(source):
+        h.update(f.name.encode())
+        h.update(f.read_bytes())
+    return h.hexdigest()
+
+
+def fmu_path(model: str, out_dir: Path) -> Path:
+    return Path(out_dir) / f"{model}.fmu"
+
+
+def is_current(model: str, out_dir: Path) -> bool:
+    stamp = Path(out_dir) / f"{model}.sources.sha256"
+    return (
+        fmu_path(model, out_dir).is_file()
+        and stamp.is_file()
+        and stamp.read_text().strip() == source_digest(FMU_SOURCES[model])
+    )
+
+
+def _build_one(source: FmuSource, out_dir: Path) -> Path:
+    """Runs in the child process only."""
+    with tempfile.TemporaryDirectory(prefix="sotc_stage_") as tmp:
+        digest = source_digest(source)
+        built = fmu_package.package_fmu(
+            source.model, PACKAGE_ROOT / source.script, {pkg: PACKAGE_ROOT / pkg for pkg in source.packages},
+            [PACKAGE_ROOT / e for e in source.equations], digest, fmu_path(source.model, out_dir), Path(tmp))
+    (out_dir / f"{source.model}.sources.sha256").write_text(digest + "\n")
+    return built
+
+
+def build_fmus(models: list[str] | None = None, out_dir: Path = DEFAULT_FMU_DIR) -> list[Path]:
+    """Build the named FMUs (all by default) into ``out_dir`` in a child process."""
+    models = list(FMU_SOURCES) if not models else models
+    unknown = [m for m in models if m not in FMU_SOURCES]
+    if unknown:
+        raise BuildError(f"unknown FMU {unknown}; known: {', '.join(FMU_SOURCES)}")
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    cmd = [sys.executable, "-m", "orchestration.fmu_build.build", "--out", str(out_dir.resolve()), *models]
+    proc = subprocess.run(cmd, capture_output=True, text=True, cwd=str(PACKAGE_ROOT))
+    if proc.returncode != 0:
+        raise BuildError(f"building {models} failed:\n{proc.stdout}\n{proc.stderr}")
+    return [fmu_path(m, out_dir) for m in models]
+
+
+def ensure_built(models: list[str], out_dir: Path = DEFAULT_FMU_DIR) -> dict[str, Path]:
+    """Build the FMUs that are missing or older than their sources; return model -> path."""
+    stale = [m for m in dict.fromkeys(models) if m not in FMU_SOURCES or not is_current(m, out_dir)]
+    if stale:
+        build_fmus(stale, out_dir)
+    return {m: fmu_path(m, out_dir) for m in models}
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description="Build sotc-cosim FMUs (child-process entry point)")
+    parser.add_argument("--out", type=Path, default=DEFAULT_FMU_DIR)
+    parser.add_argument("models", nargs="*")
+    args = parser.parse_args(argv)
+    args.out.mkdir(parents=True, exist_ok=True)
+    for model in args.models or list(FMU_SOURCES):
+        print(_build_one(FMU_SOURCES[model], args.out))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,281 @@
+"""Package one FMU so that it stands alone in any Python host: the child-process half of the build.
+
+pythonfmu's binary puts an FMU's ``resources/`` first on ``sys.path`` and imports the script named
+in ``resources/slavemodule.txt``; the modules stay in ``sys.modules`` for the life of the process,
+after the FMU is freed and its folder deleted. Two FMUs that bundle a package under the same name
+therefore share the first one's copy. So every name an FMU brings is unique to its model and build:
+
+    resources/<stem>.py                  the FMU script               (slavemodule.txt: <stem>)
+    resources/<stem>_lib/__init__.py
+    resources/<stem>_lib/fmi_slave/...   the FMI slave framework
+    resources/<stem>_lib/fmu_plant/...   the cores it needs
+    resources/<stem>_lib/fmu_controller/...
+    resources/<stem>_lib/pythonfmu/...   pythonfmu's Python half, imported from here only
+    resources/requirements.txt           what the host must have (``pythonfmu deploy -f`` reads it)
+    documentation/index.html             ports, parameters, equations, host requirements
+
+with ``<stem> = sotc_<Model>_<first 12 hex digits of the build digest>``. The repository keeps one
+copy of every source; the renaming (``import fmu_plant.x`` -> ``import <stem>_lib.fmu_plant.x``)
+happens here, and a check refuses the build if any import of a bundled package escaped it. The
+script first checks the host's packages (``fmi_slave.host_check``), then imports its cores.
+
+The modelDescription comes from an instance of the staged (renamed) model class, so it describes
+exactly the code that ships; the binary is pythonfmu's, renamed to the modelIdentifier.
+"""
+from __future__ import annotations
+
+import ast
+import html
+import importlib
+import importlib.metadata
+import importlib.util
+import re
+import shutil
+import sys
+import tomllib
+import zipfile
+from pathlib import Path
+from xml.dom.minidom import parseString
+from xml.etree.ElementTree import Element, tostring
+
+from fmi_slave.host_check import parse_requirement
+
+BUNDLED = ("fmi_slave", "fmu_plant", "fmu_controller", "pythonfmu")  # top-level packages renamed into <stem>_lib
+DISTRIBUTION = "sotc-cosim"
+# CPython versions the project's test suite runs the built FMUs on (requires-python >= 3.11)
+MEASURED_PYTHONS = ("3.11",)
+_IMPORT = re.compile(r"^(\s*)(from|import)(\s+)(" + "|".join(BUNDLED) + r")\b", re.M)
+
+
+class PackagingError(RuntimeError):
+    pass
+
+
+def bundle_stem(model: str, digest: str) -> str:
+    return f"sotc_{model}_{digest[:12]}"
+
+
+def _pythonfmu_folder() -> Path:
+    """pythonfmu's installed folder, found without importing it into this process."""
+    spec = importlib.util.find_spec("pythonfmu")
+    if spec is None or not spec.submodule_search_locations:
+        raise PackagingError("pythonfmu is not installed: it provides the FMUs' binaries")
+    return Path(next(iter(spec.submodule_search_locations)))
+
+
+def pythonfmu_sources() -> list[Path]:
+    """The Python half of pythonfmu that every FMU carries (what its own builder copies)."""
+    return sorted(_pythonfmu_folder().glob("*.py"))
+
+
+def pythonfmu_binaries() -> list[tuple[Path, str]]:
+    """(binary, its platform folder) for every platform pythonfmu ships an export library for."""
+    root = _pythonfmu_folder() / "resources" / "binaries"
+    return [(f, f.parent.relative_to(root).as_posix()) for ext in ("so", "dll", "dylib")
+            for f in sorted(root.rglob(f"*.{ext}"))]
+
+
+def rename_imports(text: str, lib: str) -> str:
+    return _IMPORT.sub(lambda m: f"{m[1]}{m[2]}{m[3]}{lib}.{m[4]}", text)
+
+
+def top_level_imports(tree: ast.AST) -> set[str]:
+    """Top-level names of every absolute import anywhere in ``tree`` (functions included)."""
+    names = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            names.update(a.name.split(".")[0] for a in node.names)
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            names.add(node.module.split(".")[0])
+    return names
+
+
+def project_requirements() -> dict[str, str]:
+    """Distribution name -> requirement line, from the installed project's metadata (or pyproject)."""
+    try:
+        lines = [r for r in importlib.metadata.requires(DISTRIBUTION) or [] if "extra ==" not in r]
+    except importlib.metadata.PackageNotFoundError:
+        pyproject = Path(__file__).resolve().parents[2] / "pyproject.toml"
+        lines = tomllib.loads(pyproject.read_text())["project"]["dependencies"]
+    out = {}
+    for line in lines:
+        name, spec = parse_requirement(line.split(";")[0].split("#")[0])
+        spec = ",".join(sorted((s for s in spec.split(",") if s),
+                               key=lambda s: (not s.startswith((">", "=")), s)))  # lower bound first
+        out[name.lower()] = f"{name}{spec}"
+    return out
+
+
+def host_requirements(third_party: set[str]) -> list[str]:
+    """Requirement lines for the third-party modules the bundle imports; each must be a project
+    dependency, so nothing reaches an FMU that the project does not declare and pin."""
+    declared = project_requirements()
+    dists = importlib.metadata.packages_distributions()
+    lines = []
+    for module in sorted(third_party):
+        names = [d.lower() for d in dists.get(module, [module])]
+        match = next((declared[n] for n in names if n in declared), None)
+        if match is None:
+            raise PackagingError(f"the FMU code imports '{module}', which is not a dependency of {DISTRIBUTION}")
+        lines.append(match)
+    return sorted(set(lines))
+
+
+def _insert_after_future(text: str, header: str) -> str:
+    """``header`` after the docstring and ``from __future__`` imports, which must stay first."""
+    tree = ast.parse(text)
+    line = 0
+    for i, node in enumerate(tree.body):
+        is_doc = i == 0 and isinstance(node, ast.Expr) and isinstance(getattr(node, "value", None), ast.Constant)
+        if is_doc or (isinstance(node, ast.ImportFrom) and node.module == "__future__"):
+            line = node.end_lineno
+        else:
+            break
+    lines = text.splitlines(keepends=True)
+    return "".join(lines[:line]) + header + "".join(lines[line:])
+
+
+def stage(model: str, script: Path, packages: dict[str, Path], stem: str, dest: Path) -> list[str]:
+    """Write the renamed script and packages under ``dest`` (the future ``resources/``); return the
+    host requirement lines. ``packages`` maps a bundled top-level name to its source folder."""
+    lib = f"{stem}_lib"
+    (dest / lib).mkdir(parents=True)
+    (dest / lib / "__init__.py").write_text(f'"""Python code of the {model} FMU ({stem}); imported from here only."""\n')
+    host_check = Path(packages["fmi_slave"], "host_check.py")  # the script's generated first import
+    files = {dest / lib / rel: src.read_text() for rel, src in import_closure([script, host_check], packages).items()}
+    files.setdefault(dest / lib / "fmi_slave" / "host_check.py", host_check.read_text())
+    files.setdefault(dest / lib / "fmi_slave" / "__init__.py", Path(packages["fmi_slave"], "__init__.py").read_text())
+    # pythonfmu's own modules import each other relatively: it comes whole, as its builder copies it
+    files |= {dest / lib / "pythonfmu" / f.name: f.read_text() for f in pythonfmu_sources()}
+    third_party: set[str] = set()
+    for target, text in files.items():
+        target.parent.mkdir(exist_ok=True)
+        renamed = rename_imports(text, lib)
+        third_party |= _check_imports(renamed, lib, target)
+        target.write_text(renamed)
+    script_text = rename_imports(script.read_text(), lib)
+    third_party |= _check_imports(script_text, lib, script)
+    requirements = host_requirements(third_party)
+    header = (f"# sotc-cosim build: check the host's packages before anything imports them\n"
+              f"from {lib}.fmi_slave.host_check import require_host_packages\n"
+              f"require_host_packages({model!r}, {tuple(requirements)!r})\n")
+    (dest / f"{stem}.py").write_text(_insert_after_future(script_text, header))
+    (dest / "requirements.txt").write_text("".join(r + "\n" for r in requirements))
+    (dest / "slavemodule.txt").write_text(stem)
+    return requirements
+
+
+def import_closure(starts: list[Path], packages: dict[str, Path]) -> dict[Path, Path]:
+    """Every module of ``packages`` the files ``starts`` import, directly or through each other, plus
+    the ``__init__.py`` of each package used: relative path under the bundle -> source file."""
+    found: dict[Path, Path] = {}
+    todo = list(starts)
+    while todo:
+        tree = ast.parse(todo.pop().read_text())
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Import):
+                modules = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+                modules = [node.module] + [f"{node.module}.{a.name}" for a in node.names]
+            else:
+                continue
+            for dotted in modules:
+                top, _, rest = dotted.partition(".")
+                if top not in packages:
+                    continue
+                for rel in (Path(top, "__init__.py"), Path(top, *rest.split(".")).with_suffix(".py") if rest else None):
+                    if rel is not None and rel not in found and (packages[top] / rel.relative_to(top)).is_file():
+                        found[rel] = packages[top] / rel.relative_to(top)
+                        todo.append(found[rel])
+    return found
+
+
+def _check_imports(text: str, lib: str, where: Path) -> set[str]:
+    """Refuse a bundled package imported under its own name; return the third-party top-level imports."""
+    names = top_level_imports(ast.parse(text, str(where)))
+    escaped = names & set(BUNDLED)
+    if escaped:
+        raise PackagingError(f"{where}: import of {sorted(escaped)} was not renamed into {lib}")
+    return {n for n in names if n not in sys.stdlib_module_names and n not in (lib, "__future__")}
+
+
+def model_description(resources: Path, stem: str, model: str) -> Element:
+    """The modelDescription of the staged model class (imported from ``resources``, then forgotten)."""
+    sys.path.insert(0, str(resources))
+    try:
+        module = importlib.import_module(stem)
+        instance = getattr(module, model)(instance_name="build", resources=str(resources))
+        return instance.to_xml()
+    finally:
+        if str(resources) in sys.path:
+            sys.path.remove(str(resources))
+        for name in [n for n in sys.modules if n == stem or n.startswith(f"{stem}_lib")]:
+            del sys.modules[name]
+
+
+def _range(v: Element) -> str:
+    low, high = v.get("min"), v.get("max")
+    return "" if low is None and high is None else f"[{low if low is not None else '-inf'}, {high if high is not None else 'inf'}]"
+
+
+def documentation_html(model: str, xml: Element, equations: list[str], requirements: list[str]) -> str:
+    """``documentation/index.html``: what the FMU is, its ports, and what its host needs (no links)."""
+    esc = html.escape
+    rows: dict[str, list[str]] = {"input": [], "output": [], "parameter": []}
+    for sv in xml.iter("ScalarVariable"):
+        kind = sv.get("causality")
+        if kind not in rows:
+            continue
+        typed = next(iter(sv))
+        rows[kind].append(
+            f"<tr><td>{esc(sv.get('name'))}</td><td>{esc(typed.tag)}</td><td>{esc(typed.get('unit') or '')}</td>"
+            f"<td>{esc(typed.get('start') or '')}</td><td>{esc(_range(typed))}</td>"
+            f"<td>{esc(sv.get('description') or '')}</td></tr>")
+    tables = "".join(
+        f"<h2>{title}</h2><table><tr><th>name</th><th>type</th><th>unit</th><th>start</th><th>range</th>"
+        f"<th>meaning</th></tr>{''.join(rows[kind])}</table>"
+        for kind, title in (("input", "Inputs"), ("output", "Outputs"), ("parameter", "Parameters")) if rows[kind])
+    maths = "".join(f"<pre>{esc(text)}</pre>" for text in equations if text)
+    reqs = "".join(f"<li><code>{esc(r)}</code></li>" for r in requirements)
+    return (
+        f"<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>{esc(model)}</title>"
+        "<style>body{font-family:sans-serif;max-width:60em}td,th{border:1px solid #ccc;padding:2px 6px}"
+        "table{border-collapse:collapse}pre{background:#f6f6f6;padding:6px}</style></head><body>"
+        f"<h1>{esc(model)}</h1><p>{esc(xml.get('description') or '')}</p>"
+        f"<p>FMI 2.0 co-simulation FMU of sotc-cosim {esc(xml.get('version') or '')}, GUID "
+        f"<code>{esc(xml.get('guid') or '')}</code>. Communication step T = 0.01 s by default.</p>"
+        "<h2>Host requirements</h2><p>The FMU runs its Python code inside the host's Python interpreter "
+        "(pythonfmu). That interpreter needs:</p>"
+        f"<ul><li>CPython {' or '.join(MEASURED_PYTHONS)} (measured), with a shared libpython "
+        "loaded into the host process</li>"
+        f"{reqs}</ul><p>These are listed in <code>resources/requirements.txt</code>; "
+        f"<code>pythonfmu deploy -f {esc(model)}.fmu</code> installs them. A missing package makes "
+        "fmi2Instantiate fail with a logged message that names it and its version range.</p>"
+        f"{tables}<h2>Equations</h2>{maths}</body></html>\n")
+
+
+def write_fmu(dest_file: Path, model: str, resources: Path, xml: Element, documentation: str) -> None:
+    """Zip the FMU: modelDescription, pythonfmu's binaries renamed to the model, resources, docs."""
+    tmp = dest_file.with_suffix(".fmu.part")
+    with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as z:
+        z.writestr("modelDescription.xml", parseString(tostring(xml, "UTF-8")).toprettyxml(encoding="UTF-8"))
+        for binary, platform in pythonfmu_binaries():
+            z.write(binary, f"binaries/{platform}/{model}{binary.suffix}")
+        for f in sorted(resources.rglob("*")):
+            if f.is_file() and "__pycache__" not in f.parts:
+                z.write(f, f"resources/{f.relative_to(resources).as_posix()}")
+        z.writestr("documentation/index.html", documentation)
+    tmp.replace(dest_file)
+
+
+def package_fmu(model: str, script: Path, packages: dict[str, Path], equations: list[Path], digest: str,
+                dest_file: Path, workdir: Path) -> Path:
+    """Stage, describe and zip one FMU into ``dest_file``."""
+    stem = bundle_stem(model, digest)
+    resources = workdir / "resources"
+    requirements = stage(model, script, packages, stem, resources)
+    xml = model_description(resources, stem, model)
+    docs = [ast.get_docstring(ast.parse(p.read_text())) or "" for p in [script, *equations]]
+    write_fmu(dest_file, model, resources, xml, documentation_html(model, xml, docs, requirements))
+    shutil.rmtree(resources)
+    return dest_file

@@ -1,0 +1,1 @@
+"""Running scenarios: the scenario files, the fmpy master, metrics, summaries, interruption."""

@@ -1,0 +1,429 @@
+"""The fixed-step co-simulation master: loads FMUs with fmpy, connects them, steps them, records.
+
+Call order at each communication point t_k = k T (k = 0 .. N, computed as k * T, never summed):
+
+1. for each instance in feedthrough order: read all its outputs, then set the inputs of every
+   instance whose sources have all been read now (one fmi2SetReal per target instance);
+2. record every output of every instance at t_k;
+3. (k < N) ``doStep(t_k, T)`` on every instance.
+
+"Feedthrough order" is a topological order of the instances over connections whose target has
+outputs that depend directly on its inputs (declared in modelDescription ``ModelStructure/Outputs``
+``dependencies``). The plant and the reference declare none, so they are read first; a controller
+declares that its torque depends on its inputs, so it is read after its inputs were set from the
+plant and reference at t_k. The torque read at t_k is therefore computed from the measurement at
+t_k, and the plant's doStep holds it over [t_k, t_k + T): the paper's sampled, zero-order-hold loop.
+An algebraic loop (a cycle of feedthrough) is refused before the run starts.
+"""
+from __future__ import annotations
+
+import shutil
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Protocol, Sequence
+
+import numpy as np
+from fmpy import extract
+from fmpy.fmi1 import FMICallException
+from fmpy.fmi2 import FMU2Slave, fmi2Real, fmi2True, fmi2ValueReference, fmi2Warning
+
+from orchestration.run import interrupt
+from orchestration.run.fmi_direct import forget_callbacks, make_callbacks
+from orchestration.run.parameter_check import model_description, parameter_problem
+from orchestration.run.scenario import Scenario, ScenarioError
+
+STATUS_LABELS = ("OK", "WARNING", "DISCARD", "ERROR", "FATAL", "PENDING")
+
+
+@dataclass
+class LogRecord:
+    instance: str
+    status: str
+    message: str
+    sample: int = -1  # the sample k whose output reads or doStep(t_k) logged it; -1 during set-up
+
+
+@dataclass
+class RunResult:
+    """Everything a run produced. With ``keep_samples`` (the default) ``outputs[instance][variable]``
+    has one value per sample and ``time`` every sample time; a streamed run (``keep_samples=False``)
+    leaves both empty: its observers saw every sample, and ``samples`` still counts them."""
+
+    scenario: Scenario
+    time: np.ndarray
+    outputs: dict[str, dict[str, np.ndarray]]
+    wall_time_s: float
+    failed: bool = False
+    error: str | None = None
+    interrupted: bool = False  # stopped by SIGINT (``orchestration.run.interrupt``); ``failed`` is set too
+    logs: list[LogRecord] = field(default_factory=list)
+    # every parameter of every instance as the FMU holds it after initialization (defaults included)
+    parameters: dict[str, dict[str, float]] = field(default_factory=dict)
+    # per instance, the identity of the FMU it ran: guid, version, generation_tool (modelDescription)
+    fmus: dict[str, dict[str, str]] = field(default_factory=dict)
+    completed: int | None = None  # samples t_0 .. t_{completed-1} were produced (None: len(time))
+
+    @property
+    def samples(self) -> int:
+        return len(self.time) if self.completed is None else self.completed
+
+
+class RunObserver(Protocol):
+    """Receives a run while it happens (e.g. the Rerun recorder), in blocks of samples.
+
+    ``start`` gets each instance's output names and the parameter values every instance runs with
+    (read back from the FMUs, defaults included); ``block`` gets the sample times and, per
+    instance, an array (m, n_outputs) of the samples since the previous block (views: copy what
+    must outlive the call); ``finish`` gets the complete result, also after a failure.
+    """
+
+    def start(self, scenario: Scenario, columns: dict[str, list[str]], parameters: dict[str, dict[str, float]]) -> None: ...
+
+    def block(self, time: np.ndarray, rows: dict[str, np.ndarray]) -> None: ...
+
+    def finish(self, result: "RunResult") -> None: ...
+
+
+class _ObserverFailed(Exception):
+    """The observer raised: the run stops, and the observer is not handed that data again."""
+
+
+class _Clock:
+    """The sample the run is at, for stamping log messages (-1 during set-up)."""
+
+    sample = -1
+
+
+class _LogSink:
+    """Turns one instance's (status, message) log entries into the run's LogRecords."""
+
+    def __init__(self, instance: str, logs: list[LogRecord], clock: _Clock):
+        self.instance, self.logs, self.clock = instance, logs, clock
+
+    def append(self, entry: tuple[int, str]) -> None:
+        status, message = entry
+        label = STATUS_LABELS[status] if 0 <= status < len(STATUS_LABELS) else str(status)
+        self.logs.append(LogRecord(self.instance, label, message, self.clock.sample))
+
+
+class _Loaded:
+    """One FMU instance with its value references and preallocated ctypes buffers."""
+
+    def __init__(self, name: str, fmu_file: Path, workdir: Path, logs: list[LogRecord], clock: _Clock):
+        self.name = name
+        self.md = model_description(fmu_file)  # parsed once per FMU file (runs, sweep points, the CLI's check)
+        if self.md.coSimulation is None:
+            raise ScenarioError(f"{fmu_file} does not support co-simulation")
+        self.unzipdir = extract(str(fmu_file), unzipdir=str(workdir / name))
+        self.vars = {v.name: v for v in self.md.modelVariables}
+        self.output_names = [v.name for v in self.md.modelVariables if v.causality == "output" and v.type == "Real"]
+        self.inputs = {v.name for v in self.md.modelVariables if v.causality == "input"}
+        self.feedthrough = any(u.dependencies for u in self.md.outputs)
+        self.out_vr = (fmi2ValueReference * len(self.output_names))(*(self.vars[n].valueReference for n in self.output_names))
+        self.out_buf = (fmi2Real * len(self.output_names))()
+        self.out_view = np.ctypeslib.as_array(self.out_buf)
+        self.fmu = FMU2Slave(
+            guid=self.md.guid, unzipDirectory=self.unzipdir,
+            modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=name,
+        )
+        # fmpy keeps one process-wide logger: fmi_direct routes each instance's messages to its sink
+        self.callbacks = make_callbacks(_LogSink(name, logs, clock))
+        self.fmu.instantiate(callbacks=self.callbacks, loggingOn=True)
+        self.instantiated = True
+        self.initialized = False
+
+        # fmpy's raw ctypes functions: its per-call wrapper costs more than the call (see _checked)
+        self.raw_get = self.fmu._functions["fmi2GetReal"]
+        self.raw_set = self.fmu._functions["fmi2SetReal"]
+        self.raw_step = self.fmu._functions["fmi2DoStep"]
+        self.n_out = len(self.output_names)
+
+    def read_outputs(self) -> None:
+        _checked(self.raw_get(self.fmu.component, self.out_vr, self.n_out, self.out_buf), "fmi2GetReal")
+
+    def do_step(self, t: float, h: float) -> None:
+        _checked(self.raw_step(self.fmu.component, t, h, fmi2True), "fmi2DoStep")
+
+    def parameter_values(self) -> dict[str, float]:
+        """Every Real and Integer parameter as the instance holds it now."""
+        values: dict[str, float] = {}
+        for v in self.md.modelVariables:
+            if v.causality == "parameter" and v.type in ("Real", "Integer"):
+                get = self.fmu.getReal if v.type == "Real" else self.fmu.getInteger
+                values[v.name] = get([v.valueReference])[0]
+        return values
+
+    def set_parameters(self, values: dict[str, float]) -> None:
+        for pname, value in values.items():
+            problem = parameter_problem(self.md, pname, value, check_range=False)
+            if problem:
+                raise ScenarioError(f"{self.name}: {problem}")
+            var = self.vars[pname]
+            if var.type == "Real":
+                self.fmu.setReal([var.valueReference], [float(value)])
+            else:
+                self.fmu.setInteger([var.valueReference], [int(value)])
+
+
+def _checked(status: int, function: str) -> None:
+    """What fmpy's wrapper does with a status: anything worse than a warning raises."""
+    if status > fmi2Warning:
+        raise FMICallException(function=function, status=status)
+
+
+class _Link:
+    """All connections from one source instance to one target instance."""
+
+    def __init__(self, source: _Loaded, target: _Loaded, pairs: list[tuple[str, str]]):
+        self.source, self.target = source, target
+        self.src_index = np.array([source.output_names.index(o) for o, _ in pairs], dtype=np.intp)
+        self.target_vrs = [target.vars[i].valueReference for _, i in pairs]
+
+
+class _Inputs:
+    """Every connection into one target instance, set with one fmi2SetReal from preallocated buffers
+    once all its sources have been read at the communication point."""
+
+    def __init__(self, target: _Loaded, links: list[_Link]):
+        self.target = target
+        vrs = [vr for link in links for vr in link.target_vrs]
+        self.n = len(vrs)
+        self.vr = (fmi2ValueReference * self.n)(*vrs)
+        self.buf = (fmi2Real * self.n)()
+        view = np.ctypeslib.as_array(self.buf)
+        self.parts, lo = [], 0
+        for link in links:  # (source outputs, which of them, where they go in the buffer)
+            self.parts.append((link.source.out_view, link.src_index, view[lo:lo + len(link.src_index)]))
+            lo += len(link.src_index)
+
+    def push(self) -> None:
+        for outputs, index, into in self.parts:
+            outputs.take(index, out=into)  # no per-step allocation
+        _checked(self.target.raw_set(self.target.fmu.component, self.vr, self.n, self.buf), "fmi2SetReal")
+
+
+def _input_pushes(order: list[str], links: list[_Link]) -> dict[str, list[_Inputs]]:
+    """Per instance, the targets whose inputs are set right after it is read: those whose last
+    source (in ``order``) it is, so each target gets one fmi2SetReal per communication point."""
+    position = {name: i for i, name in enumerate(order)}
+    by_target: dict[str, list[_Link]] = {}
+    for link in links:
+        by_target.setdefault(link.target.name, []).append(link)
+    pushes: dict[str, list[_Inputs]] = {name: [] for name in order}
+    for target_links in by_target.values():
+        last = max((link.source.name for link in target_links), key=position.__getitem__)
+        pushes[last].append(_Inputs(target_links[0].target, target_links))
+    return pushes
+
+
+def _resolve_links(scenario: Scenario, loaded: dict[str, _Loaded]) -> list[_Link]:
+    """The scenario's connections grouped by (source, target) instance pair."""
+    connections = scenario.resolve_connections(
+        {n: ld.output_names for n, ld in loaded.items()}, {n: ld.inputs for n, ld in loaded.items()})
+    pairs: dict[tuple[str, str], list[tuple[str, str]]] = {}
+    for c in connections:
+        pairs.setdefault((c.source, c.target), []).append((c.output, c.input))
+    return [_Link(loaded[s], loaded[d], p) for (s, d), p in pairs.items()]
+
+
+def _feedthrough_order(loaded: dict[str, _Loaded], links: list[_Link]) -> list[str]:
+    """Instances ordered so that each feedthrough instance comes after every instance feeding it."""
+    deps = {name: set() for name in loaded}
+    for link in links:
+        if link.target.feedthrough:
+            deps[link.target.name].add(link.source.name)
+    order: list[str] = []
+    while deps:
+        ready = sorted(n for n, d in deps.items() if not d - set(order))
+        if not ready:
+            raise ScenarioError(f"algebraic loop between feedthrough instances: {sorted(deps)}")
+        for n in ready:
+            order.append(n)
+            del deps[n]
+    return order
+
+
+class _Fanout:
+    """Several observers as one, called in order."""
+
+    def __init__(self, observers: Sequence[RunObserver]):
+        self.observers = list(observers)
+
+    def start(self, scenario, columns, parameters) -> None:
+        for o in self.observers:
+            o.start(scenario, columns, parameters)
+
+    def block(self, time, rows) -> None:
+        for o in self.observers:
+            o.block(time, rows)
+
+    def finish(self, result) -> None:
+        for o in self.observers:
+            o.finish(result)
+
+
+def run(
+    scenario: Scenario,
+    fmu_paths: dict[str, Path],
+    observer: RunObserver | Sequence[RunObserver] | None = None,
+    block_size: int = 1000,
+    keep_samples: bool = True,
+) -> RunResult:
+    """Run ``scenario`` with the FMUs at ``fmu_paths`` (model identifier -> .fmu file).
+
+    A failing FMI call (or any other error once the scenario is accepted, e.g. an FMU that cannot be
+    loaded, or an observer that cannot write) ends the run early; the result then has
+    ``failed=True``, the error, the FMUs' log messages and every sample recorded up to the failure.
+    Instances are always freed. A ``ScenarioError`` (the scenario itself is wrong) is raised.
+    ``observer`` (optional, one or a list) is handed the samples every ``block_size`` samples and at
+    the end. ``keep_samples=False`` streams: the master then holds one block per instance, not the
+    run (memory bounded for any stop time), and the result carries no sample arrays.
+    """
+    if block_size < 1:
+        raise ScenarioError(f"block_size must be >= 1, got {block_size}")
+    if observer is not None and not hasattr(observer, "block"):
+        observer = _Fanout(observer)
+    logs: list[LogRecord] = []
+    clock = _Clock()
+    parameters: dict[str, dict[str, float]] = {}
+    fmus: dict[str, dict[str, str]] = {}
+    n_steps = scenario.steps
+    T = scenario.step_size
+    rows = n_steps + 1 if keep_samples else min(block_size, n_steps + 1)  # rows held per instance
+    times = np.arange(n_steps + 1, dtype=float) * T if keep_samples else None
+    workdir = Path(tempfile.mkdtemp(prefix="sotc_run_"))
+    loaded: dict[str, _Loaded] = {}
+    records: dict[str, np.ndarray] = {}
+    k = -1
+    recorded = 0  # samples t_0 .. t_{recorded-1} hold every output of every instance
+    flushed = 0  # samples t_0 .. t_{flushed-1} were handed to the observer
+    error: str | None = None
+    observer_ok = True
+
+    def hand_over(upto: int) -> None:
+        """Give the observer samples flushed .. upto-1, then (streaming) reuse the buffer."""
+        nonlocal flushed
+        lo = flushed if keep_samples else 0
+        hi = lo + upto - flushed
+        if observer is not None:
+            block_t = times[flushed:upto] if keep_samples else np.arange(flushed, upto, dtype=float) * T
+            _call_observer(observer.block, block_t, {n: r[lo:hi] for n, r in records.items()})
+        flushed = upto
+
+    interrupted = False
+    stop = interrupt.STATE
+    started = time.perf_counter()
+    try:
+        interrupt.check()  # SIGINT before the run: nothing is loaded
+        for inst in scenario.instances.values():
+            if inst.fmu not in fmu_paths:
+                raise ScenarioError(f"instance '{inst.name}': no built FMU for model '{inst.fmu}'")
+            loaded[inst.name] = _Loaded(inst.name, fmu_paths[inst.fmu], workdir, logs, clock)
+            md = loaded[inst.name].md
+            fmus[inst.name] = {"guid": md.guid or "", "version": md.version or "",
+                               "generation_tool": md.generationTool or ""}
+        links = _resolve_links(scenario, loaded)
+        order = _feedthrough_order(loaded, links)
+        # per feedthrough position: the instance and the inputs set after it (lists: no lookups per step)
+        pushes = _input_pushes(order, links)
+        plan = [(loaded[name], pushes[name]) for name in order]
+        instances = list(loaded.values())
+        for inst in scenario.instances.values():
+            ld = loaded[inst.name]
+            ld.set_parameters(inst.parameters)
+            ld.fmu.setupExperiment(startTime=0.0, stopTime=scenario.stop_time)
+            ld.fmu.enterInitializationMode()
+            ld.fmu.exitInitializationMode()
+            ld.initialized = True
+            parameters[inst.name] = ld.parameter_values()
+            records[inst.name] = np.empty((rows, len(ld.output_names)))
+        targets = [(ld, records[ld.name], pushes) for ld, pushes in plan]
+        if observer is not None:
+            _call_observer(observer.start, scenario, {n: list(ld.output_names) for n, ld in loaded.items()}, parameters)
+        row = 0
+        for k in range(n_steps + 1):
+            clock.sample = k
+            for ld, record, pushes in targets:
+                ld.read_outputs()
+                record[row] = ld.out_view
+                for link in pushes:
+                    link.push()
+            recorded = k + 1
+            row += 1
+            if row == rows or (observer is not None and recorded - flushed >= block_size):
+                hand_over(recorded)
+                if not keep_samples:
+                    row = 0
+            if k == n_steps:
+                break
+            if stop.requested:  # SIGINT: stop here, between two steps, with every sample so far
+                interrupted = True
+                break
+            t = k * T  # t_k = k T, the same double as np.arange(...) * T
+            for ld in instances:
+                ld.do_step(t, T)
+    except ScenarioError:
+        raise  # the scenario itself is wrong: nothing ran
+    except interrupt.Interrupted:
+        interrupted = True
+    except Exception as exc:  # FMI status errors, fmpy's load/instantiate errors, observer errors
+        error = _describe_failure(exc, k, T, n_steps, logs)
+        observer_ok = not isinstance(exc, _ObserverFailed)
+    finally:
+        wall = time.perf_counter() - started
+        _free(loaded)
+        shutil.rmtree(workdir, ignore_errors=True)
+    completed = recorded
+    if interrupted and error is None:
+        where = f"after t = {(completed - 1) * T:.2f} s (sample {completed - 1})" if completed else "before the first sample"
+        error = f"interrupted by SIGINT {where}"
+    if keep_samples:  # views into the one array per instance: no second copy of the run
+        outputs = {name: {v: records[name][:completed, i] for i, v in enumerate(loaded[name].output_names)}
+                   for name in records}
+        result = RunResult(scenario, times[:completed], outputs, wall, failed=error is not None, error=error,
+                           interrupted=interrupted, logs=logs, parameters=parameters, fmus=fmus)
+    else:
+        result = RunResult(scenario, np.empty(0), {}, wall, failed=error is not None, error=error,
+                           interrupted=interrupted, logs=logs, parameters=parameters, fmus=fmus,
+                           completed=completed)
+    if observer is not None:
+        try:
+            if observer_ok and completed > flushed:
+                hand_over(completed)
+        except _ObserverFailed as exc:  # the samples are in the result; say that the observer lost them
+            result.failed, result.error = True, (result.error + "; " if result.error else "") + str(exc)
+        observer.finish(result)
+    return result
+
+
+def _call_observer(method, *args) -> None:
+    try:
+        method(*args)
+    except Exception as exc:
+        raise _ObserverFailed(f"observer failed: {type(exc).__name__}: {exc}") from exc
+
+
+def _describe_failure(exc: Exception, k: int, step: float, n_steps: int, logs: list[LogRecord]) -> str:
+    where = f"at t = {k * step:.2f} s (sample {k})" if 0 <= k <= n_steps else "during set-up"
+    what = str(exc) if isinstance(exc, FMICallException) else f"{type(exc).__name__}: {exc}"
+    reasons = "; ".join(f"{r.instance}: {r.message}" for r in logs if r.status in ("DISCARD", "ERROR", "FATAL"))
+    return f"{what} {where}" + (f" -- {reasons}" if reasons else "")
+
+
+def _free(loaded: dict[str, _Loaded]) -> None:
+    for ld in loaded.values():
+        if not ld.instantiated:
+            continue
+        try:
+            if ld.initialized:
+                ld.fmu.terminate()
+        except FMICallException:
+            pass
+        try:
+            ld.fmu.freeInstance()
+        except FMICallException:
+            pass
+        forget_callbacks(ld.callbacks)
+        ld.instantiated = False

@@ -1,0 +1,61 @@
+"""Scenario parameters checked against the FMUs' modelDescriptions before anything runs.
+
+Every parameter an FMU declares carries its type and valid [min, max] in the modelDescription. A
+value that is not a parameter, not whole for an Integer, or outside that range would otherwise
+only be refused by the FMU at ``fmi2ExitInitializationMode``, after the FMUs were loaded (or a Dask
+cluster started and a failed point stored). ``check_scenarios`` refuses it up front with one
+``ScenarioError`` naming the scenario, the instance, the parameter, the value and the range.
+"""
+from __future__ import annotations
+
+import math
+from functools import lru_cache
+from pathlib import Path
+
+from orchestration.run.scenario import Scenario, ScenarioError
+
+
+@lru_cache(maxsize=64)
+def _model_description(path: str, mtime_ns: int):
+    from fmpy import read_model_description
+
+    return read_model_description(path)
+
+
+def model_description(fmu: Path):
+    """The modelDescription of ``fmu`` (cached while the file is unchanged)."""
+    return _model_description(str(fmu), Path(fmu).stat().st_mtime_ns)
+
+
+def parameter_problem(md, name: str, value: float, check_range: bool = True) -> str | None:
+    """Why ``value`` cannot be given to parameter ``name`` of the FMU described by ``md``, or None.
+    ``check_range=False``: name and type only, the range is left to the FMU (the master's own
+    check, so that an API caller still sees the FMU's refusal as a failed run)."""
+    var = next((v for v in md.modelVariables if v.name == name), None)
+    if var is None or var.causality != "parameter":
+        known = sorted(v.name for v in md.modelVariables if v.causality == "parameter")
+        return f"'{name}' is not a parameter of {md.modelName}; known: {', '.join(known)}"
+    if var.type not in ("Real", "Integer"):
+        return f"'{name}': parameters of type {var.type} are not supported"
+    if var.type == "Integer" and (not math.isfinite(value) or float(value) != int(value)):
+        return f"'{name}' must be a whole number, got {value!r}"
+    if not check_range:
+        return None
+    low = float(var.min) if var.min is not None else -math.inf
+    high = float(var.max) if var.max is not None else math.inf
+    if not low <= float(value) <= high:
+        return f"'{name}' = {value!r} is outside its valid range [{var.min}, {var.max}]"
+    return None
+
+
+def check_scenarios(scenarios: list[Scenario], fmu_paths: dict[str, Path]) -> None:
+    """Raise ScenarioError for the first parameter value any FMU would refuse."""
+    for scenario in scenarios:
+        for inst in scenario.instances.values():
+            if inst.fmu not in fmu_paths:
+                continue  # the master says which FMU is missing
+            md = model_description(fmu_paths[inst.fmu])
+            for name, value in inst.parameters.items():
+                problem = parameter_problem(md, name, value)
+                if problem:
+                    raise ScenarioError(f"scenario '{scenario.name}', instance '{inst.name}': {problem}")

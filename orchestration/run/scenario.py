@@ -1,0 +1,311 @@
+"""Scenario files: which FMUs, their parameters, how outputs connect to inputs, and for how long.
+
+A scenario is TOML (``orchestration/run/scenarios/<name>.toml``, shipped as package data, or any path):
+
+    name = "paper-ct"
+    extends = "paper"                 # optional: start from another scenario, then override
+    description = "..."
+    stop_time = 100.0                 # s
+    step_size = 0.01                  # s, the communication step T
+    [instances.controller]
+    fmu = "CtController"              # model identifier of a built FMU
+    parameters = { kp = 100.0 }
+    [[connect]]                       # every output of `from` feeds the same-named input of `to`
+    from = "plant"
+    to = "controller"
+    [[connection]]                    # or one explicit link
+    from = "reference.x_d"
+    to = "other.x_in"
+
+Instances named ``plant``, ``reference`` and ``controller`` are what the summary metrics read.
+"""
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+PAPER_TORQUE_LIMIT = 4.0  # rho, N.m (section 4)
+# a run holds every sample of every output in memory: 10^6 steps (10,000 s at T = 0.01 s, 100 paper
+# runs) of ~60 outputs is ~0.5 GB per instance; more is refused before anything is allocated
+MAX_STEPS = 1_000_000
+NANOSECOND = 1e-9  # the recordings' time resolution: a step must be a whole number of nanoseconds
+
+_NAME = {"type": "string", "pattern": r"^[A-Za-z_][A-Za-z0-9_-]*$"}
+_PORT = {"type": "string", "pattern": r"^[A-Za-z_][A-Za-z0-9_-]*\.[A-Za-z_][A-Za-z0-9_]*$"}
+_TIME = {"type": "number", "exclusiveMinimum": 0}
+# one scenario file as written (``extends`` resolved later, so nothing is required here but shapes)
+SCENARIO_SCHEMA: dict[str, Any] = {
+    "type": "object",
+    "additionalProperties": False,
+    "properties": {
+        "name": _NAME,
+        "extends": {"type": "string", "minLength": 1},
+        "description": {"type": "string"},
+        "stop_time": _TIME,
+        "step_size": _TIME,
+        "instances": {
+            "type": "object",
+            "propertyNames": _NAME,
+            "additionalProperties": {
+                "type": "object",
+                "additionalProperties": False,
+                "properties": {
+                    "fmu": _NAME,
+                    "parameters": {"type": "object", "propertyNames": _NAME,
+                                   "additionalProperties": {"type": "number"}},
+                },
+            },
+        },
+        "connect": {"type": "array", "items": {
+            "type": "object", "additionalProperties": False, "required": ["from", "to"],
+            "properties": {"from": _NAME, "to": _NAME}}},
+        "connection": {"type": "array", "items": {
+            "type": "object", "additionalProperties": False, "required": ["from", "to"],
+            "properties": {"from": _PORT, "to": _PORT}}},
+    },
+}
+
+
+class ScenarioError(ValueError):
+    """A scenario that cannot be run as written; the message says where and why."""
+
+
+@dataclass(frozen=True)
+class Instance:
+    name: str
+    fmu: str
+    parameters: dict[str, float] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Connection:
+    source: str  # instance
+    output: str
+    target: str  # instance
+    input: str
+
+
+@dataclass(frozen=True)
+class Scenario:
+    name: str
+    description: str
+    stop_time: float
+    step_size: float
+    instances: dict[str, Instance]
+    by_name: tuple[tuple[str, str], ...]  # (from instance, to instance): connect same-named ports
+    links: tuple[Connection, ...]  # explicit connections
+
+    @property
+    def steps(self) -> int:
+        return int(round(self.stop_time / self.step_size))
+
+    def with_stop_time(self, stop_time: float) -> "Scenario":
+        return _validated({**self.__dict__, "stop_time": stop_time})
+
+    def with_step_size(self, step_size: float) -> "Scenario":
+        return _validated({**self.__dict__, "step_size": step_size})
+
+    def with_parameters(self, overrides: dict[str, float], name: str | None = None) -> "Scenario":
+        """A copy with ``{"instance.parameter": value}`` overrides (an unknown parameter name is
+        refused later, by the FMU's modelDescription, when the run loads it)."""
+        instances = dict(self.instances)
+        for key, value in overrides.items():
+            inst_name, _, pname = key.partition(".")
+            if inst_name not in instances or not pname:
+                raise ScenarioError(
+                    f"scenario '{self.name}': override '{key}' must be instance.parameter with an instance "
+                    f"in {sorted(instances)}"
+                )
+            inst = instances[inst_name]
+            instances[inst_name] = Instance(inst.name, inst.fmu, {**inst.parameters, pname: value})
+        return _validated({**self.__dict__, "instances": instances, "name": name or self.name})
+
+    def controller_fmu(self) -> str | None:
+        inst = self.instances.get("controller")
+        return inst.fmu if inst else None
+
+    def resolve_connections(self, outputs: dict[str, list[str]], inputs: dict[str, set[str]]) -> list[Connection]:
+        """Every output -> input link of the scenario, given each instance's Real outputs and its
+        inputs (from its modelDescription). ``[[connect]]`` pairs link same-named ports and must
+        match at least one; an unknown port or an input fed twice is refused."""
+        resolved: list[Connection] = []
+        fed: dict[tuple[str, str], str] = {}
+
+        def add(c: Connection) -> None:
+            where = f"connection {c.source}.{c.output} -> {c.target}.{c.input}"
+            if c.output not in outputs[c.source]:
+                raise ScenarioError(f"{where}: {c.source} has no Real output '{c.output}'")
+            if c.input not in inputs[c.target]:
+                raise ScenarioError(f"{where}: {c.target} has no input '{c.input}'")
+            if (c.target, c.input) in fed:
+                raise ScenarioError(f"input {c.target}.{c.input} is fed twice: from {fed[(c.target, c.input)]} "
+                                    f"and {c.source}.{c.output}")
+            fed[(c.target, c.input)] = f"{c.source}.{c.output}"
+            resolved.append(c)
+
+        for src, dst in self.by_name:
+            matched = [n for n in outputs[src] if n in inputs[dst]]
+            if not matched:
+                raise ScenarioError(f"[[connect]] {src} -> {dst}: no output of {src} matches an input of {dst}")
+            for name in matched:
+                add(Connection(src, name, dst, name))
+        for c in self.links:
+            add(c)
+        return resolved
+
+    def torque_limit(self) -> float:
+        """The controller's torque bound as the scenario sets it (``rho``, ``tau_max`` or ``tau_limit``), else the
+        paper's rho = 4 N.m (section 4), which every controller FMU uses by default."""
+        inst = self.instances.get("controller")
+        params = inst.parameters if inst else {}
+        for key in ("rho", "tau_max", "tau_limit"):
+            if key in params:
+                return float(params[key])
+        return PAPER_TORQUE_LIMIT
+
+
+def available_scenarios() -> list[str]:
+    folder = resources.files("orchestration.run.scenarios")
+    return sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".toml"))
+
+
+def _read_raw(name_or_path: str, seen: tuple[str, ...] = ()) -> dict[str, Any]:
+    path = Path(name_or_path)
+    if path.suffix == ".toml" and path.is_file():
+        text, label = path.read_text(), str(path)
+    else:
+        resource = resources.files("orchestration.run.scenarios") / f"{name_or_path}.toml"
+        if not resource.is_file():
+            raise ScenarioError(
+                f"no scenario '{name_or_path}': give a .toml path or one of {', '.join(available_scenarios())}"
+            )
+        text, label = resource.read_text(), name_or_path
+    if label in seen:
+        raise ScenarioError(f"scenario '{label}' extends itself through {' -> '.join(seen)}")
+    try:
+        raw = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(f"scenario '{label}' is not valid TOML: {exc}") from None
+    _check_schema(raw, label)
+    parent = raw.pop("extends", None)
+    if parent is None:
+        return raw
+    return _merge(_read_raw(parent, seen + (label,)), raw)
+
+
+def _check_schema(raw: dict[str, Any], label: str) -> None:
+    """Refuse a file whose shape is wrong, naming the key and what it may be (the first error)."""
+    from jsonschema import Draft202012Validator
+    from jsonschema.exceptions import best_match
+
+    error = best_match(Draft202012Validator(SCENARIO_SCHEMA).iter_errors(raw))
+    if error is None:
+        return
+    where = "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in error.absolute_path).lstrip(".")
+    message = error.message if len(error.message) <= 200 else error.message[:200] + "..."
+    if error.validator == "pattern":
+        message = f"{error.instance!r} is not a name (letters, digits, _ and -; 'instance.port' for a port)"
+    elif error.validator == "exclusiveMinimum":
+        message = f"{error.instance!r} must be a number > 0"
+    raise ScenarioError(f"scenario '{label}': {where or 'the file'}: {message}")
+
+
+def _merge(base: dict[str, Any], override: dict[str, Any]) -> dict[str, Any]:
+    """Deep-merge tables; an instance whose ``fmu`` changes starts from empty parameters."""
+    out = dict(base)
+    for key, value in override.items():
+        if key == "instances":
+            merged = dict(base.get("instances", {}))
+            for inst, spec in value.items():
+                old = merged.get(inst, {})
+                if "fmu" in spec and spec["fmu"] != old.get("fmu"):
+                    old = {}
+                merged[inst] = {**old, **spec, "parameters": {**old.get("parameters", {}), **spec.get("parameters", {})}}
+            out["instances"] = merged
+        else:
+            out[key] = value
+    return out
+
+
+def load_scenario(name_or_path: str) -> Scenario:
+    raw = _read_raw(name_or_path)
+    raw.setdefault("name", Path(name_or_path).stem)
+    try:
+        return _validated(_from_raw(raw))
+    except ScenarioError as exc:
+        if raw["name"] == name_or_path:
+            raise
+        raise ScenarioError(f"{name_or_path}: {exc}") from None
+
+
+def _from_raw(raw: dict[str, Any]) -> dict[str, Any]:
+    known = {"name", "description", "stop_time", "step_size", "instances", "connect", "connection"}
+    unknown = set(raw) - known
+    if unknown:
+        raise ScenarioError(f"scenario '{raw['name']}': unknown keys {sorted(unknown)}; known: {sorted(known)}")
+    instances = {}
+    for name, spec in raw.get("instances", {}).items():
+        if "fmu" not in spec:
+            raise ScenarioError(f"scenario '{raw['name']}': instance '{name}' needs an 'fmu' key")
+        params = spec.get("parameters", {})
+        instances[name] = Instance(name, spec["fmu"], dict(params))
+    links = []
+    for item in raw.get("connection", []):
+        try:
+            src, out = item["from"].split(".", 1)
+            dst, inp = item["to"].split(".", 1)
+        except (KeyError, ValueError):
+            raise ScenarioError(f"scenario '{raw['name']}': a [[connection]] needs from = 'inst.output', to = 'inst.input'") from None
+        links.append(Connection(src, out, dst, inp))
+    by_name = tuple((c["from"], c["to"]) for c in raw.get("connect", []))
+    return {
+        "name": raw["name"],
+        "description": raw.get("description", ""),
+        "stop_time": raw.get("stop_time", 100.0),
+        "step_size": raw.get("step_size", 0.01),
+        "instances": instances,
+        "by_name": by_name,
+        "links": tuple(links),
+    }
+
+
+def _validated(fields: dict[str, Any]) -> Scenario:
+    name = fields["name"]
+    for key in ("stop_time", "step_size"):
+        value = fields[key]
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
+            raise ScenarioError(f"scenario '{name}': {key} must be a finite number > 0, got {value!r}")
+    step_ns = fields["step_size"] / NANOSECOND
+    if step_ns < 1.0 or abs(step_ns - round(step_ns)) > 1e-3:
+        raise ScenarioError(f"scenario '{name}': step_size {fields['step_size']!r} must be a whole number of "
+                            "nanoseconds (the recordings' time unit), at least 1e-09 s")
+    steps = fields["stop_time"] / fields["step_size"]
+    if steps > MAX_STEPS:
+        raise ScenarioError(f"scenario '{name}': stop_time / step_size = {steps:.6g} steps; at most {MAX_STEPS:,} "
+                            "are allowed (every sample is held in memory)")
+    if round(steps) < 1:
+        raise ScenarioError(f"scenario '{name}': stop_time {fields['stop_time']!r} is shorter than one step of "
+                            f"{fields['step_size']!r}")
+    if abs(steps - round(steps)) > 1e-9 * max(1.0, steps):
+        raise ScenarioError(
+            f"scenario '{name}': stop_time {fields['stop_time']} is not a whole number of steps of {fields['step_size']}"
+        )
+    if not fields["instances"]:
+        raise ScenarioError(f"scenario '{name}': no instances; give at least one [instances.<name>] with an fmu")
+    for src, dst in fields["by_name"]:
+        for inst in (src, dst):
+            if inst not in fields["instances"]:
+                raise ScenarioError(f"scenario '{name}': [[connect]] names unknown instance '{inst}'")
+    for link in fields["links"]:
+        for inst in (link.source, link.target):
+            if inst not in fields["instances"]:
+                raise ScenarioError(f"scenario '{name}': [[connection]] names unknown instance '{inst}'")
+    for inst in fields["instances"].values():
+        for pname, value in inst.parameters.items():
+            if not isinstance(value, (int, float)) or isinstance(value, bool):
+                raise ScenarioError(f"scenario '{name}': {inst.name}.{pname} must be a number, got {value!r}")
+    return Scenario(**{**fields, "stop_time": float(fields["stop_time"]), "step_size": float(fields["step_size"])})

@@ -1,0 +1,1 @@
+"""The paper's experiment and our studies of it: the pure loop, readings, comparisons, reproduce."""

@@ -1,0 +1,101 @@
+"""The sampled closed loop in plain Python: exactly what the FMU master does, without FMUs.
+
+Per step k (t_k = k T, computed from the step count, never by summing T):
+
+1. sample the reference r(t_k);
+2. controller.evaluate(t_k, y(t_k), r(t_k)) -> torque (direct feedthrough);
+3. record sample k;
+4. plant: RK4 (``dynamics.integrate``) over [t_k, t_k + T) with the torque held (zero-order hold);
+5. controller.advance(t_k, T) (learning over the same interval).
+
+Samples are recorded at t_0 .. t_N inclusive (N = stop_time / T; 10,001 samples for 100 s at
+T = 0.01 s); at t_N the controller is evaluated and recorded but neither the plant nor the
+controller is advanced.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from fmu_controller.base import ControllerCore
+from fmu_plant.dynamics import ArmParameters, integrate
+from fmu_plant.trajectory import CircleTrajectory
+from orchestration.run.metrics import tracking_metrics
+
+
+@dataclass
+class LoopResult:
+    """Recorded samples of one run; every array has one row per sample t_0 .. t_N."""
+
+    t: np.ndarray  # (N+1,)
+    y: np.ndarray  # (N+1, 4) phi1, phi2, dphi1, dphi2
+    ref: np.ndarray  # (N+1, 8) CircleTrajectory.sample: phi_d, dphi_d, ddphi_d, x_d, y_d
+    outputs: np.ndarray  # (N+1, 2 + extras) tau1, tau2, extras in controller.output_names() order
+    names: tuple[str, ...] = field(default=())
+
+    def out(self, name: str) -> np.ndarray:
+        """One controller output column by name."""
+        return self.outputs[:, self.names.index(name)]
+
+    @property
+    def error(self) -> np.ndarray:
+        """e = phi - phi_d, (N+1, 2)."""
+        return self.y[:, :2] - self.ref[:, :2]
+
+    @property
+    def tau(self) -> np.ndarray:
+        return self.outputs[:, :2]
+
+
+def simulate(
+    controller_core: ControllerCore,
+    stop_time: float = 100.0,
+    step: float = 0.01,
+    arm: ArmParameters | None = None,
+    trajectory: CircleTrajectory | None = None,
+    phi0: tuple[float, float] = (0.5, -0.5),
+    dphi0: tuple[float, float] = (0.0, 0.0),
+    substeps: int = 4,
+) -> LoopResult:
+    """Run the sampled zero-order-hold loop (see module docstring) and return the recording."""
+    arm = arm if arm is not None else ArmParameters()
+    trajectory = trajectory if trajectory is not None else CircleTrajectory()
+    n = int(round(stop_time / step))
+    if n < 1 or abs(n * step - stop_time) > 1e-9 * max(1.0, stop_time):
+        raise ValueError(f"stop_time {stop_time} must be a positive integer multiple of step {step}")
+    names = controller_core.output_names()
+    ts = np.empty(n + 1)
+    ys = np.empty((n + 1, 4))
+    refs = np.empty((n + 1, 8))
+    outs = np.empty((n + 1, len(names)))
+    state = (float(phi0[0]), float(phi0[1]), float(dphi0[0]), float(dphi0[1]))
+    for k in range(n + 1):
+        t = k * step
+        ref = trajectory.sample(t)
+        controller_core.evaluate(t, state, ref[:6])
+        out = controller_core.outputs
+        ts[k] = t
+        ys[k] = state
+        refs[k] = ref
+        outs[k] = out
+        if k == n:
+            break
+        state = integrate(state, out[0], out[1], step, substeps, arm)
+        controller_core.advance(t, step)
+    return LoopResult(ts, ys, refs, outs, names)
+
+
+def metrics(res: LoopResult, late_from: float = 50.0) -> dict[str, float]:
+    """The project's target figures, from ``orchestration.run.metrics.tracking_metrics``: MSE (50) per
+    joint over all samples, max |e| for t >= late_from (or over the last half of a shorter run),
+    max ||tau||."""
+    late = min(late_from, 0.5 * float(res.t[-1]))
+    m = tracking_metrics(res.t, res.error, res.tau, stop_time=2.0 * late)
+    return {
+        "mse1": m["mse"][0],
+        "mse2": m["mse"][1],
+        "max_late_e1": m["max_abs_error_last_half"][0],
+        "max_late_e2": m["max_abs_error_last_half"][1],
+        "max_tau_norm": m["max_tau_norm"],
+    }

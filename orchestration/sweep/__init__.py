@@ -1,0 +1,1 @@
+"""Sweeps: sweep files (spec), their points on Dask (runner), and the stored results (results)."""

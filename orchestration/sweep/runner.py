@@ -1,0 +1,343 @@
+"""Running a sweep (``orchestration.sweep.spec``) on Dask: one task per point, results on disk as
+each point finishes, resume, per-point limits, Ctrl-C that keeps what finished.
+
+Where the points run:
+
+- default: an embedded ``dask.distributed.LocalCluster`` with ``workers`` processes (one per core
+  by default), started and stopped by the command: nothing to install or start. Processes, not
+  threads: the FMUs run Python inside the host's interpreter, so threads would share one GIL.
+- ``scheduler="tcp://HOST:PORT"``: an existing cluster. Start it with ``dask scheduler`` on one
+  machine and ``dask worker tcp://HOST:8786 --nthreads 1`` on each machine (one worker per core:
+  ``--nworkers N``). Each worker machine needs ``pip install sotc-cosim`` (the same version: the
+  task function and the FMUs' Python requirements come from it); no shared folder is needed. The
+  FMUs are built here, sent once to every worker (``Client.scatter(broadcast=True)``) and unpacked
+  into a cache keyed by their SHA-256 digest in the worker's temp folder.
+
+Every point is a task that never raises: a point whose scenario is refused, whose FMU reports an
+error, whose state diverges (non-finite, or |phi|, |dphi| beyond ``state_bound``) or that runs
+longer than ``time_limit`` (checked between blocks of ``GUARD_BLOCK`` samples, so a single FMU
+call that never returns is not caught) comes back as a failed row with its reason; so does a task
+whose worker process died. On Ctrl-C the local workers are ended at once; on an existing cluster
+the pending points are cancelled, and a point already running on a remote worker finishes there
+unseen (Dask cannot interrupt a running task). Rows are appended to ``points.jsonl`` in the output folder as they
+arrive; a point whose key (its full scenario and the digests of its FMUs, ``point_key``) is
+already there is not run again, so re-running the same command resumes, and a rebuilt FMU
+invalidates the points that used it. Results never depend on the order points finish in: the
+tables are written sorted by point index.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import os
+import signal
+import socket
+import tempfile
+import threading
+import time
+import traceback
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from distributed import WorkerPlugin
+
+from orchestration.fmu_build.build import ensure_built
+from orchestration.run import interrupt
+from orchestration.run.parameter_check import check_scenarios
+from orchestration.run.scenario import Scenario, ScenarioError
+from orchestration.sweep.spec import Point, Sweep
+
+GUARD_BLOCK = 100  # samples between two checks of the time limit and the state bound
+POLL_S = 0.05  # how often the client looks for finished points and for Ctrl-C
+TRACE_POINTS = 2000  # at most this many samples of the tracking error go into the sweep recording
+STATES = ("phi1", "phi2", "dphi1", "dphi2")
+
+
+def fmu_blobs(models: list[str], fmu_dir: Path) -> dict[str, tuple[str, bytes]]:
+    """Build what is missing and read every FMU: model -> (SHA-256 digest, file bytes)."""
+    paths = ensure_built(models, fmu_dir)
+    out = {}
+    for model, path in paths.items():
+        data = Path(path).read_bytes()
+        out[model] = (hashlib.sha256(data).hexdigest(), data)
+    return out
+
+
+def point_key(scenario: Scenario, digests: dict[str, str]) -> str:
+    """What makes a point's result: its scenario (minus name and description) and its FMUs' digests."""
+    identity = {
+        "stop_time": scenario.stop_time, "step_size": scenario.step_size,
+        "instances": {n: [i.fmu, dict(sorted(i.parameters.items()))] for n, i in sorted(scenario.instances.items())},
+        "connect": list(scenario.by_name),
+        "links": [[c.source, c.output, c.target, c.input] for c in scenario.links],
+        "fmus": {i.fmu: digests[i.fmu] for i in scenario.instances.values()},
+    }
+    return hashlib.sha256(json.dumps(identity, sort_keys=True).encode()).hexdigest()
+
+
+# --- the task (runs on a worker) -------------------------------------------------------------------
+
+class PointStopped(Exception):
+    """Raised by the guard inside the run: the reason is the point's failure reason."""
+
+
+class PointGuard:
+    """A ``RunObserver`` that enforces the time limit and the state bound, keeps a thinned trace of
+    the tracking error for the sweep recording, and forwards everything to ``inner`` (a recorder)."""
+
+    def __init__(self, time_limit: float, state_bound: float, stride: int, inner=None):
+        self.time_limit, self.state_bound, self.stride, self.inner = time_limit, state_bound, stride, inner
+        self.reason: str | None = None
+        self.trace: list[np.ndarray] = []
+        self.offset = 0
+
+    def start(self, scenario, columns, parameters) -> None:
+        self.deadline = time.monotonic() + self.time_limit
+        self.step_size = scenario.step_size
+        where = {f"{inst}.{v}": (inst, i) for inst, names in columns.items() for i, v in enumerate(names)}
+        self.states = [(s, *where[f"plant.{s}"]) for s in STATES if f"plant.{s}" in where]
+        errors = [(where.get(f"plant.phi{j}"), where.get(f"reference.phi{j}_d")) for j in (1, 2)]
+        self.errors = errors if all(a and b for a, b in errors) else None
+        if self.inner is not None:
+            self.inner.start(scenario, columns, parameters)
+
+    def block(self, time_s: np.ndarray, rows: dict[str, np.ndarray]) -> None:
+        if self.inner is not None:
+            self.inner.block(time_s, rows)
+        for name, inst, i in self.states:
+            values = rows[inst][:, i]
+            bad = np.flatnonzero(~(np.abs(values) <= self.state_bound))  # NaN is beyond any bound
+            if len(bad):
+                k = bad[0]
+                self.reason = (f"diverged: plant.{name} = {values[k]:.6g} beyond the bound {self.state_bound:g} "
+                               f"at t = {time_s[k]:.4f} s")
+                raise PointStopped(self.reason)
+        if self.errors is not None:
+            keep = np.arange((-self.offset) % self.stride, len(time_s), self.stride)
+            e = [rows[a[0]][keep, a[1]] - rows[b[0]][keep, b[1]] for a, b in self.errors]
+            self.trace.append(np.column_stack([time_s[keep], *e]))
+        self.offset += len(time_s)
+        if time.monotonic() > self.deadline:
+            self.reason = f"time limit of {self.time_limit:g} s exceeded"
+            raise PointStopped(self.reason)
+
+    def finish(self, result) -> None:
+        if self.inner is not None:
+            self.inner.finish(result)
+
+
+def _fmu_cache(blobs: dict[str, tuple[str, bytes]]) -> dict[str, Path]:
+    """Write each FMU once per worker machine into a folder named by its digest."""
+    root = Path(tempfile.gettempdir()) / "sotc-cosim-fmus"
+    paths = {}
+    for model, (digest, data) in blobs.items():
+        target = root / digest / f"{model}.fmu"
+        if not target.is_file():
+            target.parent.mkdir(parents=True, exist_ok=True)
+            partial = target.with_suffix(f".{os.getpid()}.part")
+            partial.write_bytes(data)
+            os.replace(partial, target)
+        paths[model] = target
+    return paths
+
+
+def run_point(task: dict[str, Any], blobs: dict[str, tuple[str, bytes]]) -> dict[str, Any]:
+    """One point: run, summarise, and return its row (never raises: a failure is a row)."""
+    from orchestration.run.master import run
+    from orchestration.run.summary import summarize
+
+    point: Point = task["point"]
+    scenario = point.scenario
+    started = time.perf_counter()
+    stride = max(1, int(np.ceil((scenario.steps + 1) / TRACE_POINTS)))
+    row: dict[str, Any] = {"index": point.index, "key": task["key"], "settings": point.settings,
+                           "worker": f"{socket.gethostname()}:{os.getpid()}"}
+    rrd_file = Path(tempfile.mkdtemp(prefix="sotc_point_")) / "point.rrd" if task["record"] else None
+    guard = None
+    try:
+        paths = _fmu_cache({m: blobs[m] for m in {i.fmu for i in scenario.instances.values()}})
+        if rrd_file is None:
+            guard = PointGuard(task["time_limit"], task["state_bound"], stride)
+            result = run(scenario, paths, observer=guard, block_size=GUARD_BLOCK)
+        else:
+            from orchestration.recording.writer import PointRecorder
+
+            with PointRecorder(rrd_file, point.settings, task["key"]) as recorder:
+                guard = PointGuard(task["time_limit"], task["state_bound"], stride, recorder)
+                result = run(scenario, paths, observer=guard, block_size=GUARD_BLOCK)
+        summary = summarize(result)
+        reason = guard.reason or (result.error if result.failed else None)
+    except Exception as exc:  # a refused scenario, an FMU that cannot load, a bug: this point fails
+        summary = {"scenario": scenario.name, "controller": scenario.controller_fmu(),
+                   "traceback": traceback.format_exc(limit=4)}
+        reason = f"{type(exc).__name__}: {exc}"
+    row.update(status="failed" if reason else "ok", reason=reason, summary=_json_safe(summary),
+               wall_time_s=time.perf_counter() - started)
+    trace = np.concatenate(guard.trace) if guard is not None and guard.trace else np.empty((0, 3))
+    row["trace"] = trace
+    row["rrd"] = None
+    if rrd_file is not None:
+        if rrd_file.is_file():
+            row["rrd"] = rrd_file.read_bytes()
+        rrd_file.unlink(missing_ok=True)
+        rrd_file.parent.rmdir()
+    return row
+
+
+def _json_safe(value: Any) -> Any:
+    """Non-finite floats become None (JSON has no NaN), numpy scalars plain numbers."""
+    if isinstance(value, dict):
+        return {k: _json_safe(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_json_safe(v) for v in value]
+    if isinstance(value, (float, np.floating)):
+        return float(value) if np.isfinite(value) else None
+    if isinstance(value, np.integer):
+        return int(value)
+    return value
+
+
+# --- the client side -------------------------------------------------------------------------------
+
+@dataclass
+class SweepOutcome:
+    total: int
+    skipped: int  # found on disk
+    skipped_failed: int  # of those, failed ones
+    ran: int
+    failed: int  # among all points of the sweep, stored or new
+    interrupted: bool = False
+    rows: list[dict[str, Any]] = field(default_factory=list)  # every stored row of this sweep, by index
+
+
+def _client(scheduler: str | None, workers: int | None):
+    from distributed import Client, LocalCluster
+
+    if scheduler:
+        try:
+            return Client(scheduler, timeout="10s"), None
+        except OSError as exc:
+            raise ScenarioError(f"--scheduler {scheduler}: cannot reach a Dask scheduler there ({exc})") from None
+        except (ValueError, TypeError) as exc:  # not an address: no port, a bad port, an unknown protocol
+            raise ScenarioError(f"--scheduler {scheduler}: not a Dask scheduler address such as tcp://host:8786 "
+                                f"({exc})") from None
+    cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
+                           dashboard_address=None, silence_logs=logging.ERROR)
+    client = Client(cluster)
+    client.register_plugin(IgnoreSigint())
+    return client, cluster
+
+
+def execute(
+    sweep: Sweep, fmu_dir: Path, store, workers: int | None = None, scheduler: str | None = None,
+    record: bool = False, retry_failed: bool = False, listener=None,
+) -> SweepOutcome:
+    """Run the points of ``sweep`` missing from ``store`` (a ``sweep_results.SweepStore``); rows are
+    stored as they arrive. ``listener`` (optional) gets ``started(outcome)`` before the first point
+    and ``finished(row)`` after each. Ctrl-C cancels the pending points, stops the workers and
+    returns with ``interrupted`` set."""
+    blobs = fmu_blobs(sweep.model_names(), fmu_dir)
+    digests = {m: d for m, (d, _) in blobs.items()}
+    points = sweep.points()
+    # a value an FMU would refuse is an error in the sweep, not a failed point: refused before any run
+    check_scenarios([p.scenario for p in points], ensure_built(sweep.model_names(), fmu_dir))
+    keys = [point_key(p.scenario, digests) for p in points]
+    stored = store.load()
+    todo = [(p, k) for p, k in zip(points, keys)
+            if k not in stored or (retry_failed and stored[k]["status"] != "ok")]
+    store.begin(sweep, keys)
+    to_run = {k for _, k in todo}
+    skipped = [stored[k] for k in keys if k in stored and k not in to_run]
+    outcome = SweepOutcome(total=len(points), skipped=len(skipped), skipped_failed=sum(r["status"] != "ok" for r in skipped),
+                           ran=0, failed=0)
+    if listener is not None:
+        listener.started(outcome)
+    if todo:
+        client = cluster = None
+        futures = []
+        try:
+            client, cluster = _client(scheduler, workers)
+            from distributed import as_completed
+
+            [shared] = client.scatter([blobs], broadcast=True, hash=False)
+            base = {"time_limit": sweep.time_limit, "state_bound": sweep.state_bound, "record": record}
+            todo_by_key = {f"point-{p.index}-{k[:12]}-{os.getpid()}-{time.time_ns()}": (p, k) for p, k in todo}
+            futures = [client.submit(run_point, {**base, "point": p, "key": k}, shared, pure=False, key=task_key)
+                       for task_key, (p, k) in todo_by_key.items()]
+            pending = as_completed(futures)
+            while not pending.is_empty():
+                if interrupt.requested():  # Ctrl-C under the CLI sets a flag (orchestration.run.interrupt)
+                    outcome.interrupted = True
+                    break
+                ready = pending.next_batch(block=False)
+                for future in ready:
+                    row = _row_of(future, todo_by_key[future.key])
+                    store.add(row)
+                    outcome.ran += 1
+                    if listener is not None:
+                        listener.finished(row)
+                if not ready:
+                    time.sleep(POLL_S)
+        except KeyboardInterrupt:  # Ctrl-C where SIGINT is not deferred (a library caller)
+            outcome.interrupted = True
+        finally:
+            _shutdown(client, cluster, futures, outcome.interrupted)
+    outcome.rows = store.rows()
+    outcome.failed = sum(r["status"] != "ok" for r in outcome.rows)
+    return outcome
+
+
+def _row_of(future, point_and_key: tuple[Point, str]) -> dict[str, Any]:
+    """The task's row, or a failed row when the task itself could not finish (its worker process
+    died, e.g. killed or crashed inside an FMU, more often than Dask retries it)."""
+    if future.status == "finished":
+        return future.result()
+    point, key = point_and_key
+    exc = future.exception()
+    return {"index": point.index, "key": key, "settings": point.settings, "status": "failed",
+            "reason": f"the task did not finish: {type(exc).__name__}: {exc}", "summary": {}, "wall_time_s": None,
+            "trace": None, "rrd": None}
+
+
+class IgnoreSigint(WorkerPlugin):
+    """On local workers (also those the nanny restarts): the terminal's Ctrl-C reaches the whole
+    process group, but a worker must not be interrupted inside an FMU call; the client stops the
+    local workers itself."""
+
+    name = "sotc-cosim-ignore-sigint"
+
+    def setup(self, worker) -> None:
+        if threading.current_thread() is threading.main_thread():
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _shutdown(client, cluster, futures, interrupted: bool) -> None:
+    """Stop promptly: cancel what is pending and, after Ctrl-C, end the local workers' processes
+    (a point in the middle of a long run would otherwise finish first)."""
+    if client is None:
+        return
+    log = logging.getLogger("distributed")
+    level = log.level
+    if interrupted:
+        client.cancel(futures, force=True)
+        # the workers are killed on purpose: their connections closing mid-send is expected, and
+        # distributed would log each one with a traceback on the user's terminal
+        log.setLevel(logging.CRITICAL)
+        if cluster is not None:
+            for nanny in list(cluster.workers.values()):
+                process = getattr(nanny, "process", None)
+                pid = getattr(getattr(process, "process", None), "pid", None)
+                if pid:
+                    try:
+                        os.kill(pid, 9)  # a worker process this command started
+                    except ProcessLookupError:
+                        pass
+    try:
+        client.close(timeout=10)
+        if cluster is not None:
+            cluster.close(timeout=10)
+    finally:
+        log.setLevel(level)

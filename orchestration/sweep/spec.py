@@ -1,0 +1,444 @@
+"""Sweep files: a base scenario, axes over its settings, and how the axes combine into points.
+
+A sweep file is TOML (``orchestration/sweep/presets/<name>.toml``, shipped as package data, or any path)::
+
+    name = "robustness"
+    description = "..."
+    scenario = "paper-perturbed"    # base scenario: a shipped name or a .toml path (relative to this file)
+    stop_time = 20.0                # optional: overrides the base scenario's stop time, s
+    combine = "grid"                # grid | paired | one-at-a-time
+    seed = 12                       # seeds every random axis (default 0)
+    time_limit = 300.0              # wall-clock seconds one point may take (default 600)
+    state_bound = 1000.0            # |phi| (rad) or |dphi| (rad/s) beyond this is divergence (default 1000)
+    set = { "controller.limit_handling" = 0 }   # applied to every point, after the axes
+
+    [controller_settings.LqrController]   # applied only to points whose controller is this FMU, after `set`
+    tuning = "best"                 # optional: the best point of this FMU's tuning search (below)
+    "controller.r" = 0.1            # instance.parameter = number, like `set`
+
+    [[axis]]
+    name = "plant.p1"               # instance.parameter, or a setting: controller, step_size, stop_time
+    values = [0.8, 1.0, 1.2]        # a list; or
+    # range = { start = 0.8, stop = 1.2, num = 5 }        (both ends included)
+    # random = { distribution = "uniform", low = 0.8, high = 1.2, count = 6 }
+    #          distributions: uniform (low, high), normal (mean, std), loguniform (low, high), choice (values)
+    scale = true                    # the values multiply the base scenario's value (e.g. +/-20 % model error)
+    group = "initial state"         # axes of one group vary together (paired): one axis of the combination
+
+Combination over the groups (an axis without ``group`` is a group of its own): ``grid`` is the
+cartesian product in file order (the last axis varies fastest), ``paired`` takes the i-th value of
+every group (equal lengths), ``one-at-a-time`` varies each group alone with the others at the base
+scenario's values. A ``controller`` axis names controller FMUs (model identifiers); the controller
+instance keeps the base scenario's parameters only for the same FMU; ``controller_settings`` gives a
+controller FMU its own parameters (a fair comparison tunes each baseline, not only the base scenario's
+controller). ``tuning = "best"`` takes them from the one place the baselines' tuning search lives,
+``orchestration.study.comparison`` (``TUNING_GRIDS``; the point ``best_tuning`` picks, Table 1's metric on
+the paper's 100 s loop) under the point's own ``controller.limit_handling``: the tuning the README's
+results table reports. Only FMUs with a tuning grid have it (CT, LQR; not the SOTC or the OTC); it
+costs a second or two of pure-loop runs per FMU and handling when the file is loaded. The parameters a
+point gets this way are part of its settings (and of its resume key). Random axes draw from
+``numpy.random.default_rng([seed, axis number])``: the same file and seed give the same points.
+
+Every value is checked before anything runs: a non-numeric or non-finite value is refused with the
+axis (or setting) named. Nothing here knows Dask or fmpy: ``orchestration.sweep.runner`` runs the points.
+"""
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import math
+import tomllib
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from orchestration.run.scenario import Instance, Scenario, ScenarioError, load_scenario
+
+SETTINGS = ("controller", "step_size", "stop_time")  # axes that are not FMU parameters
+COMBINATIONS = ("grid", "paired", "one-at-a-time")
+DISTRIBUTIONS = {"uniform": ("low", "high"), "normal": ("mean", "std"), "loguniform": ("low", "high"),
+                 "choice": ("values",)}
+MAX_POINTS = 100_000
+DEFAULT_TIME_LIMIT = 600.0
+DEFAULT_STATE_BOUND = 1000.0
+_FILE_KEYS = {"name", "description", "scenario", "stop_time", "combine", "seed", "time_limit", "state_bound",
+              "set", "controller_settings", "axis"}
+TUNINGS = ("best",)  # values of controller_settings.<FMU>.tuning
+_AXIS_KEYS = {"name", "values", "range", "random", "scale", "group"}
+
+
+class SweepError(ScenarioError):
+    """A sweep file that cannot be run as written; the message names the file and the axis."""
+
+
+@dataclass(frozen=True)
+class Axis:
+    name: str  # "instance.parameter" or a SETTINGS entry
+    values: tuple[Any, ...]  # floats, or model identifiers for "controller"
+    scale: bool = False
+    group: str = ""
+
+    @property
+    def label(self) -> str:
+        return f"{self.name} [x base]" if self.scale else self.name
+
+
+@dataclass(frozen=True)
+class ControllerSettings:
+    """``[controller_settings.<fmu>]``: parameters for the points whose controller is ``fmu``."""
+    fmu: str
+    values: dict[str, float]  # instance.parameter -> value
+    tuning: str = ""  # "best": the parameters of the best point of the FMU's tuning search
+
+    def parameters(self, scenario: Scenario) -> dict[str, float]:
+        """What this applies to a point's scenario (whose controller is ``fmu``): the tuned parameters
+        under the scenario's limit handling, then the explicit values."""
+        out: dict[str, float] = {}
+        if self.tuning == "best":
+            from orchestration.study.comparison import best_parameters, handling_code
+
+            params = {**scenario.instances["controller"].parameters,
+                      **{k.partition(".")[2]: v for k, v in self.values.items() if k.startswith("controller.")}}
+            out = {f"controller.{k}": v for k, v in best_parameters(self.fmu, handling_code(self.fmu, params)).items()}
+        return {**out, **self.values}
+
+
+@dataclass(frozen=True)
+class Point:
+    index: int
+    # axis label -> value as written in the file (a factor for scaled axes), then the parameters the
+    # point's [controller_settings.<fmu>] gave it (instance.parameter -> value)
+    settings: dict[str, Any]
+    scenario: Scenario
+
+
+@dataclass(frozen=True)
+class Sweep:
+    name: str
+    description: str
+    base: Scenario
+    axes: tuple[Axis, ...]
+    combine: str
+    seed: int
+    time_limit: float
+    state_bound: float
+    fixed: dict[str, float]
+    per_controller: dict[str, ControllerSettings] = dataclasses.field(default_factory=dict)
+
+    def groups(self) -> dict[str, list[Axis]]:
+        """The axes of the combination: group name (an ungrouped axis: its own name) -> its axes."""
+        groups: dict[str, list[Axis]] = {}
+        for axis in self.axes:
+            groups.setdefault(axis.group or axis.name, []).append(axis)
+        return groups
+
+    def points(self) -> list[Point]:
+        members = list(self.groups().values())
+        rows = [list(zip(*(a.values for a in axes))) for axes in members]  # per group: value tuples
+        if self.combine == "grid":
+            combos = [[(m, v) for m, v in zip(members, combo)] for combo in itertools.product(*rows)]
+        elif self.combine == "paired":
+            combos = [[(m, r[i]) for m, r in zip(members, rows)] for i in range(len(rows[0]) if rows else 1)]
+        else:  # one-at-a-time
+            combos = [[(m, v)] for m, r in zip(members, rows) for v in r] or [[]]
+        points = []
+        for i, combo in enumerate(combos):
+            settings = {a.label: v for axes, values in combo for a, v in zip(axes, values)}
+            applied = [(a, v) for axes, values in combo for a, v in zip(axes, values)]
+            scenario = self._apply(applied, f"{self.name}#{i}")
+            own = self.per_controller.get(scenario.controller_fmu() or "")
+            extra = own.parameters(scenario) if own else {}
+            points.append(Point(i, {**settings, **extra}, scenario.with_parameters(extra) if extra else scenario))
+        return points
+
+    def controller_parameters(self) -> dict[str, list[dict[str, Any]]]:
+        """Per FMU of ``controller_settings``: the distinct parameter sets its points get (one, unless
+        ``tuning = "best"`` meets points of different limit handlings)."""
+        labels = {a.label for a in self.axes}
+        out: dict[str, list[dict[str, Any]]] = {fmu: [] for fmu in self.per_controller}
+        for p in self.points():
+            seen = out.get(p.scenario.controller_fmu() or "")
+            extra = {k: v for k, v in p.settings.items() if k not in labels}
+            if seen is not None and extra not in seen:
+                seen.append(extra)
+        return out
+
+    def _apply(self, applied: list[tuple[Axis, Any]], name: str) -> Scenario:
+        sc = self.base
+        for axis, value in sorted(applied, key=lambda av: av[0].name != "controller"):  # controller first
+            if axis.name == "controller":
+                old = sc.instances["controller"]
+                params = old.parameters if value == old.fmu else {}
+                sc = dataclasses.replace(sc, instances={**sc.instances, "controller": Instance("controller", value, params)})
+        params: dict[str, float] = {}
+        for axis, value in applied:
+            if axis.name == "step_size":
+                sc = sc.with_step_size(value)
+            elif axis.name == "stop_time":
+                sc = sc.with_stop_time(value)
+            elif axis.name != "controller":
+                params[axis.name] = value * _base_value(self.base, axis) if axis.scale else value
+        return sc.with_parameters({**params, **self.fixed}, name=name)
+
+    def model_names(self) -> list[str]:
+        """Every FMU model identifier a point of this sweep may load."""
+        models = {i.fmu for i in self.base.instances.values()}
+        models |= {v for a in self.axes if a.name == "controller" for v in a.values}
+        return sorted(models)
+
+
+def _base_value(base: Scenario, axis: Axis) -> float:
+    inst, _, pname = axis.name.partition(".")
+    return float(base.instances[inst].parameters[pname])
+
+
+def available_sweeps() -> list[str]:
+    folder = resources.files("orchestration.sweep.presets")
+    return sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".toml"))
+
+
+def grid_from_assignments(scenario: str, items: list[str]) -> Sweep:
+    """The sweep of ``sotc-cosim sweep SCENARIO --set inst.param=v1,v2 [--set ...]``: a grid over
+    the given values of the scenario (a name or a .toml path)."""
+    axes = []
+    for item in items:
+        key, sep, values = item.partition("=")
+        if not sep or not key.strip() or not values:
+            raise SweepError(f"--set {item!r}: write instance.parameter=v1,v2,...")
+        try:
+            numbers = [float(v) for v in values.split(",")]
+        except ValueError:
+            raise SweepError(f"--set {item!r}: every value must be a number") from None
+        axes.append({"name": key.strip(), "values": numbers})
+    name = f"{Path(scenario).stem}-sweep"
+    return parse_sweep({"name": name, "scenario": scenario, "axis": axes}, f"{scenario} --set", Path.cwd())
+
+
+def load_sweep(name_or_path: str) -> Sweep:
+    path = Path(name_or_path)
+    if path.suffix == ".toml" and path.is_file():
+        text, label, folder = path.read_text(), str(path), path.resolve().parent
+    else:
+        resource = resources.files("orchestration.sweep.presets") / f"{name_or_path}.toml"
+        if not resource.is_file():
+            raise SweepError(f"no sweep '{name_or_path}': give a .toml path or one of {', '.join(available_sweeps())}")
+        text, label, folder = resource.read_text(), name_or_path, None
+    try:
+        raw = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise SweepError(f"sweep '{label}' is not valid TOML: {exc}") from None
+    return parse_sweep(raw, label, folder, default_name=path.stem)
+
+
+def parse_sweep(raw: dict[str, Any], label: str, folder: Path | None = None, default_name: str = "sweep") -> Sweep:
+    """Validate a parsed sweep file completely (nothing has run yet) and return it."""
+    where = f"sweep '{label}'"
+    unknown = set(raw) - _FILE_KEYS
+    if unknown:
+        raise SweepError(f"{where}: unknown keys {sorted(unknown)}; known: {sorted(_FILE_KEYS)}")
+    if "scenario" not in raw or not isinstance(raw["scenario"], str):
+        raise SweepError(f"{where}: 'scenario' (a scenario name or .toml path) is required")
+    scenario_ref = raw["scenario"]
+    if folder is not None and scenario_ref.endswith(".toml") and not Path(scenario_ref).is_absolute():
+        scenario_ref = str(folder / scenario_ref)
+    base = load_scenario(scenario_ref)
+    if "stop_time" in raw:
+        base = base.with_stop_time(_number(raw["stop_time"], f"{where}: stop_time"))
+    combine = raw.get("combine", "grid")
+    if combine not in COMBINATIONS:
+        raise SweepError(f"{where}: combine = {combine!r}; choose one of {', '.join(COMBINATIONS)}")
+    seed = raw.get("seed", 0)
+    if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
+        raise SweepError(f"{where}: seed must be a whole number >= 0, got {seed!r}")
+    fixed = raw.get("set", {})
+    if not isinstance(fixed, dict):
+        raise SweepError(f"{where}: 'set' must be a table of instance.parameter = number")
+    fixed = {k: _number(v, f"{where}: set.{k}") for k, v in fixed.items()}
+    for key in fixed:
+        _check_parameter_name(base, key, f"{where}: set.{key}")
+    axes = tuple(_parse_axis(spec, i, seed, base, where) for i, spec in enumerate(raw.get("axis", [])))
+    names = [a.name for a in axes]
+    if len(set(names)) != len(names):
+        raise SweepError(f"{where}: an axis is given twice: {sorted({n for n in names if names.count(n) > 1})}")
+    per_controller = _controller_settings(raw.get("controller_settings", {}), base, axes, where)
+    sweep = Sweep(
+        name=str(raw.get("name", default_name)), description=str(raw.get("description", "")), base=base,
+        axes=axes, combine=combine, seed=seed,
+        time_limit=_positive(raw.get("time_limit", DEFAULT_TIME_LIMIT), f"{where}: time_limit"),
+        state_bound=_positive(raw.get("state_bound", DEFAULT_STATE_BOUND), f"{where}: state_bound"),
+        fixed=fixed, per_controller=per_controller,
+    )
+    _check_shape(sweep, where)
+    sweep.points()  # every point's scenario is valid (whole number of steps, known instances)
+    return sweep
+
+
+def _controller_settings(raw: Any, base: Scenario, axes: tuple[Axis, ...], where: str) -> dict[str, ControllerSettings]:
+    """``[controller_settings.<fmu>]`` tables: each FMU one that the sweep runs, every value a finite number
+    (or ``tuning``), no parameter that an axis varies or that the tuning search sets too."""
+    from orchestration.study.comparison import (
+        CORES,
+        tuned_parameter_names,
+        tuned_scenarios,
+    )
+
+    if not isinstance(raw, dict) or not all(isinstance(v, dict) for v in raw.values()):
+        raise SweepError(f"{where}: controller_settings must hold tables [controller_settings.<controller FMU>]")
+    axis_fmus = [v for a in axes if a.name == "controller" for v in a.values]  # else: the base's controller
+    runs = sorted(set(axis_fmus)) if axis_fmus else [f for f in [base.controller_fmu()] if f]
+    swept = {a.name for a in axes}
+    out = {}
+    for fmu, table in raw.items():
+        here = f"{where}: controller_settings.{fmu}"
+        if fmu not in runs:
+            raise SweepError(f"{here}: no point of this sweep runs controller {fmu!r}; its controllers: "
+                             f"{', '.join(runs) or 'none'}")
+        tuning = table.get("tuning", "")
+        values = {k: v for k, v in table.items() if k != "tuning"}
+        if "tuning" in table and tuning not in TUNINGS:
+            raise SweepError(f"{here}.tuning = {tuning!r}; choose {' or '.join(repr(t) for t in TUNINGS)}")
+        tuned = {f"controller.{p}" for p in tuned_parameter_names(fmu)}
+        if tuning and not tuned:
+            raise SweepError(f"{here}.tuning: {fmu} has no tuning search (orchestration.study.comparison.TUNING_GRIDS "
+                             f"tunes {', '.join(sorted(tuned_scenarios()))}); give its parameters instead")
+        specs = {s.name: s for s in CORES[fmu].PARAMETER_SPECS} if fmu in CORES else None
+        for key, value in values.items():
+            at = f'{here}."{key}"'
+            value = values[key] = _number(value, at)
+            _check_parameter_name(base, key, at)
+            if key in swept:
+                raise SweepError(f"{at}: an axis varies {key} already")
+            if tuning and key in tuned:
+                raise SweepError(f"{at}: tuning = {tuning!r} sets {key} already")
+            inst, _, pname = key.partition(".")
+            if inst == "controller" and specs is not None:
+                if pname not in specs:
+                    raise SweepError(f"{at}: {fmu} has no parameter {pname!r}; its parameters: {', '.join(specs)}")
+                try:
+                    specs[pname].check(value)
+                except ValueError as exc:
+                    raise SweepError(f"{at}: {exc}") from None
+        out[fmu] = ControllerSettings(fmu, values, tuning)
+    return out
+
+
+def _check_shape(sweep: Sweep, where: str) -> None:
+    groups = sweep.groups()
+    for group, axes in groups.items():
+        if len({len(a.values) for a in axes}) > 1:
+            raise SweepError(f"{where}: the axes of group '{group}' must have as many values each: "
+                             + ", ".join(f"{a.name} has {len(a.values)}" for a in axes))
+    sizes = [len(axes[0].values) for axes in groups.values()]
+    if sweep.combine == "paired" and len(set(sizes)) > 1:
+        raise SweepError(f"{where}: combine = 'paired' needs axes of equal length, got "
+                         + ", ".join(f"{g}: {n}" for g, n in zip(groups, sizes)))
+    total = math.prod(sizes) if sweep.combine == "grid" else (sum(sizes) if sweep.combine == "one-at-a-time" else max(sizes, default=1))
+    if total > MAX_POINTS:
+        raise SweepError(f"{where}: {total} points; at most {MAX_POINTS} per sweep")
+
+
+def _parse_axis(spec: Any, number: int, seed: int, base: Scenario, where: str) -> Axis:
+    if not isinstance(spec, dict) or not isinstance(spec.get("name"), str):
+        raise SweepError(f"{where}: axis {number + 1} needs a name (instance.parameter or one of {', '.join(SETTINGS)})")
+    name = spec["name"]
+    here = f"{where}: axis '{name}'"
+    unknown = set(spec) - _AXIS_KEYS
+    if unknown:
+        raise SweepError(f"{here}: unknown keys {sorted(unknown)}; known: {sorted(_AXIS_KEYS)}")
+    kinds = [k for k in ("values", "range", "random") if k in spec]
+    if len(kinds) != 1:
+        raise SweepError(f"{here}: give exactly one of values, range or random")
+    scale = spec.get("scale", False)
+    if not isinstance(scale, bool):
+        raise SweepError(f"{here}: scale must be true or false")
+    if name not in SETTINGS:
+        _check_parameter_name(base, name, here)
+        if scale and name.partition(".")[2] not in base.instances[name.partition(".")[0]].parameters:
+            raise SweepError(f"{here}: scale = true multiplies the base scenario's value, but it does not set {name}")
+    elif scale:
+        raise SweepError(f"{here}: scale applies to FMU parameters only")
+    kind = kinds[0]
+    if name == "controller":
+        if kind != "values" or not spec["values"] or not all(isinstance(v, str) and v for v in spec["values"]):
+            raise SweepError(f"{here}: values must be a list of controller FMU model identifiers")
+        values: tuple[Any, ...] = tuple(spec["values"])
+    elif kind == "values":
+        if not isinstance(spec["values"], list) or not spec["values"]:
+            raise SweepError(f"{here}: values must be a non-empty list of numbers")
+        values = tuple(_number(v, here) for v in spec["values"])
+    elif kind == "range":
+        values = _range(spec["range"], here)
+    else:
+        values = _random(spec["random"], np.random.default_rng([seed, number]), here)
+    group = spec.get("group", "")
+    if not isinstance(group, str):
+        raise SweepError(f"{here}: group must be a name")
+    return Axis(name, values, scale, group)
+
+
+def _check_parameter_name(base: Scenario, name: str, here: str) -> None:
+    inst, _, pname = name.partition(".")
+    if inst not in base.instances or not pname:
+        raise SweepError(f"{here}: write instance.parameter with an instance of the base scenario "
+                         f"({', '.join(sorted(base.instances))}) or a setting ({', '.join(SETTINGS)})")
+
+
+def _number(value: Any, here: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise SweepError(f"{here}: {value!r} is not a number")
+    if not math.isfinite(value):
+        raise SweepError(f"{here}: {value!r} is not finite")
+    return float(value)
+
+
+def _positive(value: Any, here: str) -> float:
+    value = _number(value, here)
+    if value <= 0:
+        raise SweepError(f"{here}: must be > 0, got {value:g}")
+    return value
+
+
+def _count(value: Any, here: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= MAX_POINTS:
+        raise SweepError(f"{here}: must be a whole number in [1, {MAX_POINTS}], got {value!r}")
+    return value
+
+
+def _table(spec: Any, keys: set[str], here: str) -> dict[str, Any]:
+    if not isinstance(spec, dict) or not keys <= set(spec):
+        raise SweepError(f"{here}: needs the keys {sorted(keys)}")
+    return spec
+
+
+def _range(spec: Any, here: str) -> tuple[float, ...]:
+    spec = _table(spec, {"start", "stop", "num"}, f"{here}: range")
+    start, stop = _number(spec["start"], f"{here}: range.start"), _number(spec["stop"], f"{here}: range.stop")
+    num = _count(spec["num"], f"{here}: range.num")
+    return tuple(float(v) for v in np.linspace(start, stop, num))
+
+
+def _random(spec: Any, rng: np.random.Generator, here: str) -> tuple[float, ...]:
+    spec = _table(spec, {"distribution", "count"}, f"{here}: random")
+    dist = spec["distribution"]
+    if dist not in DISTRIBUTIONS:
+        raise SweepError(f"{here}: distribution {dist!r}; choose one of {', '.join(DISTRIBUTIONS)}")
+    spec = _table(spec, set(DISTRIBUTIONS[dist]), f"{here}: random ({dist})")
+    count = _count(spec["count"], f"{here}: random.count")
+    if dist == "choice":
+        if not isinstance(spec["values"], list) or not spec["values"]:
+            raise SweepError(f"{here}: random.values must be a non-empty list of numbers")
+        choices = [_number(v, f"{here}: random.values") for v in spec["values"]]
+        return tuple(float(v) for v in rng.choice(choices, size=count))
+    a, b = (_number(spec[k], f"{here}: random.{k}") for k in DISTRIBUTIONS[dist])
+    if dist == "normal":
+        if b < 0:
+            raise SweepError(f"{here}: random.std must be >= 0")
+        return tuple(float(v) for v in rng.normal(a, b, count))
+    if not a < b or (dist == "loguniform" and a <= 0):
+        raise SweepError(f"{here}: random needs 0 < low < high (loguniform) or low < high, got {a:g}, {b:g}")
+    if dist == "loguniform":
+        return tuple(float(v) for v in np.exp(rng.uniform(math.log(a), math.log(b), count)))
+    return tuple(float(v) for v in rng.uniform(a, b, count))
