@@ -13,8 +13,11 @@ from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from typing import Any, ClassVar, Sequence
 
-from fmi_slave.parameters import ParameterSpec, check_all
+from fmi_slave.parameters import ParameterError, ParameterSpec, check_all
 from fmu_plant.dynamics import ARM_PARAMETER_SPECS, ArmParameters
+
+# Parameters renamed in 0.2.0 (CHANGELOG.md): the torque limit is ``rho`` in every controller, as in the paper.
+RENAMED_PARAMETERS = {"tau_max": "rho", "tau_limit": "rho"}
 
 # Port names: inputs are named exactly like the outputs that feed them.
 MEASUREMENT_PORTS = ("phi1", "phi2", "dphi1", "dphi2")
@@ -53,6 +56,8 @@ class ControllerCore(ABC):
 
     def __init__(self, model: ArmParameters | None = None, **params: float):
         self.model = model if model is not None else ArmParameters()
+        for old in params.keys() & RENAMED_PARAMETERS.keys():
+            raise ParameterError(old, f"renamed '{RENAMED_PARAMETERS[old]}' in 0.2.0 (see CHANGELOG.md)")
         self.params = check_all(self.PARAMETER_SPECS, params)
         # tau1, tau2, then EXTRA_OUTPUTS in order; written by evaluate()
         self.outputs: list[float] = [0.0] * (2 + len(self.EXTRA_OUTPUTS))

@@ -6,15 +6,15 @@ paper (``shared/reference/sotc-paper.md``), followed by the paper's torque const
     e = phi - phi_d,   e_dot = dphi - dphi_d                                         (CT-1)
     v = ddphi_d - Kd e_dot - Kp e                                                    (CT-2)
     tau_raw = D(phi) v + H(phi, dphi) dphi + G(dphi)                                 (CT-3)
-    tau = tau_raw                          if ||tau_raw|| <= tau_max                 (CT-4)
-        = tau_raw * tau_max / ||tau_raw||  otherwise
+    tau = tau_raw                          if ||tau_raw|| <= rho                     (CT-4)
+        = tau_raw * rho / ||tau_raw||      otherwise
 
 With the model exact and (CT-4) inactive, substituting (CT-3) into eq. (1) gives
 D (ddphi - v) = 0, i.e. the decoupled linear error dynamics e_ddot + Kd e_dot + Kp e = 0 per joint.
 
 Saturation acts on the Euclidean norm, as the paper's constraint ||tau|| <= rho (section 2.1,
 rho = 4 N.m in section 4): the whole vector is scaled down, which keeps its direction. Clipping each
-joint to +-tau_max instead would allow ||tau|| up to sqrt(2) tau_max and so violate the paper's
+joint to +-rho instead would allow ||tau|| up to sqrt(2) rho and so violate the paper's
 bound. (CT-4) is ``fmu_controller.saturation.limit_torque``, shared with every controller; the
 parameter ``limit_handling`` selects radial scaling (0, the default and the formula above), per-joint
 clip then norm cap (1), the D^-2-metric projection the SOTC uses for its bound (5) (2), or none (3).
@@ -33,12 +33,11 @@ from typing import Sequence
 from fmi_slave.parameters import ParameterSpec, positive
 from fmu_controller.base import ControllerCore, OutputSpec
 from fmu_controller.saturation import ACCEL, limit_handling_spec, limit_torque
-from fmu_plant.dynamics import inertia_entries, inverse_dynamics
+from fmu_plant.dynamics import TORQUE_LIMIT, inertia_entries, inverse_dynamics
 
 # the paper's torque bound rho, section 4
-DEFAULT_TAU_MAX = 4.0
 
-TAU_MAX_SPEC = positive("tau_max", DEFAULT_TAU_MAX, "N.m", "Bound on the torque norm ||tau|| (the paper's rho), eq. (CT-4)")
+RHO_SPEC = positive("rho", TORQUE_LIMIT, "N.m", "Torque limit rho, ||tau|| <= rho (the paper's eq. (1)), eq. (CT-4)")
 # (CT-4) by default: radial scaling; every other handling of fmu_controller.saturation is selectable
 LIMIT_SPEC = limit_handling_spec(0, "the computed torque tau_raw, eq. (CT-4)")
 
@@ -67,7 +66,7 @@ class LinearisingCore(ControllerCore):
         raw1, raw2 = inverse_dynamics(phi2, dphi1, dphi2, ddq1d + w1, ddq2d + w2, self.model)  # eq. (CT-3)
         code = int(self.params["limit_handling"])
         d = inertia_entries(phi2, self.model) if code == ACCEL else (1.0, 0.0, 1.0)
-        tau1, tau2, sat = limit_torque(code, raw1, raw2, self.params["tau_max"], *d)  # eq. (CT-4)
+        tau1, tau2, sat = limit_torque(code, raw1, raw2, self.params["rho"], *d)  # eq. (CT-4)
         self.outputs = [tau1, tau2, math.hypot(raw1, raw2), 1.0 if sat else 0.0, w1, w2]
 
 
@@ -77,7 +76,7 @@ class CtCore(LinearisingCore):
     PARAMETER_SPECS: tuple[ParameterSpec, ...] = (
         positive("kp", 25.0, "1/s2", "Position gain Kp of the error dynamics e_ddot + Kd e_dot + Kp e = 0, eq. (CT-2)", high=1e6),
         positive("kd", 10.0, "1/s", "Velocity gain Kd of the error dynamics, eq. (CT-2); 2 sqrt(kp) is critical damping", high=1e4),
-        TAU_MAX_SPEC,
+        RHO_SPEC,
         LIMIT_SPEC,
     )
 

@@ -28,7 +28,7 @@ from __future__ import annotations
 import numpy as np
 
 from fmi_slave.parameters import ParameterSpec
-from fmu_controller.computed_torque import LIMIT_SPEC, TAU_MAX_SPEC, LinearisingCore
+from fmu_controller.computed_torque import LIMIT_SPEC, RHO_SPEC, LinearisingCore
 from fmu_controller.riccati import solve_care
 
 
@@ -59,7 +59,7 @@ class LqrCore(LinearisingCore):
                       low=1e-6, high=1e8),
         ParameterSpec("r", 1.0, "1", "Input weight: R = r I2 on the commanded acceleration v, eq. (LQR-3)",
                       low=1e-6, high=1e8),
-        TAU_MAX_SPEC,
+        RHO_SPEC,
         LIMIT_SPEC,
     )
 

@@ -75,7 +75,6 @@ from fmi_slave.parameters import (
     positive,
 )
 from fmu_controller.base import ControllerCore, OutputSpec
-from fmu_controller.computed_torque import DEFAULT_TAU_MAX
 from fmu_controller.riccati import solve_care
 from fmu_controller.saturation import NONE, limit_handling_spec, limit_torque
 from fmu_controller.sotc_math import (
@@ -86,7 +85,12 @@ from fmu_controller.sotc_math import (
     probing_signal,
     value_gradient,
 )
-from fmu_plant.dynamics import bias_torque, inertia_entries, inertia_matrix
+from fmu_plant.dynamics import (
+    TORQUE_LIMIT,
+    bias_torque,
+    inertia_entries,
+    inertia_matrix,
+)
 
 # The quadratic basis sigma(z) of (OTC-7) is the SOTC's zeta(z) of section 4 (same 10 monomials, same
 # order), and the probing signal of (OTC-10) is the SOTC's PE(t): both come from sotc_math.
@@ -109,13 +113,13 @@ class OtcCore(ControllerCore):
         nonnegative("probe_duration", 0.4, "s", "Probing is applied for t < probe_duration, eq. (OTC-10) (assumed; the SOTC's 0.4 s)", high=1e6),
         ParameterSpec("init_weights", 1.0, "1", "Initial weights: 0 = zeros (rely on the stabilising term), 1 = Riccati solution of (OTC-5)-(OTC-6) frozen at phi2 = init_phi2 (an admissible initial policy)", low=0.0, high=1.0),
         any_real("init_phi2", -0.5, "rad", "Elbow angle at which D(phi) is frozen for init_weights = 1 (the paper's phi2(0))"),
-        positive("tau_limit", DEFAULT_TAU_MAX, "N.m", "Torque-norm bound: the over_limit diagnostic, and the limit that limit_handling enforces (if not 3 = none)", high=1e6),
+        positive("rho", TORQUE_LIMIT, "N.m", "Torque-norm bound: the over_limit diagnostic, and the limit that limit_handling enforces (if not 3 = none)", high=1e6),
         limit_handling_spec(NONE, "the total torque tau of (OTC-10) (the critic and actor learn from the unlimited u); "
                             "the paper's OTC is unsaturated"),
     )
     EXTRA_OUTPUTS = (
         OutputSpec("tau_norm", "N.m", "||tau|| of the commanded torque, eq. (OTC-10), after limit_handling"),
-        OutputSpec("over_limit", "1", "1 when ||tau|| before limit_handling exceeds tau_limit, else 0"),
+        OutputSpec("over_limit", "1", "1 when ||tau|| before limit_handling exceeds rho, else 0"),
         OutputSpec("tau_a1", "N.m", "Feedforward torque of joint 1, eq. (OTC-4)"),
         OutputSpec("tau_a2", "N.m", "Feedforward torque of joint 2, eq. (OTC-4)"),
         OutputSpec("u1", "N.m", "Actor (optimal feedback) torque of joint 1, eq. (OTC-7)"),
@@ -194,9 +198,9 @@ class OtcCore(ControllerCore):
         if t < self.params["probe_duration"]:
             probe = probing_signal(t, self.params["probe_amplitude"])
         raw1, raw2 = ta1 + u1 + probe, ta2 + u2 + probe  # (OTC-10)
-        tau_limit = self.params["tau_limit"]
-        over = math.hypot(raw1, raw2) > tau_limit
-        tau1, tau2, _ = limit_torque(self._limit_code, raw1, raw2, tau_limit, d11, d12, d22)
+        rho = self.params["rho"]
+        over = math.hypot(raw1, raw2) > rho
+        tau1, tau2, _ = limit_torque(self._limit_code, raw1, raw2, rho, d11, d12, d22)
         tau_norm = math.hypot(tau1, tau2)
 
         self._last = {

@@ -60,6 +60,7 @@ from fmu_controller.sotc_stack import REPLAYS as CL_REPLAYS
 from fmu_controller.sotc_stack import SELECTIONS as CL_SELECTIONS
 from fmu_controller.sotc_stack import CLStack
 from fmu_plant.dynamics import (
+    TORQUE_LIMIT,
     ArmParameters,
     bias_torque,
     forward_dynamics,
@@ -114,7 +115,7 @@ SOTC_PARAMETER_SPECS: tuple[ParameterSpec, ...] = (
     ParameterSpec("sigma", 0.6, "N.m",
                   "Saturation level sigma of the optimal input, 0 < sigma < rho (Remark 2, eq. (5)); paper: 0.6",
                   low=1e-6, high=1e3),
-    ParameterSpec("rho", 4.0, "N.m", "Torque limit rho, ||tau|| <= rho (eqs. (1), (5)); paper: 4", low=1e-6, high=1e3),
+    ParameterSpec("rho", TORQUE_LIMIT, "N.m", "Torque limit rho, ||tau|| <= rho (eqs. (1), (5)); paper: 4", low=1e-6, high=1e3),
     ParameterSpec("P", 20.0, "1",
                   "Size P of the concurrent-learning stack, an integer >= 10 = number of weights; paper: 20",
                   low=10.0, high=1000.0),

@@ -8,6 +8,9 @@ import os
 import sys
 from pathlib import Path
 
+from fmi_slave import VERSION
+from orchestration import exit_codes
+from orchestration.exit_codes import UsageError
 from orchestration.fmu_build.build import (
     DEFAULT_FMU_DIR,
     FMU_SOURCES,
@@ -15,7 +18,7 @@ from orchestration.fmu_build.build import (
     build_fmus,
     ensure_built,
 )
-from orchestration.paths import OutputPathError, check_output_file, check_output_folder
+from orchestration.paths import check_output_file, check_output_folder
 from orchestration.run import interrupt
 from orchestration.run.parameter_check import check_scenarios
 from orchestration.run.scenario import ScenarioError, available_scenarios, load_scenario
@@ -28,13 +31,13 @@ def _cmd_build(args: argparse.Namespace) -> int:
     check_output_folder(args.out, "--out")
     for path in build_fmus(args.models or None, args.out):
         print(path)
-    return 0
+    return exit_codes.OK
 
 
 def _cmd_scenarios(args: argparse.Namespace) -> int:
     for name in available_scenarios():
         print(f"{name:<16} {load_scenario(name).description}")
-    return 0
+    return exit_codes.OK
 
 
 def _prepare(names: list, stop_time: float | None, fmu_dir: Path, check=None):
@@ -93,8 +96,8 @@ def _run_each(scenarios, paths, recording_for=None, keep_samples: bool = True, r
 
 def _exit_code(summaries: list[dict]) -> int:
     if interrupt.requested():
-        return interrupt.EXIT_CODE
-    return 1 if any(s["status"] != "ok" for s in summaries) else 0
+        return exit_codes.INTERRUPTED
+    return exit_codes.FAILED if any(s["status"] != "ok" for s in summaries) else exit_codes.OK
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
@@ -230,10 +233,10 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         again += ["--stop-time", repr(args.stop_time)] if args.stop_time is not None else []
         print(f"interrupted: the {len(outcome.rows)} finished points are kept in {out}; resume with: "
               f"{' '.join(again)}", file=sys.stderr)
-        return 130
+        return exit_codes.INTERRUPTED
     if args.doc:
         print(f"doc: {write_doc(store, outcome.total, args.doc)}")
-    return 1 if outcome.failed else 0
+    return exit_codes.FAILED if outcome.failed else exit_codes.OK
 
 
 def _fmu_files(names: list[str], fmu_dir: Path) -> list[Path]:
@@ -258,7 +261,7 @@ def _cmd_validate(args: argparse.Namespace) -> int:
 
     report = validate_fmus(_fmu_files(args.fmus, args.fmu_dir))
     print(format_report(report))
-    return 0 if report.ok else 1
+    return exit_codes.OK if report.ok else exit_codes.FAILED
 
 
 def _cmd_cross_check(args: argparse.Namespace) -> int:
@@ -270,7 +273,7 @@ def _cmd_cross_check(args: argparse.Namespace) -> int:
     paths = ensure_built(sorted(set(models) | set(loop)), args.fmu_dir)
     for folder in generate(args.out, paths, stop_time=args.stop_time, models=models):
         print(folder)
-    return 0
+    return exit_codes.OK
 
 
 def _cmd_export_ssp(args: argparse.Namespace) -> int:
@@ -282,52 +285,23 @@ def _cmd_export_ssp(args: argparse.Namespace) -> int:
         scenario = scenario.with_stop_time(args.stop_time)
     paths = ensure_built(sorted({i.fmu for i in scenario.instances.values()}), args.fmu_dir)
     print(export_ssp(scenario, paths, args.out))
-    return 0
+    return exit_codes.OK
 
 
 def _cmd_bench(args: argparse.Namespace) -> int:
-    import json
+    from orchestration.bench.command import run_benchmarks
+    from orchestration.fmu_build.build import PACKAGE_ROOT
+    from orchestration.reports.docgen import SPEED_BLOCKS, store_speed_measurement
 
-    from orchestration.bench.design import BENCHMARKS, DEFAULT_BENCHMARKS
-
-    names = args.names or list(DEFAULT_BENCHMARKS)
-    unknown = [n for n in names if n not in BENCHMARKS]
-    if unknown:
-        raise ScenarioError(f"no benchmark {unknown}; known: {', '.join(BENCHMARKS)}")
+    missing = [f for f in SPEED_BLOCKS.values() if not (PACKAGE_ROOT / f).is_file()]
+    if args.update_docs and missing:
+        raise ScenarioError(f"--update-docs writes {', '.join(SPEED_BLOCKS.values())} of a source checkout; "
+                            f"not found next to {PACKAGE_ROOT / 'orchestration'}")
+    results = run_benchmarks(args)
     if args.update_docs:
-        from orchestration.bench.speed import DOC_BLOCKS
-        from orchestration.fmu_build.build import PACKAGE_ROOT
-
-        if "speed" not in names:
-            raise ScenarioError("--update-docs writes the speed benchmark's tables: run it (sotc-cosim bench speed)")
-        missing = [f for f in DOC_BLOCKS.values() if not (PACKAGE_ROOT / f).is_file()]
-        if missing:
-            raise ScenarioError(f"--update-docs writes {', '.join(DOC_BLOCKS.values())} of a source checkout; "
-                                f"not found next to {PACKAGE_ROOT / 'orchestration'}")
-    old = None
-    if args.compare is not None:
-        try:
-            old = json.loads(args.compare.read_text())
-        except (OSError, ValueError) as exc:
-            raise ScenarioError(f"--compare {args.compare}: cannot read the JSON of an earlier bench: {exc}") from exc
-    results = {}
-    for name in names:
-        text, results[name] = BENCHMARKS[name](args)
-        print(text)
-    if old is not None and "speed" in results:
-        from orchestration.bench.speed import compare
-
-        print(compare(old.get("speed", old), results["speed"]))
-    if args.json is not None:
-        args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps(results, indent=1) + "\n")
-        print(f"wrote {args.json}")
-    if args.update_docs:
-        from orchestration.bench.speed import update_docs
-
-        for path in update_docs(results["speed"], PACKAGE_ROOT):
+        for path in store_speed_measurement(results["speed"], PACKAGE_ROOT):
             print(f"wrote {path}")
-    return 0
+    return exit_codes.OK
 
 
 def _positive_int(text: str) -> int:
@@ -374,21 +348,12 @@ class _Parser(argparse.ArgumentParser):
     """argparse with its usage errors on one line (the usage itself is one ``-h`` away)."""
 
     def error(self, message: str):
-        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} -h)\n")
-
-
-def _version() -> str:
-    from importlib.metadata import PackageNotFoundError, version
-
-    try:
-        return version("sotc-cosim")
-    except PackageNotFoundError:
-        return "(not installed)"
+        self.exit(exit_codes.USAGE, f"{self.prog}: error: {message} (see {self.prog} -h)\n")
 
 
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="sotc-cosim", description=__doc__)
-    parser.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
+    parser.add_argument("--version", action="version", version=f"%(prog)s {VERSION}")
     sub = parser.add_subparsers(dest="command", required=True)
 
     p = sub.add_parser("build", help="build the FMUs (in a child process)")
@@ -494,16 +459,16 @@ def main(argv: list[str] | None = None) -> int:
                 check_output_folder(fmu_dir, "--fmu-dir")
             code = args.func(args)
         except interrupt.Interrupted:
-            code = interrupt.EXIT_CODE
-        except (ScenarioError, BuildError, OutputPathError) as exc:
+            code = exit_codes.INTERRUPTED
+        except (UsageError, BuildError) as exc:
             if not interrupt.requested():
                 print(f"sotc-cosim: error: {exc}", file=sys.stderr)
-                return 2
-            code = interrupt.EXIT_CODE
+                return exit_codes.USAGE
+            code = exit_codes.INTERRUPTED
         if interrupt.requested():
             print("sotc-cosim: interrupted (SIGINT): stopped between two steps; finished results were kept",
                   file=sys.stderr)
-            return interrupt.EXIT_CODE
+            return exit_codes.INTERRUPTED
         return code
 
 

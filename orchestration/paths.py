@@ -6,8 +6,10 @@ import os
 import tempfile
 from pathlib import Path
 
+from orchestration.exit_codes import UsageError
 
-class OutputPathError(ValueError):
+
+class OutputPathError(UsageError):
     """An output path that cannot be written; the message names the argument and why."""
 
 

@@ -167,7 +167,7 @@ def test_a_failed_runs_summary_shows_no_metric_from_diverged_samples(fmu_dir, tm
     monkeypatch.chdir(tmp_path)
     (tmp_path / "diverging.toml").write_text(
         'extends = "paper-ct"\nname = "diverging"\nstop_time = 2.0\n'
-        "[instances.controller.parameters]\nkp = 1e6\nkd = 1e4\ntau_max = 1e9\n")
+        "[instances.controller.parameters]\nkp = 1e6\nkd = 1e4\nrho = 1e9\n")
     summary = tmp_path / "s.json"
     assert main(["run", "diverging.toml", "--no-recording", "--summary", str(summary),
                  "--fmu-dir", str(fmu_dir)]) == 1

@@ -64,7 +64,7 @@ def test_lqr_gain_matches_python_control():
 
 
 def test_lqr_core_uses_gain_and_linearises():
-    core = LqrCore(q=1.0, r=1.0, tau_max=1e9)
+    core = LqrCore(q=1.0, r=1.0, rho=1e9)
     model = core.model
     rng = np.random.default_rng(1)
     for _ in range(20):
@@ -84,7 +84,7 @@ def test_lqr_core_uses_gain_and_linearises():
 def test_computed_torque_linearises_exactly():
     """Unsaturated CT with the true model: e_ddot + kd e_dot + kp e = 0 for every state."""
     kp, kd = 16.0, 8.0
-    core = CtCore(kp=kp, kd=kd, tau_max=1e9)
+    core = CtCore(kp=kp, kd=kd, rho=1e9)
     rng = np.random.default_rng(0)
     for _ in range(50):
         y, r = _random_point(rng)
@@ -100,8 +100,8 @@ def test_computed_torque_linearises_exactly():
 
 @pytest.mark.parametrize("core_cls", [CtCore, LqrCore])
 def test_saturation_bounds_the_norm_and_keeps_direction(core_cls):
-    unsat = core_cls(tau_max=1e12)
-    core = core_cls()  # tau_max = 4
+    unsat = core_cls(rho=1e12)
+    core = core_cls()  # rho = 4
     extreme = [
         ([50.0, -50.0, 100.0, -100.0], [0, 0, 0, 0, 0, 0]),
         ([0.0, 3.0, 1e3, 1e3], [1.0, 0.0, -1e3, 0.0, 1e4, -1e4]),
@@ -150,7 +150,7 @@ def test_saturation_holds_exactly_in_floating_point():
     [
         (CtCore, {"kp": -1.0}, "kp"),
         (CtCore, {"kd": 0.0}, "kd"),
-        (CtCore, {"tau_max": float("nan")}, "tau_max"),
+        (CtCore, {"rho": float("nan")}, "rho"),
         (CtCore, {"gain": 1.0}, "gain"),
         (LqrCore, {"r": 0.0}, "r"),
         (LqrCore, {"q": -2.0}, "q"),
@@ -344,3 +344,10 @@ def test_otc_closed_loop_runs_and_exceeds_the_bound():
     # joint 1 converges with a ~14 s time constant from 0.36 rad; joint 2 is still disturbed by it
     assert max(abs(v) for v in run.error[-1]) < 0.5
     assert abs(run.error[-1][0]) < abs(run.error[0][0])
+
+
+@pytest.mark.parametrize("core_cls, old", [(CtCore, "tau_max"), (LqrCore, "tau_max"), (OtcCore, "tau_limit")])
+def test_a_core_refuses_the_old_torque_limit_name_and_names_rho(core_cls, old):
+    with pytest.raises(ParameterError, match=f"{old}.*renamed 'rho'"):
+        core_cls(**{old: 3.0})
+    assert core_cls(rho=3.0).params["rho"] == 3.0

@@ -212,3 +212,15 @@ def test_version_is_printed(capsys):
     with pytest.raises(SystemExit) as stop:
         main(["--version"])
     assert stop.value.code == 0 and capsys.readouterr().out.strip() == f"sotc-cosim {version('sotc-cosim')}"
+
+
+@pytest.mark.parametrize("scenario, old", [("paper-ct", "tau_max"), ("paper-lqr", "tau_max"), ("paper-otc", "tau_limit")])
+def test_the_old_torque_limit_names_are_refused_naming_rho(scenario, old, tmp_path, fmu_dir, capsys, monkeypatch):
+    """The torque limit is ``rho`` in every controller since 0.2.0 (CHANGELOG.md)."""
+    monkeypatch.chdir(tmp_path)
+    path = tmp_path / "old.toml"
+    path.write_text(f'extends = "{scenario}"\n[instances.controller.parameters]\n{old} = 3.0\n')
+    assert main(["run", str(path), "--no-recording", "--fmu-dir", str(fmu_dir)]) == 2
+    line = _one_line_error(capsys.readouterr().err)
+    assert f"'{old}' was renamed 'rho'" in line and "CHANGELOG.md" in line
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["old.toml"]

@@ -275,29 +275,3 @@ def bench_sweep(fmu_dir, points: int = 8, stop_time: float = 10.0, rounds: int =
         "busy workers = sum of the points' own wall times / batch wall time (2 = both workers always running a point)",
     ]
     return "\n".join(lines)
-
-
-def _speed(args) -> tuple[str, dict]:
-    from orchestration.bench.speed import bench_speed, format_markdown
-
-    data = bench_speed(args.fmu_dir, repeats=args.repeats, long=tuple(args.long), record_every=args.record_every,
-                       stop_time=args.stop_time)
-    return format_markdown(data), data
-
-
-def _text_only(bench):
-    def run(args) -> tuple[str, dict]:
-        text = bench(args.fmu_dir)
-        return text, {"benchmark": "text", "text": text}
-    return run
-
-
-# name -> benchmark taking the parsed ``sotc-cosim bench`` arguments, returning (report, JSON data)
-BENCHMARKS = {
-    "speed": _speed,
-    "integrator": _text_only(lambda fmu_dir: bench_integrator()),  # the plant core alone: no FMU
-    "recording": _text_only(bench_recording),
-    "recording-blocks": _text_only(bench_recording_blocks),
-    "sweep": _text_only(bench_sweep),
-}
-DEFAULT_BENCHMARKS = ("speed",)

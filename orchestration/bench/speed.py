@@ -28,6 +28,8 @@ import time
 from datetime import datetime, timezone
 from pathlib import Path
 
+from orchestration.markdown import table
+
 SCENARIO = "paper"
 LONG_RUNS = (1000.0, 10000.0)
 TARGETS = {  # issue 13
@@ -314,6 +316,26 @@ def _best(data: dict, run: str, base: str) -> float:
     return data["runs"][run]["min"] / data["runs"][base]["min"]
 
 
+def _split_rows(data: dict) -> list[list[str]]:
+    split, total = data["split"]["us_per_step"], data["split"]["total_us_per_step"]
+    floor = data["split"].get("floor_us_per_step", {})
+    rows = []
+    for k, v in split.items():
+        same = floor.get(k.replace(" (core, inside the FMU)", ""))
+        rows.append([k, f"{v:.1f}", f"{v / total:.0%}", "" if same is None else f"{same:.1f}"])
+    return rows + [["total", f"{total:.1f}", "100%", f"{sum(floor.values()):.1f}" if floor else ""]]
+
+
+def _long_rows(data: dict) -> list[list[str]]:
+    rows = []
+    for r in data["long"]:
+        lin = f"{r['vs_100s']:.3f}" if "vs_100s" in r else "(base)"
+        every = "" if r["record_every"] == 1 else f" (every {r['record_every']}th sample)"
+        rows.append([f"{r['stop_time']:,.0f} s", f"{r['wall_s']:.1f} s", f"{r['wall_per_sim_s_ms']:.2f}", lin,
+                     f"{r['peak_rss_mb']:.0f} MB", f"{r['rrd_mb']:.0f} MB{every}"])
+    return rows
+
+
 def format_markdown(data: dict) -> str:
     """The generated block of docs/performance.md and the README (from the JSON of one bench run)."""
     m, meth = data["machine"], data["method"]
@@ -323,9 +345,7 @@ def format_markdown(data: dict) -> str:
         f"`{meth['scenario']}`, {meth['stop_time']:g} s = {meth['steps']:,} steps; {meth['statistic']}, "
         f"{meth['repeats']} each.",
         "",
-        f"| {meth['stop_time']:g} s `paper` | wall time | vs floor |",
-        "| --- | --- | --- |",
-        *(f"| {a} | {b} | {c} |" for a, b, c in _runs_rows(data)),
+        table([f"{meth['stop_time']:g} s `paper`", "wall time", "vs floor"], _runs_rows(data)),
         "",
         f"Recording overhead {data['ratios']['recording_overhead']:.2f}x; the recording of these "
         f"{meth['stop_time']:g} s is {data['rrd_mb']:.1f} MB. The fastest runs (other load on a shared "
@@ -333,25 +353,13 @@ def format_markdown(data: dict) -> str:
         f"{_best(data, 'cosim_recorded', 'floor'):.2f}x recorded against the floor, recording overhead "
         f"{_best(data, 'cosim_recorded', 'cosim'):.2f}x.",
         "",
-        "| per step (one recorded run, instrumented) | us | share | the same core in the floor's loop, us |",
-        "| --- | --- | --- | --- |",
+        table(["per step (one recorded run, instrumented)", "us", "share", "the same core in the floor's loop, us"],
+              _split_rows(data)),
     ]
-    split, total = data["split"]["us_per_step"], data["split"]["total_us_per_step"]
-    floor = data["split"].get("floor_us_per_step", {})
-    for k, v in split.items():
-        same = floor.get(k.replace(" (core, inside the FMU)", ""))
-        lines.append(f"| {k} | {v:.1f} | {v / total:.0%} | {'' if same is None else f'{same:.1f}'} |")
-    lines.append(f"| total | {total:.1f} | 100% | {sum(floor.values()):.1f} |" if floor else f"| total | {total:.1f} | 100% | |")
     if data["long"]:
-        lines += ["", "| single run, recorded (child process) | wall time | ms per simulated s | vs linear from 100 s "
-                  "| peak RSS | recording |", "| --- | --- | --- | --- | --- | --- |"]
-        for r in data["long"]:
-            lin = f"{r['vs_100s']:.3f}" if "vs_100s" in r else "(base)"
-            every = "" if r["record_every"] == 1 else f" (every {r['record_every']}th sample)"
-            lines.append(f"| {r['stop_time']:,.0f} s | {r['wall_s']:.1f} s | {r['wall_per_sim_s_ms']:.2f} | {lin} "
-                         f"| {r['peak_rss_mb']:.0f} MB | {r['rrd_mb']:.0f} MB{every} |")
-    lines += ["", "| target (issue 13) | met |", "| --- | --- |",
-              *(f"| {k} | {'yes' if ok else '**no**'} |" for k, ok in data["targets"].items())]
+        lines += ["", table(["single run, recorded (child process)", "wall time", "ms per simulated s",
+                             "vs linear from 100 s", "peak RSS", "recording"], _long_rows(data))]
+    lines += ["", table(["target", "met"], [[k, "yes" if ok else "**no**"] for k, ok in data["targets"].items()])]
     return "\n".join(lines)
 
 
@@ -382,13 +390,3 @@ MEASUREMENT = "docs/performance.json"
 def stored_block(root: Path) -> str:
     """The tables of the stored measurement (``docs/performance.json``), as docgen renders them."""
     return format_markdown(json.loads((root / MEASUREMENT).read_text()))
-
-
-def update_docs(data: dict, root: Path) -> list[Path]:
-    """Store ``data`` as the measurement and regenerate its blocks in the docs."""
-    from orchestration.reports import docgen
-
-    (root / MEASUREMENT).write_text(json.dumps(data, indent=1) + "\n")
-    for name in DOC_BLOCKS:
-        docgen.write(name, root)
-    return [root / MEASUREMENT, *(root / f for f in DOC_BLOCKS.values())]

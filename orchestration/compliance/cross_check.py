@@ -23,22 +23,16 @@ Values are written with ``repr`` (shortest text that reads back to the same doub
 from __future__ import annotations
 
 import shutil
-from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
 import numpy as np
+
+from fmi_slave import VERSION
 
 TOOL = "sotc-cosim"
 SOURCE_SCENARIO = "paper"
 DEFAULT_STOP_TIME = 5.0
 REL_TOL = 1e-6  # required by the layout; the FMUs step with a fixed-step integrator and ignore it
-
-
-def tool_version() -> str:
-    try:
-        return version("sotc-cosim")
-    except PackageNotFoundError:  # pragma: no cover - running from a plain checkout
-        return "0.1.0"
 
 
 def platform() -> str:
@@ -48,7 +42,7 @@ def platform() -> str:
 
 
 def model_dir(out_dir: Path, model: str) -> Path:
-    return Path(out_dir) / "fmus" / "2.0" / "cs" / platform() / TOOL / tool_version() / model
+    return Path(out_dir) / "fmus" / "2.0" / "cs" / platform() / TOOL / VERSION / model
 
 
 def closed_loop_signals(fmu_paths: dict[str, Path], stop_time: float) -> tuple[np.ndarray, dict[str, np.ndarray]]:
@@ -101,7 +95,7 @@ def _readme(model: str, description: str, has_inputs: bool, stop_time: float, st
               f"'{SOURCE_SCENARIO}' scenario (fmpy master), see {model}_in.csv" if has_inputs else "it has no inputs")
     return (
         f"{model}: {description}\n\n"
-        f"Exported by {TOOL} {tool_version()} with PythonFMU 0.7.0 (an FMI 2.0 co-simulation FMU that runs its\n"
+        f"Exported by {TOOL} {VERSION} with PythonFMU 0.7.0 (an FMI 2.0 co-simulation FMU that runs its\n"
         "model in the host's Python interpreter: the importing process needs a CPython 3.11 with numpy,\n"
         "see docs/interop.md).\n\n"
         f"Reference: a fixed-step run of {stop_time:g} s with communication step {step:g} s; {source}.\n"

@@ -20,6 +20,7 @@ import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
+from fmu_controller.catalog import CONTROLLERS
 from orchestration.fmu_build import packaging as fmu_package
 
 DEFAULT_FMU_DIR = Path("build") / "fmus"
@@ -41,14 +42,8 @@ FMU_SOURCES: dict[str, FmuSource] = {
                   ("fmu_plant/dynamics.py", "fmu_plant/kinematics.py")),
         FmuSource("ReferenceTrajectory", "fmu_plant/reference_trajectory_fmu.py", ("fmi_slave", "fmu_plant"),
                   ("fmu_plant/trajectory.py", "fmu_plant/kinematics.py")),
-        FmuSource("CtController", "fmu_controller/ct_controller_fmu.py", ("fmi_slave", "fmu_plant", "fmu_controller"),
-                  ("fmu_controller/computed_torque.py",)),
-        FmuSource("SotcController", "fmu_controller/sotc_controller_fmu.py", ("fmi_slave", "fmu_plant", "fmu_controller"),
-                  ("fmu_controller/sotc.py",)),
-        FmuSource("OtcController", "fmu_controller/otc_controller_fmu.py", ("fmi_slave", "fmu_plant", "fmu_controller"),
-                  ("fmu_controller/otc.py",)),
-        FmuSource("LqrController", "fmu_controller/lqr_controller_fmu.py", ("fmi_slave", "fmu_plant", "fmu_controller"),
-                  ("fmu_controller/lqr.py",)),
+        *(FmuSource(c.model, c.script, ("fmi_slave", "fmu_plant", "fmu_controller"), (c.equations,))
+          for c in CONTROLLERS.values()),
         *(FmuSource(m, f"fmu_plant/{s}_fmu.py", ("fmi_slave", "fmu_plant"), ("fmu_plant/perturbation.py",)) for m, s in (("Disturbance", "disturbance"), ("MeasurementNoise", "measurement_noise"))),
     )
 }

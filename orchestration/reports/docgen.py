@@ -13,7 +13,7 @@ quick blocks in the ordinary suite, the long ones under the ``slow`` marker).
 from __future__ import annotations
 
 import argparse
-import re
+import json
 import sys
 from dataclasses import dataclass
 from pathlib import Path
@@ -21,11 +21,14 @@ from typing import Any, Callable
 
 import numpy as np
 
+from fmu_controller.catalog import LABELS
 from fmu_controller.saturation import LIMIT_HANDLINGS
+from orchestration.bench.speed import DOC_BLOCKS as SPEED_BLOCKS
+from orchestration.bench.speed import MEASUREMENT as SPEED_MEASUREMENT
 from orchestration.bench.speed import stored_block
+from orchestration.markdown import block_pattern, number, pair, replace_block, table
 from orchestration.study.comparison import (
     COMPARED,
-    LABELS,
     OTC_VARIANTS,
     TUNING_GRIDS,
     best_tuning,
@@ -47,38 +50,15 @@ ROOT = Path(__file__).resolve().parents[2]
 LITERAL_SCENARIOS = ("paper-literal", "paper-near-literal")
 
 
-# --- formatting -------------------------------------------------------------------------------------
-
-def _g(v: Any, digits: int = 4) -> str:
-    if v is None:
-        return "-"
-    if isinstance(v, (int, np.integer)):
-        return str(int(v))
-    v = float(v)
-    if not np.isfinite(v):
-        return "-"
-    return f"{v:.{digits}g}"
-
-
-def _pair(v: Any, digits: int = 4) -> str:
-    return "-" if v is None else f"{_g(v[0], digits)} / {_g(v[1], digits)}"
-
-
-def table(header: list[str], rows: list[list[str]]) -> str:
-    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    lines += ["| " + " | ".join(c.replace("|", "\\|") for c in r) + " |" for r in rows]
-    return "\n".join(lines)
-
-
 METRIC_HEADER = ["MSE j1 / j2", "MSE t >= 5 s", "MSE after last limit sample (t)", "realised cost",
                  "samples over 4 N.m", "max ‖tau‖"]
 
 
 def metric_cells(m: dict[str, Any]) -> list[str]:
     last = m["last_limit_time"]
-    after = f"{_pair(m['mse_after_limit'], 3)} ({'limit never acts' if last is None else _g(last, 3) + ' s'})"
-    return [_pair(m["mse"]), _pair(m["mse_after_5s"], 3), after, _g(m["tracking_cost"], 4),
-            _g(m["samples_over_limit"]), _g(m["max_tau_norm"], 4)]
+    after = f"{pair(m['mse_after_limit'], '.3g')} ({'limit never acts' if last is None else number(last, '.3g') + ' s'})"
+    return [pair(m["mse"]), pair(m["mse_after_5s"], ".3g"), after, number(m["tracking_cost"], ".4g"),
+            number(m["samples_over_limit"]), number(m["max_tau_norm"], ".4g")]
 
 
 # --- the blocks -------------------------------------------------------------------------------------
@@ -143,7 +123,7 @@ def results_verdict() -> str:
         return m["mse"][0] <= 1.3 * paper[0] and m["mse"][1] <= 1.3 * paper[1]
 
     def text(s, o, m):
-        return f"{_reading_label(s, o)}: MSE {_pair(m['mse'])}, realised cost {_g(m['tracking_cost'])}"
+        return f"{_reading_label(s, o)}: MSE {pair(m['mse'])}, realised cost {number(m['tracking_cost'])}"
 
     reach = [text(s, o, m) for s, o, m in measured if within(m)]
     miss = [text(s, o, m) for s, o, m in measured if not within(m)]
@@ -153,23 +133,23 @@ def results_verdict() -> str:
         f"Within 30 % of Table 1's {paper[0]} / {paper[1]}: {'; '.join(reach) or 'none'}. "
         f"Not within: {'; '.join(miss) or 'none'}.",
         f"The critic's learning is not what reaches Table 1: with it switched off, `paper` gives MSE "
-        f"{_pair(learned_off['mse'])} and realised cost {_g(learned_off['tracking_cost'])}, against "
-        f"{_pair(chosen['mse'])} and {_g(chosen['tracking_cost'])} with learning; the match rests on the "
+        f"{pair(learned_off['mse'])} and realised cost {number(learned_off['tracking_cost'])}, against "
+        f"{pair(chosen['mse'])} and {number(chosen['tracking_cost'])} with learning; the match rests on the "
         "feedforward (4) and how the bound (5) is handled."
         if within(learned_off) else
         f"Switching the critic's learning off (alpha1 = alpha2 = 1e-9) moves `paper` out of Table 1's range: "
-        f"MSE {_pair(learned_off['mse'])}, realised cost {_g(learned_off['tracking_cost'])}."]
+        f"MSE {pair(learned_off['mse'])}, realised cost {number(learned_off['tracking_cost'])}."]
     beaten = []
     for scenario in TUNING_GRIDS:
         point, m = best_tuning(scenario, 2)
         if mse_sum(m) < mse_sum(chosen):
             fmu, _ = controller_of(scenario)
-            beaten.append(f"{LABELS[fmu]} ({_params_text(scenario, point)}: MSE {_pair(m['mse'])}, "
-                          f"t >= 5 s {_pair(m['mse_after_5s'], 3)}, cost {_g(m['tracking_cost'])})")
+            beaten.append(f"{LABELS[fmu]} ({_params_text(scenario, point)}: MSE {pair(m['mse'])}, "
+                          f"t >= 5 s {pair(m['mse_after_5s'], '.3g')}, cost {number(m['tracking_cost'])})")
     if beaten:
         lines.append("Given the same limit handling as the SOTC (accel), a baseline from the same small tuning search "
-                     f"beats it on Table 1's metric: {'; '.join(beaten)}, against the SOTC's {_pair(chosen['mse'])} "
-                     f"(t >= 5 s {_pair(chosen['mse_after_5s'], 3)}, cost {_g(chosen['tracking_cost'])}).")
+                     f"beats it on Table 1's metric: {'; '.join(beaten)}, against the SOTC's {pair(chosen['mse'])} "
+                     f"(t >= 5 s {pair(chosen['mse_after_5s'], '.3g')}, cost {number(chosen['tracking_cost'])}).")
         scenario, point, m = min(((sc, *best_tuning(sc, 2)) for sc in TUNING_GRIDS),
                                  key=lambda best: best[2]["tracking_cost"])
         if chosen["tracking_cost"] < m["tracking_cost"]:
@@ -178,11 +158,11 @@ def results_verdict() -> str:
         else:
             fmu, _ = controller_of(scenario)
             lines.append(f"Nor does the SOTC keep the lowest realised cost under accel: {LABELS[fmu]} "
-                         f"({_params_text(scenario, point)}) reaches {_g(m['tracking_cost'])} against its "
-                         f"{_g(chosen['tracking_cost'])}.")
+                         f"({_params_text(scenario, point)}) reaches {number(m['tracking_cost'])} against its "
+                         f"{number(chosen['tracking_cost'])}.")
     else:
         lines.append("Under the same limit handling (accel), no baseline of the tuning search beats the SOTC's MSE "
-                     f"{_pair(chosen['mse'])}.")
+                     f"{pair(chosen['mse'])}.")
     return "\n".join(f"- {line}" for line in lines)
 
 
@@ -219,7 +199,7 @@ def value_table() -> str:
     from orchestration.study.value_function import VALUE_HEADER, value_rows
 
     ctrl, _ = run("paper")
-    rows = [[label, _g(ratio, 3), _g(cost, 4), _g(rel, 4), f"{below} of {n}"]
+    rows = [[label, number(ratio, ".3g"), number(cost, ".4g"), number(rel, ".4g"), f"{below} of {n}"]
             for label, ratio, cost, rel, below, n in value_rows(np.array(ctrl.W))]
     rows[0][0] = "learned W (`paper`, 100 s)"
     return table(VALUE_HEADER, rows)
@@ -279,7 +259,7 @@ def controllers_verdict() -> str:
     under = f" under `{LIMIT_HANDLINGS[int(handling)]}`" if handling is not None else ""  # set for every point
     lines = ["Post-transient error over the same points (mean / worst, rad; failed points apart), lowest mean "
              f"first{under and ', all' + under}: " + "; ".join(
-                 f"{label(f)} {_g(stats(f)[0], 3)} / {_g(stats(f)[1], 3)}" + (f", {stats(f)[2]} failed" if stats(f)[2] else "")
+                 f"{label(f)} {number(stats(f)[0], '.3g')} / {number(stats(f)[1], '.3g')}" + (f", {stats(f)[2]} failed" if stats(f)[2] else "")
                  for f in ranked) + "."]
     sotc = errors.get("SotcController")
     if sotc is not None:
@@ -336,15 +316,10 @@ BLOCKS: dict[str, Block] = {
 }
 
 
-def _pattern(name: str) -> re.Pattern[str]:
-    return re.compile(rf"(<!-- BEGIN generated:{re.escape(name)} -->\n)(.*?)(<!-- END generated:{re.escape(name)} -->)",
-                      re.S)
-
-
 def committed(name: str, root: Path | None = None) -> str:
     """The block's text as it is in its file now (error if the markers are missing)."""
     text = ((root or ROOT) / BLOCKS[name].file).read_text()
-    m = _pattern(name).search(text)
+    m = block_pattern(name).search(text)
     if m is None:
         raise KeyError(f"{BLOCKS[name].file} has no block 'generated:{name}'")
     return m.group(2)
@@ -352,14 +327,6 @@ def committed(name: str, root: Path | None = None) -> str:
 
 def render(name: str) -> str:
     return BLOCKS[name].make().rstrip("\n") + "\n"
-
-
-def replace_block(text: str, name: str, content: str) -> str:
-    """``text`` with block ``name`` holding ``content`` (the block is appended if ``text`` has none)."""
-    content = content.rstrip("\n") + "\n"
-    if _pattern(name).search(text) is None:
-        return text.rstrip("\n") + f"\n\n<!-- BEGIN generated:{name} -->\n{content}<!-- END generated:{name} -->\n"
-    return _pattern(name).sub(lambda m: m.group(1) + content + m.group(3), text)
 
 
 def write(name: str, root: Path | None = None) -> bool:
@@ -371,6 +338,14 @@ def write(name: str, root: Path | None = None) -> bool:
     new = replace_block(text, name, content)
     path.write_text(new)
     return new != text
+
+
+def store_speed_measurement(data: dict, root: Path) -> list[Path]:
+    """Store one ``sotc-cosim bench speed`` result as the measurement and regenerate its blocks."""
+    (root / SPEED_MEASUREMENT).write_text(json.dumps(data, indent=1) + "\n")
+    for name in SPEED_BLOCKS:
+        write(name, root)
+    return [root / SPEED_MEASUREMENT, *(root / f for f in SPEED_BLOCKS.values())]
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -6,7 +6,7 @@ then leaves an FMI call, pythonfmu's binary releases references it does not own,
 later with a segfault. So the commands run with ``sigint_deferred()``: SIGINT only sets a flag; the
 master looks at it after every step, stops, terminates and frees every instance, finalises the
 recording and returns a result marked ``interrupted``; the CLI starts no further work, keeps what
-finished, and exits with 130 (128 + SIGINT), the shell's convention.
+finished, and exits with ``exit_codes.INTERRUPTED`` (128 + SIGINT), the shell's convention.
 """
 from __future__ import annotations
 
@@ -14,8 +14,6 @@ import signal
 import threading
 from contextlib import contextmanager
 from typing import Iterator
-
-EXIT_CODE = 130  # 128 + SIGINT
 
 
 class Interrupted(Exception):

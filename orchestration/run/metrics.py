@@ -16,6 +16,8 @@ from typing import Any
 
 import numpy as np
 
+from fmu_plant.dynamics import TORQUE_LIMIT
+
 # tolerance of "at the limit": ||tau|| >= limit - LIMIT_TOLERANCE counts (a norm scaled to the
 # limit lands on it up to rounding)
 LIMIT_TOLERANCE = 1e-9
@@ -64,7 +66,7 @@ def tracking_metrics(
     t: np.ndarray,
     e: np.ndarray,
     tau: np.ndarray,
-    torque_limit: float = 4.0,
+    torque_limit: float = TORQUE_LIMIT,
     cost_rate: np.ndarray | None = None,
     stop_time: float | None = None,
     e_dot: np.ndarray | None = None,

@@ -12,6 +12,7 @@ import math
 from functools import lru_cache
 from pathlib import Path
 
+from fmu_controller.base import RENAMED_PARAMETERS
 from orchestration.run.scenario import Scenario, ScenarioError
 
 
@@ -34,6 +35,8 @@ def parameter_problem(md, name: str, value: float, check_range: bool = True) -> 
     var = next((v for v in md.modelVariables if v.name == name), None)
     if var is None or var.causality != "parameter":
         known = sorted(v.name for v in md.modelVariables if v.causality == "parameter")
+        if RENAMED_PARAMETERS.get(name) in known:
+            return f"'{name}' was renamed '{RENAMED_PARAMETERS[name]}' in 0.2.0 (see CHANGELOG.md)"
         return f"'{name}' is not a parameter of {md.modelName}; known: {', '.join(known)}"
     if var.type not in ("Real", "Integer"):
         return f"'{name}': parameters of type {var.type} are not supported"

@@ -28,7 +28,9 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-PAPER_TORQUE_LIMIT = 4.0  # rho, N.m (section 4)
+from fmu_plant.dynamics import TORQUE_LIMIT
+from orchestration.exit_codes import UsageError
+
 # a run holds every sample of every output in memory: 10^6 steps (10,000 s at T = 0.01 s, 100 paper
 # runs) of ~60 outputs is ~0.5 GB per instance; more is refused before anything is allocated
 MAX_STEPS = 1_000_000
@@ -70,7 +72,7 @@ SCENARIO_SCHEMA: dict[str, Any] = {
 }
 
 
-class ScenarioError(ValueError):
+class ScenarioError(UsageError):
     """A scenario that cannot be run as written; the message says where and why."""
 
 
@@ -158,14 +160,11 @@ class Scenario:
         return resolved
 
     def torque_limit(self) -> float:
-        """The controller's torque bound as the scenario sets it (``rho``, ``tau_max`` or ``tau_limit``), else the
-        paper's rho = 4 N.m (section 4), which every controller FMU uses by default."""
+        """The controller's torque bound ``rho`` as the scenario sets it, else the paper's rho = 4 N.m
+        (section 4), which every controller FMU uses by default."""
         inst = self.instances.get("controller")
         params = inst.parameters if inst else {}
-        for key in ("rho", "tau_max", "tau_limit"):
-            if key in params:
-                return float(params[key])
-        return PAPER_TORQUE_LIMIT
+        return float(params.get("rho", TORQUE_LIMIT))
 
 
 def available_scenarios() -> list[str]:

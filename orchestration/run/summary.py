@@ -2,12 +2,14 @@
 from __future__ import annotations
 
 import json
-import math
 from pathlib import Path
 from typing import Any, Callable
 
 import numpy as np
 
+from fmu_controller.catalog import CORES
+from fmu_controller.saturation import LIMIT_HANDLINGS
+from orchestration.markdown import number
 from orchestration.run.master import RunResult
 from orchestration.run.metrics import LIMIT_FLAG_OUTPUTS, TrackingMetrics, limit_active
 from orchestration.run.scenario import Scenario
@@ -86,9 +88,6 @@ class SummaryObserver:
 
 def _limit_handling(sc) -> str | None:
     """The name of the controller's torque-limit handling as the scenario sets it (else its default)."""
-    from fmu_controller.saturation import LIMIT_HANDLINGS
-    from orchestration.study.comparison import CORES
-
     inst = sc.instances.get("controller")
     if inst is None or inst.fmu not in CORES:
         return None
@@ -112,9 +111,7 @@ def write_summary(summary: dict[str, Any], path: Path) -> None:
 
 def fmt_cell(value: Any, spec: str, width: int) -> str:
     """A number in a fixed-width column; a missing or undefined one (None, NaN) as '-'."""
-    if value is None or (isinstance(value, float) and not math.isfinite(value)):
-        return f"{'-':>{width}}"
-    return f"{value:>{width}{spec}}"
+    return f"{number(value, spec):>{width}}"
 
 
 def format_table(summaries: list[dict[str, Any]]) -> str:

@@ -16,17 +16,13 @@ from typing import Any
 
 import numpy as np
 
-from fmu_controller.computed_torque import CtCore
-from fmu_controller.lqr import LqrCore
-from fmu_controller.otc import OtcCore
+from fmu_controller.catalog import CORES
 from fmu_controller.saturation import LIMIT_HANDLINGS
-from fmu_controller.sotc import SotcCore
+from fmu_plant.dynamics import TORQUE_LIMIT
 from orchestration.run.metrics import limit_active, tracking_metrics
 from orchestration.run.scenario import load_scenario
 from orchestration.study.pure_loop import LoopResult, simulate
 
-CORES = {"SotcController": SotcCore, "CtController": CtCore, "LqrController": LqrCore, "OtcController": OtcCore}
-LABELS = {"SotcController": "SOTC", "CtController": "CT", "LqrController": "LQR", "OtcController": "OTC"}
 # (scenario, handlings to run): the scenario's own default first
 COMPARED = (("paper", (2, 0, 1)), ("paper-ct", (0, 1, 2)), ("paper-lqr", (0, 1, 2)), ("paper-otc", (3, 0, 1, 2)))
 # the tuning search, the same size for both baselines; the first point is the paper-like nominal
@@ -55,7 +51,7 @@ OTC_VARIANTS: tuple[tuple[str, dict[str, float]], ...] = (
 )
 
 
-def loop_metrics(res: LoopResult, torque_limit: float = 4.0) -> dict[str, Any]:
+def loop_metrics(res: LoopResult, torque_limit: float = TORQUE_LIMIT) -> dict[str, Any]:
     """``tracking_metrics`` of a pure-loop run, with every optional input the loop has."""
     outputs = {name: res.outputs[:, i] for i, name in enumerate(res.names)}
     e_dot = res.y[:, 2:4] - res.ref[:, 2:4]
@@ -72,7 +68,7 @@ def controller_of(scenario: str, **overrides: float) -> tuple[str, dict[str, flo
 @functools.lru_cache(maxsize=None)
 def _cached(fmu: str, params: tuple[tuple[str, float], ...], stop_time: float) -> dict[str, Any]:
     p = dict(params)
-    limit = float(p.get("rho", p.get("tau_max", p.get("tau_limit", 4.0))))
+    limit = float(p.get("rho", TORQUE_LIMIT))
     return loop_metrics(simulate(CORES[fmu](**p), stop_time=stop_time), limit)
 
 

@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from fmu_controller.saturation import LIMIT_HANDLINGS
+from orchestration.markdown import table as markdown_table
 from orchestration.run.scenario import Scenario, load_scenario
 from orchestration.run.summary import fmt_cell
 from orchestration.study.comparison import COMPARED
@@ -111,12 +112,6 @@ def table_rows(summaries: list[dict[str, Any]]) -> tuple[list[str], list[list[st
     return header, rows
 
 
-def to_markdown(header: list[str], rows: list[list[str]]) -> str:
-    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    lines += ["| " + " | ".join(r) + " |" for r in rows]
-    return "\n".join(lines) + "\n"
-
-
 def to_csv(header: list[str], rows: list[list[str]]) -> str:
     buf = io.StringIO()
     writer = csv.writer(buf, lineterminator="\n")
@@ -139,7 +134,7 @@ def value_table(summaries: list[dict[str, Any]]) -> str:
         return "(no value-function table: the `paper` run did not finish)\n"
     rows = [[label, f"{ratio:.3g}", f"{cost:.4g}", f"{rel:.4g}", f"{below} of {n}"]
             for label, ratio, cost, rel, below, n in value_rows(paper["final_weights"], min(HORIZON, paper["stop_time"]))]
-    return to_markdown(VALUE_HEADER, rows)
+    return markdown_table(VALUE_HEADER, rows) + "\n"
 
 
 def _stop_times(summaries: list[dict[str, Any]]) -> str:
@@ -152,7 +147,7 @@ def write_table(summaries: list[dict[str, Any]], out_dir: Path) -> tuple[Path, P
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     md, cs = out_dir / "table1.md", out_dir / "table1.csv"
-    text = to_markdown(header, rows)
+    text = markdown_table(header, rows) + "\n"
     md.write_text(
         "# Table 1 of the paper, extended\n\n"
         "Rows 'paper Table 1' are the paper's numbers (it reports MSE only, over 100 s); rows 'this run' are\n"

@@ -15,13 +15,13 @@ from __future__ import annotations
 import csv
 import io
 import json
-import math
 import time
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from orchestration.markdown import number, replace_block, table
 from orchestration.sweep.spec import Axis, Sweep
 
 TABLE_INTERVAL_S = 1.0
@@ -129,10 +129,6 @@ def table_csv(sweep: Sweep, rows: list[dict[str, Any]]) -> str:
 
 # --- aggregates ----------------------------------------------------------------------------------
 
-def _fmt(value: float | None, spec: str = ".3g") -> str:
-    return "-" if value is None or (isinstance(value, float) and not math.isfinite(value)) else format(value, spec)
-
-
 def _value_text(value: Any) -> str:
     if isinstance(value, tuple):
         return ", ".join(_value_text(v) for v in value)
@@ -184,38 +180,35 @@ def _per_controller_text(sweep: Sweep) -> str:
     return " Per controller (`controller_settings`): " + "; ".join(parts) + "."
 
 
-def summary_markdown(sweep: Sweep, rows: list[dict[str, Any]], total: int, heading: str = "#") -> str:
-    ok = [r for r in rows if r["status"] == "ok"]
+def summary_markdown(sweep: Sweep, rows_all: list[dict[str, Any]], total: int, heading: str = "#") -> str:
+    ok = [r for r in rows_all if r["status"] == "ok"]
     lines = [f"{heading} Sweep `{sweep.name}`", "", sweep.description, "",
-             f"{len(rows)} of {total} points stored, {len(ok)} ok, {len(rows) - len(ok)} failed; base scenario "
+             f"{len(rows_all)} of {total} points stored, {len(ok)} ok, {len(rows_all) - len(ok)} failed; base scenario "
              f"`{sweep.base.name}`, {sweep.combine} combination, seed {sweep.seed}, stop time {sweep.base.stop_time:g} s "
              "(unless an axis sets it). Post-transient error = max over both joints of max |e| over the second "
              "half of the run; max ||tau|| against the torque limit rho; a failed point counts in 'failed' only."
              + (" Set for every point: " + ", ".join(f"`{k} = {v:g}`" for k, v in sweep.fixed.items()) + "." if sweep.fixed else "")
              + _per_controller_text(sweep),
              ""]
+    header = ["value", "controller", "points", "failed", "mean post-transient max abs e [rad]", "std", "worst",
+              "worst max norm tau [N.m]", "samples over limit"]
     for group, axes in sweep.groups().items():
         title = f"`{axes[0].label}`" if len(axes) == 1 else f"{group} ({', '.join(f'`{a.label}`' for a in axes)})"
-        lines += [f"{heading}# Axis {title}", "",
-                  "| value | controller | points | failed | mean post-transient max abs e [rad] | std | worst | worst max norm tau [N.m] | samples over limit |",
-                  "|---|---|---:|---:|---:|---:|---:|---:|---:|"]
-        for text, ctrl, chosen in group_rows(sweep, rows, axes):
+        rows = []
+        for text, ctrl, chosen in group_rows(sweep, rows_all, axes):
             tails = [t for t in (tail_error(r) for r in chosen) if t is not None]
             taus = [metric(r, "max_norm_tau") for r in chosen if r["status"] == "ok" and metric(r, "max_norm_tau") is not None]
             over = sum(metric(r, "samples_over_limit") or 0 for r in chosen if r["status"] == "ok")
             failed = sum(r["status"] != "ok" for r in chosen)
-            lines.append(f"| {text} | {ctrl or '-'} | {len(chosen)} | {failed} | {_fmt(float(np.mean(tails)) if tails else None)} | "
-                         f"{_fmt(float(np.std(tails)) if tails else None)} | {_fmt(max(tails) if tails else None)} | "
-                         f"{_fmt(max(taus) if taus else None, '.4g')} | {over} |")
-        lines.append("")
-    failed = [r for r in rows if r["status"] != "ok"]
+            rows.append([text, ctrl or "-", len(chosen), failed, number(float(np.mean(tails)) if tails else None, ".3g"),
+                         number(float(np.std(tails)) if tails else None, ".3g"), number(max(tails) if tails else None, ".3g"),
+                         number(max(taus) if taus else None), over])
+        lines += [f"{heading}# Axis {title}", "", table(header, rows, align="llrrrrrrr"), ""]
+    failed = [r for r in rows_all if r["status"] != "ok"]
     if failed:
-        lines += [f"{heading}# Failed points", "", "| index | settings | reason |", "|---:|---|---|"]
-        for r in failed:
-            settings = ", ".join(f"{k} = {_value_text(v)}" for k, v in sorted(r["settings"].items()))
-            reason = " ".join((r.get("reason") or "").replace("|", "/").split())
-            lines.append(f"| {r['index']} | {settings} | {reason[:300]} |")
-        lines.append("")
+        rows = [[r["index"], ", ".join(f"{k} = {_value_text(v)}" for k, v in sorted(r["settings"].items())),
+                 " ".join((r.get("reason") or "").split())[:300]] for r in failed]
+        lines += [f"{heading}# Failed points", "", table(["index", "settings", "reason"], rows, align="rll"), ""]
     return "\n".join(lines)
 
 
@@ -328,8 +321,6 @@ def write_doc(store: SweepStore, total: int, doc: Path) -> Path:
     """Write the sweep's results into ``doc``'s block ``generated:sweep-<name>``; the plots and the
     stored rows go to ``sweeps/<name>/`` beside it (the rows let docgen check the block)."""
     import shutil
-
-    from orchestration.reports.docgen import replace_block
 
     doc = Path(doc)
     sweep, rows = store.sweep, store.rows()

@@ -55,6 +55,7 @@ from typing import Any
 
 import numpy as np
 
+from fmu_controller.catalog import CORES
 from orchestration.run.scenario import Instance, Scenario, ScenarioError, load_scenario
 
 SETTINGS = ("controller", "step_size", "stop_time")  # axes that are not FMU parameters
@@ -279,11 +280,7 @@ def parse_sweep(raw: dict[str, Any], label: str, folder: Path | None = None, def
 def _controller_settings(raw: Any, base: Scenario, axes: tuple[Axis, ...], where: str) -> dict[str, ControllerSettings]:
     """``[controller_settings.<fmu>]`` tables: each FMU one that the sweep runs, every value a finite number
     (or ``tuning``), no parameter that an axis varies or that the tuning search sets too."""
-    from orchestration.study.comparison import (
-        CORES,
-        tuned_parameter_names,
-        tuned_scenarios,
-    )
+    from orchestration.study.comparison import tuned_parameter_names, tuned_scenarios
 
     if not isinstance(raw, dict) or not all(isinstance(v, dict) for v in raw.values()):
         raise SweepError(f"{where}: controller_settings must hold tables [controller_settings.<controller FMU>]")
