@@ -1,7 +1,7 @@
 """Saturated computed-torque baseline (CtCore).
 
 The classical computed-torque (inverse-dynamics) law on the nominal model of eq. (1) of the SOTC
-paper (``shared/reference/sotc-paper.md``), followed by the paper's torque constraint:
+paper (Dien, Luy, Lai & Hai 2023), followed by the paper's torque constraint:
 
     e = phi - phi_d,   e_dot = dphi - dphi_d                                         (CT-1)
     v = ddphi_d - Kd e_dot - Kp e                                                    (CT-2)

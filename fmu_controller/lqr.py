@@ -1,7 +1,7 @@
 """Saturated LQR on the feedback-linearised error dynamics (LqrCore).
 
 Computed-torque feedback linearisation on the nominal model of eq. (1) of the SOTC paper
-(``shared/reference/sotc-paper.md``) turns the arm into one double integrator per joint,
+(Dien, Luy, Lai & Hai 2023) turns the arm into one double integrator per joint,
 
     tau_raw = D(phi) (ddphi_d + v) + H(phi, dphi) dphi + G(dphi)                      (LQR-1)
     =>  x_dot = A x + B v,  x = [e1, e2, e_dot1, e_dot2],  e = phi - phi_d            (LQR-2)

@@ -1,6 +1,6 @@
 """Reconstructed optimal tracking controller (OTC) of the SOTC paper's comparison (OtcCore).
 
-The SOTC paper (``shared/reference/sotc-paper.md``, section 4) compares against the OTC of its
+The SOTC paper (Dien, Luy, Lai & Hai 2023, section 4) compares against the OTC of its
 ref. [7]: L. Kong, W. He, C. Yang, C. Sun, "Robust neurooptimal control for a robot via adaptive
 dynamic programming", IEEE TNNLS 32(6), 2584-2594, 2021, with Q = I4, R = diag[20, 100],
 Lambda = diag[200, 50]. The text of [7] could not be consulted, so the law below is a

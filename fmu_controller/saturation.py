@@ -87,6 +87,17 @@ def clip_box(v1: float, v2: float, bound: float) -> tuple[float, float, bool]:
     return c1, c2, (c1 != v1 or c2 != v2)
 
 
+def limit_without_metric(v1: float, v2: float, bound: float, code: int) -> tuple[float, float, bool]:
+    """A vector that is no torque (the SOTC's chi_vd^a under the bound (5)) limited as ``code`` says:
+    each entry (joint), radially (radial, and accel, which has no metric to project in), or not at all."""
+    if code == JOINT:
+        return clip_box(v1, v2, bound)
+    if code == NONE:
+        return v1, v2, False
+    c1, c2, _, changed = saturate_norm(v1, v2, bound)
+    return c1, c2, changed
+
+
 def accel_projection(
     t1: float, t2: float, bound: float, d11: float, d12: float, d22: float
 ) -> tuple[float, float, bool]:

@@ -2,7 +2,7 @@
 
 Reference: N. D. Dien, N. T. Luy, L. K. Lai, T. T. Hai, "Optimal tracking control for robot
 manipulators with input constraint based reinforcement learning", J. Computer Science and
-Cybernetics, 2023 (``shared/reference/sotc-paper.md``). Equation numbers are the paper's. Where the
+Cybernetics, 2023. Equation numbers are the paper's. Where the
 paper is ambiguous, the chosen reading is the default and each alternative stays selectable
 through an integer ``*_form`` / ``cl_*`` / ``weight_integrator`` parameter; the reasons and the
 measured effect of each are in ``docs/paper-notes.md``.
@@ -43,6 +43,7 @@ from fmu_controller.saturation import (
     clip_box,
     limit_handling_spec,
     limit_torque,
+    limit_without_metric,
     saturate_norm,
 )
 from fmu_controller.small_linalg import solve
@@ -52,13 +53,13 @@ from fmu_controller.sotc_math import (
     basis_directional,
     omega_term_of_arg,
     probing_signal,
-    solve_tanh_system,
     value_gradient,
     value_hessian,
 )
 from fmu_controller.sotc_stack import REPLAYS as CL_REPLAYS
 from fmu_controller.sotc_stack import SELECTIONS as CL_SELECTIONS
 from fmu_controller.sotc_stack import CLStack
+from fmu_controller.sotc_zv import solve_zv
 from fmu_plant.dynamics import (
     TORQUE_LIMIT,
     ArmParameters,
@@ -68,12 +69,6 @@ from fmu_plant.dynamics import (
 )
 
 TANH1 = math.tanh(1.0)
-# the implicit z_v (``SotcCore._solve_zv``): plain and damped Newton iterations, step halvings, and
-# the residual (relative to 1 + |c| + s, rad/s) above which the next method is tried
-ZV_PLAIN_ITERATIONS = 30
-ZV_NEWTON_ITERATIONS = 50
-ZV_BACKTRACKS = 40
-ZV_TOLERANCE = 1e-12
 
 # Reading switches (integer-coded parameters); index 0 is the chosen reading, see docs/paper-notes.md.
 CHI_A_FORMS = ("backstepping", "literal")  # chi_vd^a = dphi_d - L1 z_phi | dphi_d + L1 z_v (as printed)
@@ -111,7 +106,7 @@ SOTC_PARAMETER_SPECS: tuple[ParameterSpec, ...] = (
     positive("r_4", 1.0, "1", _R.format("tau*2"), high=1e6),
     positive("alpha1", 50.0, "1/s", "Critic learning rate alpha_1 of the tuning laws (30)/(31); paper: 50", high=1e6),
     positive("alpha2", 0.01, "1/s", "Stabilising gain alpha_2 of the tuning law (31); paper: 0.01", high=1e6),
-    # lower bounds 1e-6 N.m: below that 1/(2 sigma r) of (28) overflows for admissible r (issue 11)
+    # lower bounds 1e-6 N.m: below that 1/(2 sigma r) of (28) overflows for admissible r
     ParameterSpec("sigma", 0.6, "N.m",
                   "Saturation level sigma of the optimal input, 0 < sigma < rho (Remark 2, eq. (5)); paper: 0.6",
                   low=1e-6, high=1e3),
@@ -199,16 +194,6 @@ _EXTRA: tuple[OutputSpec, ...] = (
                "max_i |z_vi - (dphi_i - chi_vd*_i - chi_vd^a_i)|: residual of the implicit z_v of (6)/(28) after "
                "the solve (chi_vd^a before the bound (5) in the printed reading); rounding level when solved"),
 )
-
-
-def _limit(v1: float, v2: float, bound: float, code: int) -> tuple[float, float, bool]:
-    """chi_vd^a under the bound (5): each entry (per joint), radially, or not at all."""
-    if code == JOINT:
-        return clip_box(v1, v2, bound)
-    if code == NONE:
-        return v1, v2, False
-    c1, c2, _, changed = saturate_norm(v1, v2, bound)
-    return c1, c2, changed
 
 
 class SotcCore(ControllerCore):
@@ -300,160 +285,111 @@ class SotcCore(ControllerCore):
 
     # --- one sample -----------------------------------------------------------------------------------
 
-    def _newton_zv(self, zp1: float, zp2: float, c1: float, c2: float, a1: float, a2: float,
-                   W: Sequence[float], hess: tuple[tuple[float, ...], ...], zv1: float, zv2: float,
-                   damped: bool) -> tuple[float, float, float, float]:
-        """Newton for f(z_v) = a z_v + chi_vd*(z_phi, z_v) - c = 0 from (zv1, zv2). ``damped``: a full
-        step when it lowers ||f|| enough (Armijo), otherwise halved, and the iteration stops when no
-        step along the Newton direction lowers ||f||; else plain full steps. Returns (zv1, zv2, f1, f2),
-        f at the returned point."""
-        s, r = self.s, self.r
-        h13, h14, h23, h24 = hess[0][2], hess[0][3], hess[1][2], hess[1][3]
-        g1, g2, _, _ = value_gradient((zp1, zp2, zv1, zv2), W)
-        t1 = math.tanh(g1 / (2.0 * s * r[0]))
-        t2 = math.tanh(g2 / (2.0 * s * r[1]))
-        f1 = a1 * zv1 - s * t1 - c1
-        f2 = a2 * zv2 - s * t2 - c2
-        n2 = f1 * f1 + f2 * f2
-        for _ in range(ZV_NEWTON_ITERATIONS if damped else ZV_PLAIN_ITERATIONS):
-            if n2 == 0.0:
-                break
-            k1 = (1.0 - t1 * t1) / (2.0 * r[0])  # d(-s tanh x_i)/dz_vj = -(1 - t_i^2) H_{i,2+j} / (2 r_i)
-            k2 = (1.0 - t2 * t2) / (2.0 * r[1])
-            j11, j12 = a1 - k1 * h13, -k1 * h14
-            j21, j22 = -k2 * h23, a2 - k2 * h24
-            det = j11 * j22 - j12 * j21
-            if det == 0.0 or not math.isfinite(det):
-                break
-            d1 = (j22 * f1 - j12 * f2) / det
-            d2 = (j11 * f2 - j21 * f1) / det
-            tiny = abs(d1) + abs(d2) <= 1e-14 * (1.0 + abs(zv1) + abs(zv2))  # at rounding level: take it
-            step = 1.0
-            for _ in range(ZV_BACKTRACKS):
-                y1, y2 = zv1 - step * d1, zv2 - step * d2
-                g1, g2, _, _ = value_gradient((zp1, zp2, y1, y2), W)
-                u1 = math.tanh(g1 / (2.0 * s * r[0]))
-                u2 = math.tanh(g2 / (2.0 * s * r[1]))
-                e1 = a1 * y1 - s * u1 - c1
-                e2 = a2 * y2 - s * u2 - c2
-                m2 = e1 * e1 + e2 * e2
-                if tiny or not damped or m2 <= (1.0 - 1e-4 * step) * n2:
-                    break
-                step *= 0.5
-            else:
-                break  # no descent along the Newton direction (a fold of f): the caller falls back
-            zv1, zv2, t1, t2, f1, f2, n2 = y1, y2, u1, u2, e1, e2, m2
-            if abs(step * d1) + abs(step * d2) <= 1e-14 * (1.0 + abs(zv1) + abs(zv2)):
-                break
-        return zv1, zv2, f1, f2
-
-    def _solve_zv(self, zp1: float, zp2: float, c1: float, c2: float, a1: float, a2: float,
-                  W: Sequence[float], hess: tuple[tuple[float, ...], ...]) -> tuple[float, float, float]:
-        """Solve a_i z_vi + chi_vd*_i(z_phi, z_v) = c_i for z_v; returns (z_v1, z_v2, residual), the
-        residual max_i |a_i z_vi + chi_vd*_i - c_i| in rad/s (the ``zv_residual`` output).
-
-        z_v = dphi - chi_vd* - chi_vd^a, but chi_vd* = -s tanh(grad_phi J_hat(z) / (2 s r)) of (28)
-        depends on z_v (the basis has z_phi z_v terms), so z_v is defined implicitly; the paper is
-        silent on this. A solution always exists (``solve_tanh_system``); it is unique while the map is
-        a contraction (moderate W), where Newton from z_v = c / a converges in 2-4 steps. For large W
-        Newton can stall on a fold of the residual or jump between roots; then damped Newton is tried
-        from the same start and, if that stalls too, the system is solved without a starting guess by
-        bisection along its saturation (``solve_tanh_system``) and polished by damped Newton. The
-        best answer is kept. (Plain Newton first: wherever it converges, the result is what it was
-        before the fallbacks existed, bit for bit.)"""
-        zv1, zv2, f1, f2 = self._newton_zv(zp1, zp2, c1, c2, a1, a2, W, hess, c1 / a1, c2 / a2, False)
-        res = max(abs(f1), abs(f2))
-        tol = ZV_TOLERANCE * (1.0 + abs(c1) + abs(c2) + self.s)
-        if res <= tol:
-            return zv1, zv2, res
-        y1, y2, e1, e2 = self._newton_zv(zp1, zp2, c1, c2, a1, a2, W, hess, c1 / a1, c2 / a2, True)
-        if max(abs(e1), abs(e2)) < res or not math.isfinite(res):
-            zv1, zv2, res = y1, y2, max(abs(e1), abs(e2))
-        if res <= tol:
-            return zv1, zv2, res
-        # x = x0 + K tanh(x) in the tanh arguments x_i = grad_phi_i J_hat / (2 s r_i), with
-        # z_v = (c + s tanh x) / a: x0 = x(z_v = c / a), K_ij = H_{i,2+j} / (2 r_i a_j)
-        s, r = self.s, self.r
-        g1, g2, _, _ = value_gradient((zp1, zp2, c1 / a1, c2 / a2), W)
-        t1, t2 = solve_tanh_system(
-            g1 / (2.0 * s * r[0]), g2 / (2.0 * s * r[1]),
-            hess[0][2] / (2.0 * r[0] * a1), hess[0][3] / (2.0 * r[0] * a2),
-            hess[1][2] / (2.0 * r[1] * a1), hess[1][3] / (2.0 * r[1] * a2))
-        y1, y2, e1, e2 = self._newton_zv(zp1, zp2, c1, c2, a1, a2, W, hess,
-                                         (c1 + s * t1) / a1, (c2 + s * t2) / a2, True)
-        if max(abs(e1), abs(e2)) < res or not math.isfinite(res):
-            zv1, zv2, res = y1, y2, max(abs(e1), abs(e2))
-        return zv1, zv2, res
-
     def evaluate(self, t: float, y: Sequence[float], r: Sequence[float]) -> None:
-        m, W, s, rr = self.model, self.W, self.s, self.r
-        lam11, lam12 = self.lam1
-        lam21, lam22 = self.lam2
+        """Steps 1-4 of the module docstring at time t: the outputs, and what ``advance`` needs."""
         phi1, phi2, dphi1, dphi2 = (float(v) for v in y[:4])
-        phi1_d, phi2_d, dphi1_d, dphi2_d, ddphi1_d, ddphi2_d = (float(v) for v in r[:6])
-        code = self.limit_code
+        ref = tuple(float(v) for v in r[:6])
+        W, s = self.W, self.s
         hess = value_hessian(W)  # d^2 J_hat / dz^2: constant in z (quadratic basis)
-
-        # tracking error z_phi = chi_phi - chi_phi_d (section 2.1) and its measured rate
-        zp1, zp2 = phi1 - phi1_d, phi2 - phi2_d
-        dzp1, dzp2 = dphi1 - dphi1_d, dphi2 - dphi2_d
-
-        # eq. (4), first line, with the bound (5); z_v = dphi - chi_vd* - chi_vd^a solved jointly with (28)
-        if self.backstepping:  # chi_vd^a = dphi_d - Lambda1 z_phi, so F_bar_phi = -Lambda1 z_phi in (6)
-            ca1, ca2, chi_a_bounded = _limit(dphi1_d - lam11 * zp1, dphi2_d - lam12 * zp2, self.bound5, code)
-            zv1, zv2, zv_res = self._solve_zv(zp1, zp2, dphi1 - ca1, dphi2 - ca2, 1.0, 1.0, W, hess)
-        else:  # as printed, chi_vd^a = dphi_d + Lambda1 z_v: (I + Lambda1) z_v = dphi - dphi_d - chi_vd*
-            zv1, zv2, zv_res = self._solve_zv(zp1, zp2, dzp1, dzp2, 1.0 + lam11, 1.0 + lam12, W, hess)
-            ca1, ca2, chi_a_bounded = _limit(dphi1_d + lam11 * zv1, dphi2_d + lam12 * zv2, self.bound5, code)
+        zp1, zp2, dzp1, dzp2, zv1, zv2, zv_res, ca1, ca2, chi_a_bounded = self._error(
+            phi1, phi2, dphi1, dphi2, ref, hess)
         z = (zp1, zp2, zv1, zv2)
 
         # g_phi = I, g_v = D^-1(phi) of eq. (2), nominal model
-        d11, d12, d22 = inertia_entries(phi2, m)
+        d11, d12, d22 = inertia_entries(phi2, self.model)
         det = d11 * d22 - d12 * d12
-        i11, i12, i22 = d22 / det, -d12 / det, d11 / det
-
-        # eq. (28): mu_hat = -s tanh(R^-1 g^T grad(zeta)^T W / (2 s)), g = diag(I, D^-1) (x = the tanh argument)
-        gJ1, gJ2, gJ3, gJ4 = value_gradient(z, W)  # grad J_hat of eq. (27)
-        x1 = gJ1 / (2.0 * s * rr[0])
-        x2 = gJ2 / (2.0 * s * rr[1])
-        x3 = (i11 * gJ3 + i12 * gJ4) / (2.0 * s * rr[2])
-        x4 = (i12 * gJ3 + i22 * gJ4) / (2.0 * s * rr[3])
-        t1, t2, t3, t4 = math.tanh(x1), math.tanh(x2), math.tanh(x3), math.tanh(x4)
+        dinv = (d22 / det, -d12 / det, d11 / det)
+        x, (t1, t2, t3, t4) = self._policy_arguments(z, dinv)
         cs1, cs2 = -s * t1, -s * t2  # chi_vd*
         ts1, ts2 = -s * t3, -s * t4  # tau*
 
         # probing signal of section 4, added to both joint torques while t < pe_duration
         pe_active = t < self.pe_duration
         pe = probing_signal(t, self.pe_amplitude) if pe_active else 0.0
-        tc1, tc2 = (ts1 + pe, ts2 + pe) if self.pe_in_critic else (ts1, ts2)
+        tc = (ts1 + pe, ts2 + pe) if self.pe_in_critic else (ts1, ts2)
+        fe, zd = self._error_rate(z, (cs1, cs2), tc, dinv)
+        eta, rew, omega, e1, Wv, xi, wdot, cl, law31 = self._critic(t, z, zd, x, dinv)
+        dchi1, dchi2 = self._chi_dot(t, ref, (dzp1, dzp2), zd, z, (t1, t2), wdot, hess, (ca1 + cs1, ca2 + cs2),
+                                     chi_a_bounded)
+        ta1, ta2, tau_a_bounded, tr1, tr2 = self._feedforward(phi2, dphi1, dphi2, z, fe, (dchi1, dchi2),
+                                                             (d11, d12, d22))
+        tau1, tau2, tau_limited = self._actuator_limit(ts1 + ta1 + pe, ts2 + ta2 + pe)
 
-        # F_v(z_phi, z_v) of (4)/(6): the drift -D^-1 (H v + G) of (2) evaluated at the error coordinates
-        fe1, fe2 = forward_dynamics(zp2, zv1, zv2, 0.0, 0.0, m) if self.fv_drift else (0.0, 0.0)
+        self._pending = {
+            "t": t, "W": Wv, "wdot": wdot, "xi": xi, "eta": eta, "r": rew, "z": z,
+            "dinv": dinv, "fe": fe, "cl_M": cl[0], "cl_E": cl[1], "cl_min_eig": cl[2],
+            "chi": (ca1 + cs1, ca2 + cs2),
+        }
+        self._last_inputs = {"t": float(t), "y": [phi1, phi2, dphi1, dphi2], "r": list(ref)}
+        J = math.fsum(map(operator.mul, W, basis(z)))
+        self.outputs = [
+            tau1, tau2, ts1, ts2, ta1, ta2, cs1, cs2, ca1, ca2, zp1, zp2, zv1, zv2, *W,
+            J, e1, omega, rew, 31.0 if law31 else 30.0, float(self.stack.count), cl[2],
+            1.0 if pe_active else 0.0, pe, float(tau_a_bounded), float(chi_a_bounded), float(tau_limited),
+            math.hypot(tau1, tau2), tr1, tr2, dchi1, dchi2, math.sqrt(float(wdot @ wdot)), zv_res,
+        ]
 
-        # eqs. (6)/(7): zdot = F_bar(z) + g mu_hat, including the coupling terms +z_v and -z_phi of (6)
+    def _error(self, phi1: float, phi2: float, dphi1: float, dphi2: float, ref: tuple[float, ...],
+               hess: tuple[tuple[float, ...], ...]) -> tuple:
+        """Step 1: z_phi, its measured rate, z_v (solved jointly with (28)) and chi_vd^a under (5)."""
+        phi1_d, phi2_d, dphi1_d, dphi2_d = ref[:4]
+        (lam11, lam12), code, W = self.lam1, self.limit_code, self.W
+        # tracking error z_phi = chi_phi - chi_phi_d (section 2.1) and its measured rate
+        zp1, zp2 = phi1 - phi1_d, phi2 - phi2_d
+        dzp1, dzp2 = dphi1 - dphi1_d, dphi2 - dphi2_d
+        # eq. (4), first line, with the bound (5); z_v = dphi - chi_vd* - chi_vd^a solved jointly with (28)
+        if self.backstepping:  # chi_vd^a = dphi_d - Lambda1 z_phi, so F_bar_phi = -Lambda1 z_phi in (6)
+            ca1, ca2, chi_a_bounded = limit_without_metric(dphi1_d - lam11 * zp1, dphi2_d - lam12 * zp2, self.bound5, code)
+            zv1, zv2, zv_res = solve_zv(self.s, self.r, zp1, zp2, dphi1 - ca1, dphi2 - ca2, 1.0, 1.0, W, hess)
+        else:  # as printed, chi_vd^a = dphi_d + Lambda1 z_v: (I + Lambda1) z_v = dphi - dphi_d - chi_vd*
+            zv1, zv2, zv_res = solve_zv(self.s, self.r, zp1, zp2, dzp1, dzp2, 1.0 + lam11, 1.0 + lam12, W, hess)
+            ca1, ca2, chi_a_bounded = limit_without_metric(dphi1_d + lam11 * zv1, dphi2_d + lam12 * zv2, self.bound5, code)
+        return zp1, zp2, dzp1, dzp2, zv1, zv2, zv_res, ca1, ca2, chi_a_bounded
+
+    def _policy_arguments(self, z: tuple[float, ...], dinv: tuple[float, float, float]) -> tuple:
+        """Step 2, eq. (28): mu_hat = -s tanh(R^-1 g^T grad(zeta)^T W / (2 s)), g = diag(I, D^-1);
+        returns the tanh arguments x and their tanh."""
+        s, rr = self.s, self.r
+        i11, i12, i22 = dinv
+        gJ1, gJ2, gJ3, gJ4 = value_gradient(z, self.W)  # grad J_hat of eq. (27)
+        x = (gJ1 / (2.0 * s * rr[0]), gJ2 / (2.0 * s * rr[1]),
+             (i11 * gJ3 + i12 * gJ4) / (2.0 * s * rr[2]), (i12 * gJ3 + i22 * gJ4) / (2.0 * s * rr[3]))
+        return x, (math.tanh(x[0]), math.tanh(x[1]), math.tanh(x[2]), math.tanh(x[3]))
+
+    def _error_rate(self, z: tuple[float, ...], cs: tuple[float, float], tc: tuple[float, float],
+                    dinv: tuple[float, float, float]) -> tuple:
+        """Step 3, eqs. (6)/(7): zdot = F_bar(z) + g mu_hat, with the coupling terms +z_v and -z_phi of
+        (6); F_v(z_phi, z_v) of (4)/(6) is the drift -D^-1 (H v + G) of (2) at the error coordinates."""
+        zp1, zp2, zv1, zv2 = z
+        (lam11, lam12), (lam21, lam22), (i11, i12, i22) = self.lam1, self.lam2, dinv
+        fe1, fe2 = forward_dynamics(zp2, zv1, zv2, 0.0, 0.0, self.model) if self.fv_drift else (0.0, 0.0)
         if self.backstepping:
-            zd1 = -lam11 * zp1 + cs1 + zv1
-            zd2 = -lam12 * zp2 + cs2 + zv2
+            zd1 = -lam11 * zp1 + cs[0] + zv1
+            zd2 = -lam12 * zp2 + cs[1] + zv2
         else:
-            zd1 = lam11 * zv1 + cs1 + zv1
-            zd2 = lam12 * zv2 + cs2 + zv2
-        zd3 = fe1 - lam21 * zv1 - zp1 + i11 * tc1 + i12 * tc2
-        zd4 = fe2 - lam22 * zv2 - zp2 + i12 * tc1 + i22 * tc2
+            zd1 = lam11 * zv1 + cs[0] + zv1
+            zd2 = lam12 * zv2 + cs[1] + zv2
+        zd3 = fe1 - lam21 * zv1 - zp1 + i11 * tc[0] + i12 * tc[1]
+        zd4 = fe2 - lam22 * zv2 - zp2 + i12 * tc[0] + i22 * tc[1]
+        return (fe1, fe2), (zd1, zd2, zd3, zd4)
 
+    def _critic(self, t: float, z: tuple[float, ...], zd: tuple[float, ...], x: tuple[float, ...],
+                dinv: tuple[float, float, float]) -> tuple:
+        """Step 3, eqs. (29)-(31): eta, the reward, the Bellman residual e1 and dW/dt (with the CL sum)."""
+        zp1, zp2, zv1, zv2 = z
+        zd1, zd2, zd3, zd4 = zd
+        s, rr, th, (i11, i12, i22) = self.s, self.r, self.theta, dinv
         # eta_form = printed: (7)'s F_bar without the coupling terms, in eta and (29) only
-        zdot_eta = (zd1, zd2, zd3, zd4) if self.eta_coupled else (zd1 - zv1, zd2 - zv2, zd3 + zp1, zd4 + zp2)
-
+        zdot_eta = zd if self.eta_coupled else (zd1 - zv1, zd2 - zv2, zd3 + zp1, zd4 + zp2)
         # eq. (29): eta = grad(zeta) zdot, e1 = W^T eta + z^T Theta z + Omega(mu_hat), Omega of eq. (17)
         eta = np.array(basis_directional(z, zdot_eta))
-        th = self.theta
         rew = (th[0] * zp1 * zp1 + th[1] * zp2 * zp2 + th[2] * zv1 * zv1 + th[3] * zv2 * zv2)
-        omega = (omega_term_of_arg(x1, s, rr[0]) + omega_term_of_arg(x2, s, rr[1])
-                 + omega_term_of_arg(x3, s, rr[2]) + omega_term_of_arg(x4, s, rr[3]))
+        omega = (omega_term_of_arg(x[0], s, rr[0]) + omega_term_of_arg(x[1], s, rr[1])
+                 + omega_term_of_arg(x[2], s, rr[2]) + omega_term_of_arg(x[3], s, rr[3]))
         rew += omega
-        Wv = np.array(W)
+        Wv = np.array(self.W)
         etaeta = float(eta @ eta)
         e1 = float(Wv @ eta) + rew
-
         # eqs. (30)/(31): dW/dt = -alpha1 xi e1 - alpha1 sum_i xi_i (eta_i^T W + r_i) [+ alpha2/2 grad(zeta) G z],
         # xi = eta / (eta^T eta + 1)^2; the CL sum is M W + b (sotc_stack)
         xi = eta * (1.0 / (etaeta + 1.0) ** 2)
@@ -468,10 +404,17 @@ class SotcCore(ControllerCore):
             u1, u2 = (i11 * zv1 + i12 * zv2) / rr[2], (i12 * zv1 + i22 * zv2) / rr[3]
             gz = (zp1 / rr[0], zp2 / rr[1], i11 * u1 + i12 * u2, i12 * u1 + i22 * u2)
             wdot += (0.5 * self.alpha2) * np.array(basis_directional(z, gz))
+        return eta, rew, omega, e1, Wv, xi, wdot, (cl_M, cl_E, cl_min_eig), law31
 
-        # dchi_vd/dt for tau^a of (4)
+    def _chi_dot(self, t: float, ref: tuple[float, ...], dzp: tuple[float, float], zd: tuple[float, ...],
+                 z: tuple[float, ...], tanh_phi: tuple[float, float], wdot: np.ndarray,
+                 hess: tuple[tuple[float, ...], ...], chi: tuple[float, float], chi_a_bounded: bool) -> tuple:
+        """dchi_vd/dt for tau^a of (4), as ``chi_dot_form`` reads it."""
+        (lam11, lam12), rr = self.lam1, self.r
+        ddphi1_d, ddphi2_d = ref[4:6]
+        zd1, zd2, zd3, zd4 = zd
         if self.backstepping:
-            dca1, dca2 = ddphi1_d - lam11 * dzp1, ddphi2_d - lam12 * dzp2
+            dca1, dca2 = ddphi1_d - lam11 * dzp[0], ddphi2_d - lam12 * dzp[1]
         else:
             dca1, dca2 = ddphi1_d + lam11 * zd3, ddphi2_d + lam12 * zd4
         if chi_a_bounded:
@@ -479,52 +422,41 @@ class SotcCore(ControllerCore):
         if self.chi_dot_form == "chain":
             # chi_vd* = -s tanh(x_phi), x_phi = grad_phi J_hat / (2 s r): the chain rule gives
             # dx_phi/dt = (Hess(J_hat) zdot + grad(zeta)^T dW/dt)_phi / (2 s r), zdot from (6)
-            h = hess
+            h, (t1, t2) = hess, tanh_phi
             gd1, gd2, _, _ = value_gradient(z, wdot.tolist())
             hz1 = h[0][0] * zd1 + h[0][1] * zd2 + h[0][2] * zd3 + h[0][3] * zd4
             hz2 = h[1][0] * zd1 + h[1][1] * zd2 + h[1][2] * zd3 + h[1][3] * zd4
-            dchi1 = dca1 - (1.0 - t1 * t1) * (hz1 + gd1) / (2.0 * rr[0])
-            dchi2 = dca2 - (1.0 - t2 * t2) * (hz2 + gd2) / (2.0 * rr[1])
-        elif self.chi_dot_form == "difference" and self.prev_chi is not None and t > self.prev_chi[0]:
+            return (dca1 - (1.0 - t1 * t1) * (hz1 + gd1) / (2.0 * rr[0]),
+                    dca2 - (1.0 - t2 * t2) * (hz2 + gd2) / (2.0 * rr[1]))
+        if self.chi_dot_form == "difference" and self.prev_chi is not None and t > self.prev_chi[0]:
             hstep = t - self.prev_chi[0]
-            dchi1 = (ca1 + cs1 - self.prev_chi[1]) / hstep
-            dchi2 = (ca2 + cs2 - self.prev_chi[2]) / hstep
-        else:
-            dchi1, dchi2 = dca1, dca2
+            return (chi[0] - self.prev_chi[1]) / hstep, (chi[1] - self.prev_chi[2]) / hstep
+        return dca1, dca2
 
-        # eq. (4), second line, with g_v^-1 = D and -D F_v(phi, dphi) = H dphi + G:
-        # tau^a = D (F_v(z_phi, z_v) + dchi_vd/dt - z_phi - Lambda2 z_v) + H dphi + G, then the bound (5)
-        v1 = fe1 + dchi1 - zp1 - lam21 * zv1
-        v2 = fe2 + dchi2 - zp2 - lam22 * zv2
-        b1, b2 = bias_torque(phi2, dphi1, dphi2, m)
+    def _feedforward(self, phi2: float, dphi1: float, dphi2: float, z: tuple[float, ...], fe: tuple[float, float],
+                     dchi: tuple[float, float], d: tuple[float, float, float]) -> tuple:
+        """Step 4, eq. (4), second line, with g_v^-1 = D and -D F_v(phi, dphi) = H dphi + G:
+        tau^a = D (F_v(z_phi, z_v) + dchi_vd/dt - z_phi - Lambda2 z_v) + H dphi + G, then the bound (5)."""
+        zp1, zp2, zv1, zv2 = z
+        (lam21, lam22), (d11, d12, d22) = self.lam2, d
+        v1 = fe[0] + dchi[0] - zp1 - lam21 * zv1
+        v2 = fe[1] + dchi[1] - zp2 - lam22 * zv2
+        b1, b2 = bias_torque(phi2, dphi1, dphi2, self.model)
         tr1, tr2 = d11 * v1 + d12 * v2 + b1, d12 * v1 + d22 * v2 + b2
-        if code == JOINT:
-            ta1, ta2, tau_a_bounded = clip_box(tr1, tr2, self.bound5)
+        if self.limit_code == JOINT:
+            ta1, ta2, bounded = clip_box(tr1, tr2, self.bound5)
         else:
-            ta1, ta2, tau_a_bounded = limit_torque(code, tr1, tr2, self.bound5, d11, d12, d22)
+            ta1, ta2, bounded = limit_torque(self.limit_code, tr1, tr2, self.bound5, d11, d12, d22)
+        return ta1, ta2, bounded, tr1, tr2
 
-        # tau = tau* + tau^a (+ PE), then the actuator limit ||tau|| <= rho of eq. (1)
-        tau1, tau2 = ts1 + ta1 + pe, ts2 + ta2 + pe
-        tau_limited = False
+    def _actuator_limit(self, tau1: float, tau2: float) -> tuple[float, float, bool]:
+        """Step 4: tau = tau* + tau^a (+ PE) under the actuator limit ||tau|| <= rho of eq. (1)."""
         if self.actuator_per_joint:
-            tau1, tau2, tau_limited = clip_box(tau1, tau2, self.rho)
-        elif code != NONE:
-            tau1, tau2, _, tau_limited = saturate_norm(tau1, tau2, self.rho)
-
-        self._pending = {
-            "t": t, "W": Wv, "wdot": wdot, "xi": xi, "eta": eta, "r": rew, "z": z,
-            "dinv": (i11, i12, i22), "fe": (fe1, fe2), "cl_M": cl_M, "cl_E": cl_E, "cl_min_eig": cl_min_eig,
-            "chi": (ca1 + cs1, ca2 + cs2),
-        }
-        self._last_inputs = {"t": float(t), "y": [phi1, phi2, dphi1, dphi2],
-                             "r": [phi1_d, phi2_d, dphi1_d, dphi2_d, ddphi1_d, ddphi2_d]}
-        J = math.fsum(map(operator.mul, W, basis(z)))
-        self.outputs = [
-            tau1, tau2, ts1, ts2, ta1, ta2, cs1, cs2, ca1, ca2, zp1, zp2, zv1, zv2, *W,
-            J, e1, omega, rew, 31.0 if law31 else 30.0, float(self.stack.count), cl_min_eig,
-            1.0 if pe_active else 0.0, pe, float(tau_a_bounded), float(chi_a_bounded), float(tau_limited),
-            math.hypot(tau1, tau2), tr1, tr2, dchi1, dchi2, math.sqrt(float(wdot @ wdot)), zv_res,
-        ]
+            return clip_box(tau1, tau2, self.rho)
+        if self.limit_code != NONE:
+            tau1, tau2, _, limited = saturate_norm(tau1, tau2, self.rho)
+            return tau1, tau2, limited
+        return tau1, tau2, False
 
     # --- learning over [t, t + dt) ---------------------------------------------------------------------
 

@@ -3,7 +3,7 @@ the guess-free solver of the implicit z_v (``solve_tanh_system``).
 
 Reference: N. D. Dien, N. T. Luy, L. K. Lai, T. T. Hai, "Optimal tracking control for robot
 manipulators with input constraint based reinforcement learning", J. Computer Science and
-Cybernetics, 2023 (``shared/reference/sotc-paper.md``). Equation numbers below are the paper's.
+Cybernetics, 2023. Equation numbers below are the paper's.
 
 Everything is plain float code on 4-vectors ``z = (z_phi1, z_phi2, z_v1, z_v2)``: for vectors this
 small, ``math`` on floats is several times faster than numpy, and the controller calls these

@@ -1,6 +1,6 @@
 """The concurrent-learning (experience replay) stack of the SOTC tuning laws (30)/(31).
 
-Reference: Dien, Luy, Lai & Hai (2023), ``shared/reference/sotc-paper.md``, eqs. (30)/(31) and the
+Reference: Dien, Luy, Lai & Hai (2023), J. Computer Science and Cybernetics, eqs. (30)/(31) and the
 paragraph after them: P past samples are kept and their Bellman residuals are replayed in the weight
 update, so that W keeps converging after the probing signal stops, provided
 rank(eta(t_1), ..., eta(t_P)) = 10.

@@ -4,7 +4,7 @@
 
 Reference: N. D. Dien, N. T. Luy, L. K. Lai, T. T. Hai, "Optimal tracking control for robot
 manipulators with input constraint based reinforcement learning", J. Computer Science and
-Cybernetics, 2023 (``shared/reference/sotc-paper.md``), section 4, eq. (46); the model itself is
+Cybernetics, 2023, section 4, eq. (46); the model itself is
 that of Modares, Lewis & Jiang (the paper's ref. [12]).
 
 Symbols follow the paper: ``p1, p2, p3`` are its varrho_1..3 (kg m^2), ``f1, f2`` the Coulomb-like

@@ -143,7 +143,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 
 def _cmd_compare(args: argparse.Namespace) -> int:
-    from orchestration.recording.writer import record_comparison
+    from orchestration.recording.overlays import record_comparison
     from orchestration.run.summary import format_table
 
     results, summaries = zip(*_run_each(*_prepare(args.scenarios, args.stop_time, args.fmu_dir,
@@ -154,7 +154,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
 
 
 def _cmd_reproduce(args: argparse.Namespace) -> int:
-    from orchestration.recording.writer import record_comparison
+    from orchestration.recording.overlays import record_comparison
     from orchestration.study.reproduce import (
         compact_table,
         reproduce_scenarios,
@@ -351,11 +351,8 @@ class _Parser(argparse.ArgumentParser):
         self.exit(exit_codes.USAGE, f"{self.prog}: error: {message} (see {self.prog} -h)\n")
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog="sotc-cosim", description=__doc__)
-    parser.add_argument("--version", action="version", version=f"%(prog)s {VERSION}")
-    sub = parser.add_subparsers(dest="command", required=True)
-
+def _add_run_commands(sub) -> None:
+    """build, run, compare."""
     p = sub.add_parser("build", help="build the FMUs (in a child process)")
     p.add_argument("--out", type=Path, default=DEFAULT_FMU_DIR, help=f"output folder (default {DEFAULT_FMU_DIR})")
     p.add_argument("models", nargs="*", metavar="MODEL",
@@ -384,6 +381,9 @@ def build_parser() -> argparse.ArgumentParser:
     _add_fmu_dir(p)
     p.set_defaults(func=_cmd_compare)
 
+
+def _add_batch_commands(sub) -> None:
+    """sweep, reproduce, bench."""
     p = sub.add_parser("sweep", help="run a sweep file on Dask (a local cluster by default), resumable")
     p.add_argument("sweep", metavar="FILE", help="sweep name (robustness, learning, controllers) or .toml path; "
                    "with --set: a scenario name or path")
@@ -425,6 +425,9 @@ def build_parser() -> argparse.ArgumentParser:
     _add_fmu_dir(p)
     p.set_defaults(func=_cmd_bench)
 
+
+def _add_compliance_commands(sub) -> None:
+    """validate, cross-check, export-ssp, scenarios."""
     p = sub.add_parser("validate", help="check FMUs: fmpy, fmutool -check and the project's invariants")
     p.add_argument("fmus", nargs="*", metavar="FMU", help="model names or .fmu paths (default: every FMU)")
     _add_fmu_dir(p)
@@ -447,6 +450,14 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("scenarios", help="list the scenarios that ship with the package")
     p.set_defaults(func=_cmd_scenarios)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="sotc-cosim", description=__doc__)
+    parser.add_argument("--version", action="version", version=f"%(prog)s {VERSION}")
+    sub = parser.add_subparsers(dest="command", required=True)
+    for add in (_add_run_commands, _add_batch_commands, _add_compliance_commands):
+        add(sub)
     return parser
 
 

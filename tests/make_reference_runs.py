@@ -9,8 +9,8 @@ Runs every shipped scenario through the FMUs (no recording) and writes, under ``
 - ``reference_paper.npz``: every output of every instance of the ``paper`` run at every
   ``DECIMATE``-th sample and at the last one, keyed ``instance.variable``, plus ``time``.
 
-The committed files come from main without the speed work of issue 13 (first 20eb717; then, for
-the scenarios and summary keys that issues 9-12 added, main at ff2e239, run as
+The committed files come from main before the speed work (first 20eb717; then, for the scenarios
+and summary keys added since, main at ff2e239, run as
 ``PYTHONPATH=<checkout of main> python tests/make_reference_runs.py``), so that test shows the
 optimised code computes the same numbers (to 1e-12 relative). Regenerate them only when the maths
 is meant to change, and say so in the commit.

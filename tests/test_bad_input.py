@@ -1,4 +1,4 @@
-"""Regression tests for the audit of issue 11, one per example it reported (FMU level; the CLI and
+"""Regression tests for the bad-input audit, one per example it reported (FMU level; the CLI and
 scenario-file examples are in test_cli_errors.py, the property tests in test_fmu_properties.py)."""
 import json
 import math

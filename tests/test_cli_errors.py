@@ -1,4 +1,4 @@
-"""Malformed invocations and scenario files (issue 11): one line on stderr naming the file, key or
+"""Malformed invocations and scenario files: one line on stderr naming the file, key or
 argument and what is allowed, exit code 2, no traceback, nothing written. Plus hypothesis over
 scenario files (any TOML shape) and option values."""
 from __future__ import annotations

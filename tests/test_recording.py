@@ -15,12 +15,8 @@ from rerun.chunk import RrdReader
 
 from orchestration.cli import main
 from orchestration.recording.blueprint import VIEW_DESCRIPTIONS
-from orchestration.recording.writer import (
-    APPLICATION_ID,
-    BLOCK_SIZE,
-    RunRecorder,
-    record_comparison,
-)
+from orchestration.recording.overlays import record_comparison
+from orchestration.recording.writer import APPLICATION_ID, BLOCK_SIZE, RunRecorder
 from orchestration.run.master import run
 from orchestration.run.scenario import load_scenario
 

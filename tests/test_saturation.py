@@ -48,7 +48,7 @@ def test_the_handlings_differ_where_the_paper_is_silent():
 @pytest.mark.parametrize("v", [(3e-310, 4e-310), (1e-320, -1e-320), (5e-324, 5e-324), (3.0, 4.0), (1e300, 1e300)])
 @pytest.mark.parametrize("bound", [0.0, 5e-324, 1e-310, 2.5, 4.999999999999999])
 def test_shrink_into_disc_ends_within_its_step_bound_for_subnormal_vectors(v, bound):
-    """The one-ulp walk this replaced could not move a subnormal product and never returned (issue 11);
+    """The one-ulp walk this replaced could not move a subnormal product and never returned;
     the candidates are 1 - 2^(i - 53), i < SHRINK_STEPS, and the last one is 0."""
     assert SHRINK_STEPS == 54 and 1.0 - math.ldexp(1.0, SHRINK_STEPS - 1 - 53) == 0.0
     s1, s2 = shrink_into_disc(*v, bound)
@@ -66,7 +66,7 @@ def test_sotc_refuses_a_sigma_or_rho_too_small_to_represent_its_law():
 @pytest.mark.parametrize("sigma,rho", [(1e-6, 2e-6), (1e-6, 1.0000001e-6), (0.6, 0.600000001), (999.0, 1000.0)])
 @pytest.mark.parametrize("code", range(4))
 def test_sotc_with_tiny_admissible_sigma_and_rho_returns_within_the_limit(sigma, rho, code):
-    """Issue 11: sigma and rho tiny but inside their ranges made the bound (5) loop run for ever."""
+    """Found by the bad-input audit: sigma and rho tiny but inside their ranges made the bound (5) loop run for ever."""
     ctrl = SotcCore(sigma=sigma, rho=rho, limit_handling=code)
     y, r = (0.5, -0.5, 0.0, 0.0), (0.4, 1.2, 0.3, -0.3, 0.1, 0.2)
     for k in range(3):

@@ -1,6 +1,6 @@
 """Unit tests of the pure SOTC core (fmu_controller.sotc*) and of the pure closed loop.
 
-Equation numbers refer to Dien, Luy, Lai & Hai (2023), shared/reference/sotc-paper.md.
+Equation numbers refer to Dien, Luy, Lai & Hai (2023), J. Computer Science and Cybernetics.
 The three 100 s closed-loop runs are shared by module-scoped fixtures (about 3 s in all).
 """
 from __future__ import annotations
@@ -16,6 +16,7 @@ from fmi_slave.parameters import ParameterError
 from fmu_controller import sotc_math as sm
 from fmu_controller.saturation import accel_projection
 from fmu_controller.sotc import SotcCore
+from fmu_controller.sotc_zv import newton_zv
 from fmu_plant.dynamics import ArmParameters, inertia_matrix, rk4_step
 from fmu_plant.trajectory import CircleTrajectory
 from orchestration.run.metrics import weight_total_variation as metrics_weight_tv
@@ -350,8 +351,8 @@ def test_zv_satisfies_its_implicit_definition(weight_scale):
             assert np.allclose(outs(ctrl, "z1", "z2"), np.array(y[:2]) - np.array(r[:2]), atol=0)
             # plain Newton from z_v = c / a, the solver's first try
             hess = sm.value_hessian(ctrl.W)
-            *_, f1, f2 = ctrl._newton_zv(*outs(ctrl, "z1", "z2"), c[0], c[1], a, a, ctrl.W, hess, c[0] / a, c[1] / a,
-                                         False)
+            *_, f1, f2 = newton_zv(ctrl.s, ctrl.r, *outs(ctrl, "z1", "z2"), c[0], c[1], a, a, ctrl.W, hess, c[0] / a,
+                                   c[1] / a, False)
             newton_stalls += max(abs(f1), abs(f2)) > 1e-6
     if weight_scale >= 10.0:
         assert newton_stalls > 0  # the fallback was needed (and worked) on some samples

@@ -243,7 +243,7 @@ def documentation_html(model: str, xml: Element, equations: list[str], requireme
         "table{border-collapse:collapse}pre{background:#f6f6f6;padding:6px}</style></head><body>"
         f"<h1>{esc(model)}</h1><p>{esc(xml.get('description') or '')}</p>"
         f"<p>FMI 2.0 co-simulation FMU of sotc-cosim {esc(xml.get('version') or '')}, GUID "
-        f"<code>{esc(xml.get('guid') or '')}</code>. Communication step T = 0.01 s by default.</p>"
+        f"<code>{esc(xml.get('guid') or '')}</code>. Communication step T = {xml.find('DefaultExperiment').get('stepSize')} s by default.</p>"
         "<h2>Host requirements</h2><p>The FMU runs its Python code inside the host's Python interpreter "
         "(pythonfmu). That interpreter needs:</p>"
         f"<ul><li>CPython {' or '.join(MEASURED_PYTHONS)} (measured), with a shared libpython "

@@ -264,6 +264,117 @@ class _Fanout:
             o.finish(result)
 
 
+class _Session:
+    """One run: the loaded instances, one sample buffer per instance, and how far the samples were
+    recorded and handed to the observer."""
+
+    def __init__(self, scenario: Scenario, observer, block_size: int, keep_samples: bool):
+        self.scenario, self.observer, self.block_size, self.keep = scenario, observer, block_size, keep_samples
+        self.logs: list[LogRecord] = []
+        self.clock = _Clock()
+        self.parameters: dict[str, dict[str, float]] = {}
+        self.fmus: dict[str, dict[str, str]] = {}
+        n_steps = scenario.steps
+        self.rows = n_steps + 1 if keep_samples else min(block_size, n_steps + 1)  # rows held per instance
+        self.times = np.arange(n_steps + 1, dtype=float) * scenario.step_size if keep_samples else None
+        self.workdir = Path(tempfile.mkdtemp(prefix="sotc_run_"))
+        self.loaded: dict[str, _Loaded] = {}
+        self.records: dict[str, np.ndarray] = {}
+        self.k = -1  # the sample being computed
+        self.recorded = 0  # samples t_0 .. t_{recorded-1} hold every output of every instance
+        self.flushed = 0  # samples t_0 .. t_{flushed-1} were handed to the observer
+
+    def hand_over(self, upto: int) -> None:
+        """Give the observer samples flushed .. upto-1, then (streaming) reuse the buffer."""
+        lo = self.flushed if self.keep else 0
+        hi = lo + upto - self.flushed
+        if self.observer is not None:
+            T = self.scenario.step_size
+            block_t = self.times[self.flushed:upto] if self.keep else np.arange(self.flushed, upto, dtype=float) * T
+            _call_observer(self.observer.block, block_t, {n: r[lo:hi] for n, r in self.records.items()})
+        self.flushed = upto
+
+    def load(self, fmu_paths: dict[str, Path]) -> list:
+        """Instantiate and initialise every instance; return the per-step plan: per instance in
+        feedthrough order, (instance, its sample buffer, the inputs set right after reading it)."""
+        scenario = self.scenario
+        for inst in scenario.instances.values():
+            if inst.fmu not in fmu_paths:
+                raise ScenarioError(f"instance '{inst.name}': no built FMU for model '{inst.fmu}'")
+            ld = self.loaded[inst.name] = _Loaded(inst.name, fmu_paths[inst.fmu], self.workdir, self.logs, self.clock)
+            self.fmus[inst.name] = {"guid": ld.md.guid or "", "version": ld.md.version or "",
+                                    "generation_tool": ld.md.generationTool or ""}
+        links = _resolve_links(scenario, self.loaded)
+        order = _feedthrough_order(self.loaded, links)
+        pushes = _input_pushes(order, links)
+        for inst in scenario.instances.values():
+            ld = self.loaded[inst.name]
+            ld.set_parameters(inst.parameters)
+            ld.fmu.setupExperiment(startTime=0.0, stopTime=scenario.stop_time)
+            ld.fmu.enterInitializationMode()
+            ld.fmu.exitInitializationMode()
+            ld.initialized = True
+            self.parameters[inst.name] = ld.parameter_values()
+            self.records[inst.name] = np.empty((self.rows, len(ld.output_names)))
+        if self.observer is not None:
+            _call_observer(self.observer.start, scenario,
+                           {n: list(ld.output_names) for n, ld in self.loaded.items()}, self.parameters)
+        return [(self.loaded[name], self.records[name], pushes[name]) for name in order]
+
+    def loop(self, targets: list) -> bool:
+        """Every communication point: read, record, set inputs, step (lists only: no lookups per
+        step). True if SIGINT stopped it between two steps."""
+        n_steps, T, rows = self.scenario.steps, self.scenario.step_size, self.rows
+        instances, clock, stop = list(self.loaded.values()), self.clock, interrupt.STATE
+        streaming_observer = self.observer is not None
+        row = 0
+        for k in range(n_steps + 1):
+            self.k = clock.sample = k
+            for ld, record, pushes in targets:
+                ld.read_outputs()
+                record[row] = ld.out_view
+                for link in pushes:
+                    link.push()
+            self.recorded = k + 1
+            row += 1
+            if row == rows or (streaming_observer and self.recorded - self.flushed >= self.block_size):
+                self.hand_over(self.recorded)
+                if not self.keep:
+                    row = 0
+            if k == n_steps:
+                return False
+            if stop.requested:  # SIGINT: stop here, between two steps, with every sample so far
+                return True
+            t = k * T  # t_k = k T, the same double as np.arange(...) * T
+            for ld in instances:
+                ld.do_step(t, T)
+        return False
+
+    def result(self, wall: float, error: str | None, interrupted: bool) -> RunResult:
+        completed, T = self.recorded, self.scenario.step_size
+        if interrupted and error is None:
+            where = f"after t = {(completed - 1) * T:.2f} s (sample {completed - 1})" if completed else "before the first sample"
+            error = f"interrupted by SIGINT {where}"
+        common = dict(failed=error is not None, error=error, interrupted=interrupted, logs=self.logs,
+                      parameters=self.parameters, fmus=self.fmus)
+        if self.keep:  # views into the one array per instance: no second copy of the run
+            outputs = {name: {v: self.records[name][:completed, i] for i, v in enumerate(self.loaded[name].output_names)}
+                       for name in self.records}
+            return RunResult(self.scenario, self.times[:completed], outputs, wall, **common)
+        return RunResult(self.scenario, np.empty(0), {}, wall, completed=completed, **common)
+
+    def finish(self, result: RunResult, observer_ok: bool) -> None:
+        """Hand the observer the last samples (unless it was the observer that failed) and the result."""
+        if self.observer is None:
+            return
+        try:
+            if observer_ok and self.recorded > self.flushed:
+                self.hand_over(self.recorded)
+        except _ObserverFailed as exc:  # the samples are in the result; say that the observer lost them
+            result.failed, result.error = True, (result.error + "; " if result.error else "") + str(exc)
+        self.observer.finish(result)
+
+
 def run(
     scenario: Scenario,
     fmu_paths: dict[str, Path],
@@ -285,116 +396,26 @@ def run(
         raise ScenarioError(f"block_size must be >= 1, got {block_size}")
     if observer is not None and not hasattr(observer, "block"):
         observer = _Fanout(observer)
-    logs: list[LogRecord] = []
-    clock = _Clock()
-    parameters: dict[str, dict[str, float]] = {}
-    fmus: dict[str, dict[str, str]] = {}
-    n_steps = scenario.steps
-    T = scenario.step_size
-    rows = n_steps + 1 if keep_samples else min(block_size, n_steps + 1)  # rows held per instance
-    times = np.arange(n_steps + 1, dtype=float) * T if keep_samples else None
-    workdir = Path(tempfile.mkdtemp(prefix="sotc_run_"))
-    loaded: dict[str, _Loaded] = {}
-    records: dict[str, np.ndarray] = {}
-    k = -1
-    recorded = 0  # samples t_0 .. t_{recorded-1} hold every output of every instance
-    flushed = 0  # samples t_0 .. t_{flushed-1} were handed to the observer
+    session = _Session(scenario, observer, block_size, keep_samples)
     error: str | None = None
-    observer_ok = True
-
-    def hand_over(upto: int) -> None:
-        """Give the observer samples flushed .. upto-1, then (streaming) reuse the buffer."""
-        nonlocal flushed
-        lo = flushed if keep_samples else 0
-        hi = lo + upto - flushed
-        if observer is not None:
-            block_t = times[flushed:upto] if keep_samples else np.arange(flushed, upto, dtype=float) * T
-            _call_observer(observer.block, block_t, {n: r[lo:hi] for n, r in records.items()})
-        flushed = upto
-
-    interrupted = False
-    stop = interrupt.STATE
+    interrupted, observer_ok = False, True
     started = time.perf_counter()
     try:
         interrupt.check()  # SIGINT before the run: nothing is loaded
-        for inst in scenario.instances.values():
-            if inst.fmu not in fmu_paths:
-                raise ScenarioError(f"instance '{inst.name}': no built FMU for model '{inst.fmu}'")
-            loaded[inst.name] = _Loaded(inst.name, fmu_paths[inst.fmu], workdir, logs, clock)
-            md = loaded[inst.name].md
-            fmus[inst.name] = {"guid": md.guid or "", "version": md.version or "",
-                               "generation_tool": md.generationTool or ""}
-        links = _resolve_links(scenario, loaded)
-        order = _feedthrough_order(loaded, links)
-        # per feedthrough position: the instance and the inputs set after it (lists: no lookups per step)
-        pushes = _input_pushes(order, links)
-        plan = [(loaded[name], pushes[name]) for name in order]
-        instances = list(loaded.values())
-        for inst in scenario.instances.values():
-            ld = loaded[inst.name]
-            ld.set_parameters(inst.parameters)
-            ld.fmu.setupExperiment(startTime=0.0, stopTime=scenario.stop_time)
-            ld.fmu.enterInitializationMode()
-            ld.fmu.exitInitializationMode()
-            ld.initialized = True
-            parameters[inst.name] = ld.parameter_values()
-            records[inst.name] = np.empty((rows, len(ld.output_names)))
-        targets = [(ld, records[ld.name], pushes) for ld, pushes in plan]
-        if observer is not None:
-            _call_observer(observer.start, scenario, {n: list(ld.output_names) for n, ld in loaded.items()}, parameters)
-        row = 0
-        for k in range(n_steps + 1):
-            clock.sample = k
-            for ld, record, pushes in targets:
-                ld.read_outputs()
-                record[row] = ld.out_view
-                for link in pushes:
-                    link.push()
-            recorded = k + 1
-            row += 1
-            if row == rows or (observer is not None and recorded - flushed >= block_size):
-                hand_over(recorded)
-                if not keep_samples:
-                    row = 0
-            if k == n_steps:
-                break
-            if stop.requested:  # SIGINT: stop here, between two steps, with every sample so far
-                interrupted = True
-                break
-            t = k * T  # t_k = k T, the same double as np.arange(...) * T
-            for ld in instances:
-                ld.do_step(t, T)
+        interrupted = session.loop(session.load(fmu_paths))
     except ScenarioError:
         raise  # the scenario itself is wrong: nothing ran
     except interrupt.Interrupted:
         interrupted = True
     except Exception as exc:  # FMI status errors, fmpy's load/instantiate errors, observer errors
-        error = _describe_failure(exc, k, T, n_steps, logs)
+        error = _describe_failure(exc, session.k, scenario.step_size, scenario.steps, session.logs)
         observer_ok = not isinstance(exc, _ObserverFailed)
     finally:
         wall = time.perf_counter() - started
-        _free(loaded)
-        shutil.rmtree(workdir, ignore_errors=True)
-    completed = recorded
-    if interrupted and error is None:
-        where = f"after t = {(completed - 1) * T:.2f} s (sample {completed - 1})" if completed else "before the first sample"
-        error = f"interrupted by SIGINT {where}"
-    if keep_samples:  # views into the one array per instance: no second copy of the run
-        outputs = {name: {v: records[name][:completed, i] for i, v in enumerate(loaded[name].output_names)}
-                   for name in records}
-        result = RunResult(scenario, times[:completed], outputs, wall, failed=error is not None, error=error,
-                           interrupted=interrupted, logs=logs, parameters=parameters, fmus=fmus)
-    else:
-        result = RunResult(scenario, np.empty(0), {}, wall, failed=error is not None, error=error,
-                           interrupted=interrupted, logs=logs, parameters=parameters, fmus=fmus,
-                           completed=completed)
-    if observer is not None:
-        try:
-            if observer_ok and completed > flushed:
-                hand_over(completed)
-        except _ObserverFailed as exc:  # the samples are in the result; say that the observer lost them
-            result.failed, result.error = True, (result.error + "; " if result.error else "") + str(exc)
-        observer.finish(result)
+        _free(session.loaded)
+        shutil.rmtree(session.workdir, ignore_errors=True)
+    result = session.result(wall, error, interrupted)
+    session.finish(result, observer_ok)
     return result
 
 

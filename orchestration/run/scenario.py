@@ -28,7 +28,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from fmu_plant.dynamics import TORQUE_LIMIT
+from fmu_plant.dynamics import STEP_SIZE, TORQUE_LIMIT
 from orchestration.exit_codes import UsageError
 
 # a run holds every sample of every output in memory: 10^6 steps (10,000 s at T = 0.01 s, 100 paper
@@ -265,7 +265,7 @@ def _from_raw(raw: dict[str, Any]) -> dict[str, Any]:
         "name": raw["name"],
         "description": raw.get("description", ""),
         "stop_time": raw.get("stop_time", 100.0),
-        "step_size": raw.get("step_size", 0.01),
+        "step_size": raw.get("step_size", STEP_SIZE),
         "instances": instances,
         "by_name": by_name,
         "links": tuple(links),

@@ -4,7 +4,7 @@ The pure loop (``orchestration.study.pure_loop``) is the FMU run sample for samp
 so these are the numbers ``sotc-cosim reproduce`` gets through the FMUs, in a fraction of the time.
 Runs are cached per process: several generated tables share them (``orchestration.reports.docgen``).
 
-Fair comparison (issue 10): each controller is run under each handling of
+Fair comparison: each controller is run under each handling of
 ``fmu_controller.saturation`` (SOTC: of its feedforward under (5), then the actuator limit; CT, LQR:
 of the computed torque; OTC: unclipped as in the paper, and clipped by each handling), and the
 baselines get the same small tuning search under each handling (``TUNING_GRIDS``).

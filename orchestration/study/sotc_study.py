@@ -25,7 +25,7 @@ import scipy.linalg
 
 from fmu_controller.sotc import SotcCore
 from fmu_controller.sotc_math import matrix_to_weights, weights_to_matrix
-from fmu_plant.dynamics import TORQUE_LIMIT, ArmParameters, inertia_matrix
+from fmu_plant.dynamics import STEP_SIZE, TORQUE_LIMIT, ArmParameters, inertia_matrix
 from orchestration.run.metrics import weight_total_variation
 from orchestration.run.scenario import available_scenarios, load_scenario
 from orchestration.study.pure_loop import LoopResult, metrics, simulate
@@ -198,16 +198,16 @@ def cmd_euler(args: argparse.Namespace) -> None:
         for integ in (0, 1):
             ctrl = SotcCore(weight_integrator=integ, **ov)
             state, worst, t_worst = (0.5, -0.5, 0.0, 0.0), 0.0, 0.0
-            for k in range(int(round(args.stop / 0.01))):
-                t = k * 0.01
+            for k in range(int(round(args.stop / STEP_SIZE))):
+                t = k * STEP_SIZE
                 ctrl.evaluate(t, state, traj.sample(t)[:6])
                 pend = ctrl._pending
                 G = np.outer(pend["xi"], pend["eta"]) + (pend["cl_M"] if pend["cl_M"] is not None else 0.0)
-                lam = 0.01 * ctrl.alpha1 * np.linalg.eigvalsh(0.5 * (G + G.T))[-1]
+                lam = STEP_SIZE * ctrl.alpha1 * np.linalg.eigvalsh(0.5 * (G + G.T))[-1]
                 if lam > worst:
                     worst, t_worst = lam, t
-                state = rk4_step(state, ctrl.outputs[0], ctrl.outputs[1], 0.01, 4, arm)
-                ctrl.advance(t, 0.01)
+                state = rk4_step(state, ctrl.outputs[0], ctrl.outputs[1], STEP_SIZE, 4, arm)
+                ctrl.advance(t, STEP_SIZE)
             e = np.array(state[:2]) - np.array(traj.sample(args.stop)[:2])
             print(f"{label:30s} {'implicit' if integ == 0 else 'Euler':8s} max T alpha1 lambda_max(Gamma) = {worst:.3g}"
                   f" at t = {t_worst:.2f} s; ||W({args.stop:g})|| = {np.linalg.norm(ctrl.W):.3g}, |e({args.stop:g})| = "
@@ -241,7 +241,7 @@ def cmd_weights(args: argparse.Namespace) -> None:
     windows = zip(edges, edges[1:])
     print("TV per window: " + ", ".join(f"[{a:g},{b:g}] {weight_variation(res, a, b):.3g}" for a, b in windows))
     for t in (0.4, 1, 2, 5, 10, 50, 100):
-        print(f"  W({t:g}) = {np.round(W[int(round(t / 0.01))], 4).tolist()}")
+        print(f"  W({t:g}) = {np.round(W[int(round(t / STEP_SIZE))], 4).tolist()}")
 
 
 ROBUSTNESS: list[dict[str, float]] = [
@@ -284,8 +284,8 @@ def cmd_timing(_: argparse.Namespace) -> None:
         ys, rs = res.y.tolist(), res.ref[:, :6].tolist()
         t0 = time.perf_counter()
         for k in range(len(ys) - 1):
-            c.evaluate(k * 0.01, ys[k], rs[k])
-            c.advance(k * 0.01, 0.01)
+            c.evaluate(k * STEP_SIZE, ys[k], rs[k])
+            c.advance(k * STEP_SIZE, STEP_SIZE)
         dt = (time.perf_counter() - t0) / (len(ys) - 1)
         print(f"{setting:14s} evaluate+advance: {dt * 1e6:.1f} us per step")
 

@@ -274,7 +274,7 @@ def write_reports(store: SweepStore, total: int) -> dict[str, Path]:
     out["plots"] = store.folder / "plots"
     traces = store.traces()
     if traces:
-        from orchestration.recording.writer import record_sweep
+        from orchestration.recording.overlays import record_sweep
 
         step = min(p.scenario.step_size for p in sweep.points())
         out["recording"] = record_sweep(traces, step, store.folder / "sweep.rrd", f"sweep {sweep.name}: tracking errors")
