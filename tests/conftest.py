@@ -24,7 +24,7 @@ def fmu_paths(fmu_dir) -> dict[str, Path]:
 @pytest.fixture(scope="session")
 def shipped(tmp_path_factory):
     """The project installed from a wheel into a fresh virtualenv (``tests/shipped.py``)."""
-    from shipped import install
+    from support.shipped import install
 
     return install(tmp_path_factory.mktemp("shipped"))
 

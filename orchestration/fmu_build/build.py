@@ -21,7 +21,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from fmu_controller.catalog import CONTROLLERS
-from orchestration.fmu_build import packaging as fmu_package
+from orchestration.fmu_build import packaging
 
 DEFAULT_FMU_DIR = Path("build") / "fmus"
 PACKAGE_ROOT = Path(__file__).resolve().parents[2]  # folder holding fmu_plant/, fmu_controller/
@@ -54,10 +54,10 @@ class BuildError(RuntimeError):
 
 
 def _source_files(source: FmuSource) -> list[Path]:
-    files = [PACKAGE_ROOT / source.script, Path(__file__).resolve(), Path(fmu_package.__file__).resolve()]
+    files = [PACKAGE_ROOT / source.script, Path(__file__).resolve(), Path(packaging.__file__).resolve()]
     for pkg in source.packages:
         files += sorted((PACKAGE_ROOT / pkg).glob("*.py"))
-    return sorted(set(files)) + fmu_package.pythonfmu_sources()
+    return sorted(set(files)) + packaging.pythonfmu_sources()
 
 
 def source_digest(source: FmuSource) -> str:
@@ -86,7 +86,7 @@ def _build_one(source: FmuSource, out_dir: Path) -> Path:
     """Runs in the child process only."""
     with tempfile.TemporaryDirectory(prefix="sotc_stage_") as tmp:
         digest = source_digest(source)
-        built = fmu_package.package_fmu(
+        built = packaging.package_fmu(
             source.model, PACKAGE_ROOT / source.script, {pkg: PACKAGE_ROOT / pkg for pkg in source.packages},
             [PACKAGE_ROOT / e for e in source.equations], digest, fmu_path(source.model, out_dir), Path(tmp))
     (out_dir / f"{source.model}.sources.sha256").write_text(digest + "\n")

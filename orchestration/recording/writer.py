@@ -1,4 +1,4 @@
-"""Rerun recordings of runs (``.rrd`` files). With ``recording_blueprint`` (its default views),
+"""Rerun recordings of runs (``.rrd`` files). With ``recording.blueprint`` (its default views),
 the only module of the project that imports rerun.
 
 ``RunRecorder`` is a ``RunObserver``: the master hands it the samples in blocks while the run

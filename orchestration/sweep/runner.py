@@ -235,7 +235,7 @@ def execute(
     sweep: Sweep, fmu_dir: Path, store, workers: int | None = None, scheduler: str | None = None,
     record: bool = False, retry_failed: bool = False, listener=None,
 ) -> SweepOutcome:
-    """Run the points of ``sweep`` missing from ``store`` (a ``sweep_results.SweepStore``); rows are
+    """Run the points of ``sweep`` missing from ``store`` (a ``sweep.results.SweepStore``); rows are
     stored as they arrive. ``listener`` (optional) gets ``started(outcome)`` before the first point
     and ``finished(row)`` after each. Ctrl-C cancels the pending points, stops the workers and
     returns with ``interrupted`` set."""

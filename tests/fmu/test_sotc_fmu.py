@@ -4,7 +4,7 @@ import math
 import numpy as np
 import pytest
 from fmpy.fmi1 import FMICallException
-from fmu_driver import DrivenFmu
+from support.fmu_driver import DrivenFmu
 
 from orchestration.recording.writer import BLOCK_SIZE, RunRecorder
 from orchestration.run.master import run

@@ -2,19 +2,18 @@
 FMU given on the command line. A reference-count slip in the pythonfmu binary shows only as a crash
 at interpreter exit, so the parent checks this process's exit code.
 
-usage: python lifecycle_child.py WORKDIR FMU...
+usage: python -m support.lifecycle_child WORKDIR FMU...  (tests/ on PYTHONPATH: support.child_env)
 """
 import itertools
 import math
 import sys
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).parent))
+from fmpy.fmi1 import FMICallException
 
-from fmpy.fmi1 import FMICallException  # noqa: E402
-from fmu_driver import DrivenFmu  # noqa: E402
+from fmu_plant.dynamics import STEP_SIZE as T
+from support.fmu_driver import DrivenFmu
 
-T = 0.01
 _count = itertools.count()
 
 

@@ -26,9 +26,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from fmu_driver import DrivenFmu
+from support.fmu_driver import DrivenFmu
 
-HOST_SOURCE = Path(__file__).resolve().parent.parent / "docs" / "c_host" / "host.c"
+HOST_SOURCE = Path(__file__).resolve().parents[2] / "docs" / "c_host" / "host.c"
 STEPS, TAU = 100, (1.0, -0.5)
 T = 0.01
 # lengths of the extraction folder's absolute path: short, the two bands reported to abort

@@ -5,13 +5,13 @@ import math
 import subprocess
 import sys
 import textwrap
-from pathlib import Path
 
 import numpy as np
 import pytest
 from fmpy.fmi1 import FMICallException
-from fmu_driver import DrivenFmu
 from scipy.integrate import solve_ivp
+from support import child_env
+from support.fmu_driver import DrivenFmu
 
 from fmu_plant.dynamics import (
     ArmParameters,
@@ -128,9 +128,8 @@ def test_plant_fmu_with_b2_at_its_max_steps_ok_and_physically(fmu_paths, tmp_pat
 
 HANG_CHILD = textwrap.dedent("""
     import sys
-    sys.path.insert(0, sys.argv[3])
     from fmpy.fmi1 import FMICallException
-    from fmu_driver import DrivenFmu
+    from support.fmu_driver import DrivenFmu
     u = DrivenFmu(sys.argv[1], sys.argv[2])
     try:
         u.initialize(sigma=1e-300, rho=2e-300)
@@ -151,8 +150,8 @@ def test_sotc_with_tiny_sigma_and_rho_works_or_is_refused_in_bounded_time(fmu_pa
     projection down one ulp at a time. Run in a child process so a hang cannot stall the suite."""
     try:
         done = subprocess.run(
-            [sys.executable, "-c", HANG_CHILD, str(fmu_paths["SotcController"]), str(tmp_path / "sotc"),
-             str(Path(__file__).parent)], capture_output=True, text=True, timeout=HANG_SECONDS)
+            [sys.executable, "-c", HANG_CHILD, str(fmu_paths["SotcController"]), str(tmp_path / "sotc")],
+            capture_output=True, text=True, timeout=HANG_SECONDS, env=child_env())
     except subprocess.TimeoutExpired:
         pytest.fail(f"no answer within {HANG_SECONDS} s")
     assert done.returncode == 0, done.stderr

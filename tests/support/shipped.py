@@ -20,7 +20,7 @@ import venv
 from dataclasses import dataclass
 from pathlib import Path
 
-REPO = Path(__file__).resolve().parent.parent
+REPO = Path(__file__).resolve().parents[2]
 # names a host without sotc-cosim does not have; ``BLOCK_PROJECT`` makes them unimportable
 PROJECT_MODULES = ("fmu_plant", "fmu_controller", "orchestration", "pythonfmu")
 BLOCK_PROJECT = f'''

@@ -14,7 +14,8 @@ from pathlib import Path
 
 import numpy as np
 from fmpy import read_model_description
-from fmu_driver import DrivenFmu
+
+from support.fmu_driver import DrivenFmu
 
 T = 0.01
 PARTNERS = ("ArmPlant", "ReferenceTrajectory")

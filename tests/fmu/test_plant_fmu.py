@@ -4,7 +4,7 @@ import math
 import numpy as np
 import pytest
 from fmpy.fmi1 import FMICallException
-from fmu_driver import DrivenFmu
+from support.fmu_driver import DrivenFmu
 
 from fmu_plant.kinematics import forward_kinematics
 from orchestration.bench.design import dop853_zoh

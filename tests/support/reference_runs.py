@@ -1,6 +1,6 @@
 """Write the stored reference runs that ``tests/test_reference_runs.py`` compares against.
 
-    python tests/make_reference_runs.py            # from the repository root, project installed
+    python tests/support/reference_runs.py            # from the repository root, project installed
 
 Runs every shipped scenario through the FMUs (no recording) and writes, under ``tests/data/``:
 
@@ -11,11 +11,11 @@ Runs every shipped scenario through the FMUs (no recording) and writes, under ``
 
 The committed files come from main before the speed work (first 20eb717; then, for the scenarios
 and summary keys added since, main at ff2e239, run as
-``PYTHONPATH=<checkout of main> python tests/make_reference_runs.py``), so that test shows the
+``PYTHONPATH=<checkout of main> python tests/support/reference_runs.py``), so that test shows the
 optimised code computes the same numbers (to 1e-12 relative). Regenerate them only when the maths
 is meant to change, and say so in the commit.
 
-    python tests/make_reference_runs.py --sensitivity
+    python tests/support/reference_runs.py --sensitivity
 
 writes ``reference_sensitivity.json`` instead: for every scenario, how far each summary number moves
 (relative, the largest of three) when one of the plant's initial angles moves by one ulp, so
@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-DATA = Path(__file__).resolve().parent / "data"
+DATA = Path(__file__).resolve().parents[1] / "data"
 DECIMATE = 25  # 401 of the 10,001 samples of a 100 s run (and the last)
 
 

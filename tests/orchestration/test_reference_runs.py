@@ -1,8 +1,8 @@
 """The speed work must not change the numbers: every shipped scenario's summary, and every output of
 the ``paper`` run at 401 stored samples, equal the stored reference run (generated before the speed
-work by ``python tests/make_reference_runs.py``) to 1e-12 relative, or to ten times the number's own
+work by ``python tests/support/reference_runs.py``) to 1e-12 relative, or to ten times the number's own
 sensitivity to a one-ulp change of the initial state where that is larger (rounding-amplifying
-scenarios on another CPU's BLAS kernels: see ``make_reference_runs.py``)."""
+scenarios on another CPU's BLAS kernels: see ``support/reference_runs.py``)."""
 from __future__ import annotations
 
 import json
@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 import pytest
-from make_reference_runs import DATA, comparable_summary, reference_indices
+from support.reference_runs import DATA, comparable_summary, reference_indices
 
 from orchestration.run.master import run
 from orchestration.run.scenario import available_scenarios, load_scenario

@@ -15,7 +15,7 @@ perturb the run).
 import numpy as np
 import pytest
 from fmpy.fmi1 import FMICallException
-from fmu_loop import Loop, loop_models, same_bits
+from support.fmu_loop import Loop, loop_models, same_bits
 
 from orchestration.fmu_build.build import FMU_SOURCES
 

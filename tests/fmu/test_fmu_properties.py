@@ -25,9 +25,9 @@ from contextlib import contextmanager
 
 import pytest
 from fmpy.fmi1 import FMICallException
-from fmu_driver import DrivenFmu
 from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
+from support.fmu_driver import DrivenFmu
 
 from orchestration.fmu_build.build import FMU_SOURCES
 

@@ -10,7 +10,7 @@ import pytest
 from orchestration.sweep.results import table_csv
 from orchestration.sweep.spec import load_sweep
 
-DOCS = Path(__file__).resolve().parent.parent / "docs"
+DOCS = Path(__file__).resolve().parents[2] / "docs"
 
 
 @pytest.mark.parametrize("name", ["robustness", "controllers"])

@@ -5,7 +5,7 @@ import pytest
 
 from orchestration.reports import docgen
 
-REPO = Path(__file__).resolve().parent.parent
+REPO = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(autouse=True)

@@ -22,13 +22,13 @@ Reset (pythonfmu re-creates the Python object) brings back every start value, pa
 import math
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 from fmpy.fmi1 import FMICallException
-from fmu_driver import DrivenFmu
-from fmu_loop import drive, same_bits
+from support import child_env
+from support.fmu_driver import DrivenFmu
+from support.fmu_loop import drive, same_bits
 
 from orchestration.fmu_build.build import FMU_SOURCES
 
@@ -239,9 +239,8 @@ def test_every_call_in_every_state_works_or_is_refused_with_a_reason(subjects, m
 
 def test_terminate_and_free_in_any_legal_order_leave_the_process_healthy(fmu_paths, tmp_path):
     """Run in a child process: a reference-count slip in the FMU binary shows only at interpreter exit."""
-    child = Path(__file__).with_name("lifecycle_child.py")
     paths = [str(fmu_paths[m]) for m in FMU_SOURCES]
-    proc = subprocess.run([sys.executable, str(child), str(tmp_path), *paths],
-                          capture_output=True, text=True, timeout=300)
+    proc = subprocess.run([sys.executable, "-m", "support.lifecycle_child", str(tmp_path), *paths],
+                          capture_output=True, text=True, timeout=300, env=child_env())
     assert proc.returncode == 0, f"exit code {proc.returncode}\n{proc.stdout}\n{proc.stderr}"
     assert proc.stdout.strip().endswith("all sequences ok"), proc.stdout + proc.stderr
