@@ -55,6 +55,7 @@ from typing import Any
 
 import numpy as np
 
+from fmu_controller.base import RENAMED_PARAMETERS
 from fmu_controller.catalog import CORES
 from orchestration.run.scenario import Instance, Scenario, ScenarioError, load_scenario
 
@@ -313,7 +314,9 @@ def _controller_settings(raw: Any, base: Scenario, axes: tuple[Axis, ...], where
             inst, _, pname = key.partition(".")
             if inst == "controller" and specs is not None:
                 if pname not in specs:
-                    raise SweepError(f"{at}: {fmu} has no parameter {pname!r}; its parameters: {', '.join(specs)}")
+                    renamed = (f" ({pname!r} was renamed {RENAMED_PARAMETERS[pname]!r} in 0.2.0, see CHANGELOG.md)"
+                               if pname in RENAMED_PARAMETERS else "")
+                    raise SweepError(f"{at}: {fmu} has no parameter {pname!r}{renamed}; its parameters: {', '.join(specs)}")
                 try:
                     specs[pname].check(value)
                 except ValueError as exc:

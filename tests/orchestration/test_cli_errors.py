@@ -224,3 +224,14 @@ def test_the_old_torque_limit_names_are_refused_naming_rho(scenario, old, tmp_pa
     line = _one_line_error(capsys.readouterr().err)
     assert f"'{old}' was renamed 'rho'" in line and "CHANGELOG.md" in line
     assert sorted(p.name for p in tmp_path.iterdir()) == ["old.toml"]
+
+
+def test_a_sweep_file_with_the_old_torque_limit_name_is_refused_naming_rho(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    path = tmp_path / "old.toml"
+    path.write_text('name = "old"\nscenario = "paper-ct"\n[[axis]]\nname = "plant.phi1_0"\nvalues = [0.5, 0.6]\n'
+                    '[controller_settings.CtController]\n"controller.tau_max" = 3.0\n')
+    assert main(["sweep", str(path)]) == 2
+    line = _one_line_error(capsys.readouterr().err)
+    assert "'tau_max' was renamed 'rho'" in line
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["old.toml"]
