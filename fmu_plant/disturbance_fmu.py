@@ -8,7 +8,7 @@ from fmi_slave.parameters import check_all
 from fmi_slave.slave import (
     TimeFunctionSlave as Fmi2Slave,  # the name pythonfmu's binary looks for
 )
-from fmu_plant.dynamics import STEP_SIZE
+from fmu_plant.paper_setting import STEP_SIZE
 from fmu_plant.perturbation import DISTURBANCE_PARAMETER_SPECS, disturbance_torque
 
 

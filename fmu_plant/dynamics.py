@@ -30,9 +30,10 @@ from fmi_slave.parameters import (
     nonnegative,
     positive,
 )
+# T and rho, re-exported: the arm model is what a controller imports from fmu_plant
+from fmu_plant.paper_setting import STEP_SIZE as STEP_SIZE
+from fmu_plant.paper_setting import TORQUE_LIMIT as TORQUE_LIMIT
 
-STEP_SIZE = 0.01  # s, the paper's sampling period T: the step the stiffness check at construction assumes
-TORQUE_LIMIT = 4.0  # N.m, rho: the actuators bound the torque norm, ||tau|| <= rho (section 2.1; 4 in section 4)
 MAX_SUBSTEPS = 1000  # RK4 substeps per communication step, at most (a bound independent of the input)
 SUBSTEP_STIFFNESS = 1.0  # h L kept at or below this per substep (RK4's real stability limit is 2.785)
 MAX_INVERSE_INERTIA = 1e6  # 1/(kg m^2): lambda_min(D(phi)) >= 1e-6 kg m^2 for every phi

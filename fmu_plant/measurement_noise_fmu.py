@@ -12,7 +12,7 @@ from fmi_slave.parameters import check_all
 from fmi_slave.slave import (
     DescribedSlave as Fmi2Slave,  # the name pythonfmu's binary looks for
 )
-from fmu_plant.dynamics import STEP_SIZE
+from fmu_plant.paper_setting import STEP_SIZE
 from fmu_plant.perturbation import MAX_SEED, NOISE_PARAMETER_SPECS, NoiseSequence
 
 PORTS = (("phi1", "rad"), ("phi2", "rad"), ("dphi1", "rad/s"), ("dphi2", "rad/s"))

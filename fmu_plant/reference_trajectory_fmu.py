@@ -8,7 +8,7 @@ from __future__ import annotations
 from fmi_slave.slave import (
     TimeFunctionSlave as Fmi2Slave,  # the name pythonfmu's binary looks for
 )
-from fmu_plant.dynamics import STEP_SIZE
+from fmu_plant.paper_setting import STEP_SIZE
 from fmu_plant.trajectory import (
     REFERENCE_SIGNALS,
     TRAJECTORY_PARAMETER_SPECS,
