@@ -11,6 +11,7 @@ from pathlib import Path
 from fmi_slave import VERSION
 from orchestration import exit_codes
 from orchestration.exit_codes import UsageError
+from orchestration.outputs import OutputError
 from orchestration.fmu_build.build import (
     DEFAULT_FMU_DIR,
     FMU_SOURCES,
@@ -84,6 +85,8 @@ def _run_each(scenarios, paths, recording_for=None, keep_samples: bool = True, r
             with RunRecorder(target, every=record_every) as recorder:
                 result = run(scenario, paths, observer=[*observers, recorder], block_size=block,
                              keep_samples=keep_samples)
+            if recorder.output_error is not None:  # the disk took no more: stop, the finished runs are kept
+                raise recorder.output_error
         if result.failed and not result.interrupted:
             print(f"{scenario.name}: FAILED: {result.error}", file=sys.stderr)
         out.append((result, summarize(result) if keep_samples else summary.summary))
@@ -96,7 +99,7 @@ def _run_each(scenarios, paths, recording_for=None, keep_samples: bool = True, r
 
 def _exit_code(summaries: list[dict]) -> int:
     if interrupt.requested():
-        return exit_codes.INTERRUPTED
+        return interrupt.exit_code()
     return exit_codes.FAILED if any(s["status"] != "ok" for s in summaries) else exit_codes.OK
 
 
@@ -233,7 +236,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         again += ["--stop-time", repr(args.stop_time)] if args.stop_time is not None else []
         print(f"interrupted: the {len(outcome.rows)} finished points are kept in {out}; resume with: "
               f"{' '.join(again)}", file=sys.stderr)
-        return exit_codes.INTERRUPTED
+        return interrupt.exit_code()
     if args.doc:
         print(f"doc: {write_doc(store, outcome.total, args.doc)}")
     return exit_codes.FAILED if outcome.failed else exit_codes.OK
@@ -463,23 +466,24 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    with interrupt.sigint_deferred():
+    with interrupt.signals_deferred():
         try:
             fmu_dir = getattr(args, "fmu_dir", None)
             if fmu_dir is not None and not fmu_dir.is_dir():  # an existing folder may be read-only: prebuilt
                 check_output_folder(fmu_dir, "--fmu-dir")
             code = args.func(args)
         except interrupt.Interrupted:
-            code = exit_codes.INTERRUPTED
-        except (UsageError, BuildError) as exc:
-            if not interrupt.requested():
+            code = interrupt.exit_code()
+        except (UsageError, BuildError, OutputError, OSError) as exc:
+            if interrupt.requested():
+                code = interrupt.exit_code()
+            else:  # a request that cannot run as given (2); an output that cannot be written (1)
                 print(f"sotc-cosim: error: {exc}", file=sys.stderr)
-                return exit_codes.USAGE
-            code = exit_codes.INTERRUPTED
+                return exit_codes.USAGE if isinstance(exc, (UsageError, BuildError)) else exit_codes.FAILED
         if interrupt.requested():
-            print("sotc-cosim: interrupted (SIGINT): stopped between two steps; finished results were kept",
-                  file=sys.stderr)
-            return exit_codes.INTERRUPTED
+            print(f"sotc-cosim: interrupted ({interrupt.signal_name()}): stopped between two steps; finished "
+                  "results were kept", file=sys.stderr)
+            return interrupt.exit_code()
         return code
 
 

@@ -5,7 +5,8 @@ from __future__ import annotations
 OK = 0
 FAILED = 1  # the command ran; a run, a point or a check failed, and it says which
 USAGE = 2  # the request cannot be run as given (argument, scenario, path): one line, nothing written
-INTERRUPTED = 130  # 128 + SIGINT: stopped between two steps, finished results kept
+SIGNALLED = 128  # + the signal's number (130 SIGINT, 143 SIGTERM, 129 SIGHUP): stopped between two steps,
+# finished results kept (orchestration.run.interrupt)
 
 
 class UsageError(ValueError):

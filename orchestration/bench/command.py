@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 
+from orchestration.outputs import atomic_write
 from orchestration.bench.design import (
     bench_integrator,
     bench_recording,
@@ -65,7 +66,6 @@ def run_benchmarks(args: argparse.Namespace) -> dict[str, dict]:
     if old is not None and "speed" in results:
         print(compare(old.get("speed", old), results["speed"]))
     if args.json is not None:
-        args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps(results, indent=1) + "\n")
+        atomic_write(args.json, json.dumps(results, indent=1) + "\n")
         print(f"wrote {args.json}")
     return results

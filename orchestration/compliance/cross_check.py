@@ -22,12 +22,12 @@ Values are written with ``repr`` (shortest text that reads back to the same doub
 """
 from __future__ import annotations
 
-import shutil
 from pathlib import Path
 
 import numpy as np
 
 from fmi_slave import VERSION
+from orchestration.outputs import atomic_file, atomic_write
 
 TOOL = "sotc-cosim"
 SOURCE_SCENARIO = "paper"
@@ -84,7 +84,7 @@ def reference_run(fmu_file: Path, times: np.ndarray, inputs: dict[str, np.ndarra
 
 
 def write_csv(path: Path, names: list[str], rows: np.ndarray) -> None:
-    with open(path, "w") as f:
+    with atomic_file(path) as f:
         f.write(",".join(f'"{n}"' for n in ["time", *names]) + "\n")
         for row in rows:
             f.write(",".join(repr(float(x)) for x in row) + "\n")
@@ -124,14 +124,14 @@ def generate(out_dir: Path, fmu_paths: dict[str, Path], stop_time: float = DEFAU
         names, rows = reference_run(fmu_file, times, inputs)
         folder = model_dir(out_dir, model)
         folder.mkdir(parents=True, exist_ok=True)
-        shutil.copy2(fmu_file, folder / f"{model}.fmu")
+        atomic_write(folder / f"{model}.fmu", Path(fmu_file).read_bytes())
         if inputs:
             write_csv(folder / f"{model}_in.csv", list(inputs), np.column_stack([times, *inputs.values()]))
         else:
             (folder / f"{model}_in.csv").unlink(missing_ok=True)
         write_csv(folder / f"{model}_ref.csv", names, rows)
-        (folder / f"{model}_ref.opt").write_text(
+        atomic_write(folder / f"{model}_ref.opt",
             f"StartTime, {float(times[0])!r}\nStopTime, {float(times[-1])!r}\nStepSize, {step!r}\nRelTol, {REL_TOL!r}\n")
-        (folder / "ReadMe.txt").write_text(_readme(model, description, bool(inputs), float(times[-1]), step))
+        atomic_write(folder / "ReadMe.txt", _readme(model, description, bool(inputs), float(times[-1]), step))
         folders.append(folder)
     return folders

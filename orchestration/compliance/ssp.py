@@ -36,6 +36,7 @@ import zipfile
 from pathlib import Path
 from xml.etree import ElementTree as ET
 
+from orchestration.outputs import atomic_file
 from orchestration.run.scenario import Connection, Scenario, ScenarioError
 
 NS = {
@@ -169,8 +170,7 @@ def export_ssp(scenario: Scenario, fmu_paths: dict[str, Path], out: Path) -> Pat
             raise ScenarioError(f"{inst.name}: {unknown} are not parameters of {inst.fmu}")
     links = resolve_links(scenario, mds)
     out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    with zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as z:
+    with atomic_file(out, "wb") as f, zipfile.ZipFile(f, "w", zipfile.ZIP_DEFLATED) as z:
         z.writestr("SystemStructure.ssd", _ssd(scenario, mds, links))
         for model in sorted({i.fmu for i in scenario.instances.values() if not i.parameters}):
             z.write(fmu_paths[model], f"resources/{model}.fmu")

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from fmu_controller.catalog import CONTROLLERS
+from orchestration.outputs import atomic_write
 from orchestration.fmu_build import packaging
 
 DEFAULT_FMU_DIR = Path("build") / "fmus"
@@ -89,7 +90,7 @@ def _build_one(source: FmuSource, out_dir: Path) -> Path:
         built = packaging.package_fmu(
             source.model, PACKAGE_ROOT / source.script, {pkg: PACKAGE_ROOT / pkg for pkg in source.packages},
             [PACKAGE_ROOT / e for e in source.equations], digest, fmu_path(source.model, out_dir), Path(tmp))
-    (out_dir / f"{source.model}.sources.sha256").write_text(digest + "\n")
+    atomic_write(out_dir / f"{source.model}.sources.sha256", digest + "\n")
     return built
 
 

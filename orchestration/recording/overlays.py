@@ -9,13 +9,12 @@ import numpy as np
 import rerun as rr
 
 from orchestration.recording.blueprint import comparison_blueprint, sweep_blueprint
+from orchestration.recording.rrd_file import RecordingFile
 from orchestration.recording.writer import (
     COMPARE_BLOCK,
     LIMIT,
     PALETTE,
     RunWriter,
-    _close,
-    _new_stream,
     comparison_groups,
     send_result_properties,
     send_scenario_properties,
@@ -30,7 +29,8 @@ def record_sweep(traces: Sequence[tuple[str, np.ndarray]], step_size: float, pat
     """One file overlaying the tracking errors of every point of a sweep: ``/points/<label>/e1``
     and ``.../e2``, each trace an array (m, 3) of [t, e1, e2] (thinned samples of a run)."""
     path = Path(path)
-    stream = _new_stream(path, sweep_blueprint())
+    rec = RecordingFile(path, sweep_blueprint())
+    stream = rec.stream
     try:
         stream.send_recording_name(title)
         ns = step_nanos(step_size)
@@ -43,8 +43,10 @@ def record_sweep(traces: Sequence[tuple[str, np.ndarray]], step_size: float, pat
                 entity = f"/points/{label}/e{j}"
                 stream.log(entity, rr.SeriesLines(names=[f"{label}: e{j} [rad]"], colors=[color]), static=True)
                 stream.send_columns(entity, time_columns(steps, ns), rr.Scalars.columns(scalars=trace[:, j]))
-    finally:
-        _close(stream)
+    except BaseException:
+        rec.close()
+        raise
+    rec.close()
     return path
 
 
@@ -71,7 +73,8 @@ def record_comparison(results: Sequence[RunResult], path: str | Path) -> Path:
     rho = max(r.scenario.torque_limit() for r in results)
     writers = [RunWriter(r.scenario, cols, comparison_groups(f"/{label}", label, color), prefix=f"/{label}", arm_color=color)
                for r, label, color, cols in zip(results, labels, colors, columns)]
-    stream = _new_stream(path, comparison_blueprint(labels, writers))
+    rec = RecordingFile(path, comparison_blueprint(labels, writers))
+    stream = rec.stream
     try:
         stream.send_recording_name("compare: " + ", ".join(labels))
         send_view_properties(stream)
@@ -93,6 +96,8 @@ def record_comparison(results: Sequence[RunResult], path: str | Path) -> Path:
                                                 colors=[LIMIT, LIMIT]), static=True)
             limits = np.tile([rho, -rho], (len(steps), 1))
             stream.send_columns("/limit", time_columns(steps, ns), rr.Scalars.columns(scalars=limits))
-    finally:
-        _close(stream)
+    except BaseException:
+        rec.close()
+        raise
+    rec.close()
     return path

@@ -29,7 +29,6 @@ blueprint that overlays them (paper Figs 10-12).
 from __future__ import annotations
 
 import math
-import uuid
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterable, Sequence
@@ -37,6 +36,8 @@ from typing import Iterable, Sequence
 import numpy as np
 import rerun as rr
 
+from orchestration.outputs import OutputError, PathLock
+from orchestration.recording.rrd_file import RecordingFile
 from orchestration.recording.blueprint import (
     VIEW_DESCRIPTIONS,
     run_blueprint,
@@ -44,7 +45,6 @@ from orchestration.recording.blueprint import (
 from orchestration.run.master import RunResult
 from orchestration.run.scenario import Scenario
 
-APPLICATION_ID = "sotc-cosim"
 # Samples per block handed over by the master (and flushed to the file): chosen by
 # ``sotc-cosim bench recording``, see README "Recordings".
 BLOCK_SIZE = 1000
@@ -355,26 +355,18 @@ def send_result_properties(stream: rr.RecordingStream, result: RunResult, prefix
     ))
 
 
-def _new_stream(path: Path, blueprint) -> rr.RecordingStream:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    stream = rr.RecordingStream(application_id=APPLICATION_ID, recording_id=str(uuid.uuid4()))
-    stream.save(path, default_blueprint=blueprint)
-    return stream
-
-
-def _close(stream: rr.RecordingStream) -> None:
-    stream.flush()
-    stream.disconnect()  # drops the file sink: writes the footer and closes the file
-
-
 # --- the observer -------------------------------------------------------------------------------
 
 class RunRecorder:
-    """Streams a run to ``path`` (a ``RunObserver``). Use as a context manager around ``run`` so
-    the file is finalised even if the run raises::
+    """Streams a run to ``path`` (a ``RunObserver``). Use as a context manager around ``run``: entering
+    locks ``path`` (a second writer gets ``UsageError``), leaving finalises the file even if the run
+    raises::
 
         with RunRecorder(path) as rec:
             result = run(scenario, fmu_paths, observer=rec, block_size=BLOCK_SIZE)
+
+    A write that fails ends the recording (the run then fails, naming it) and is kept as
+    ``output_error`` for the caller; the file is then not created.
     """
 
     def __init__(self, path: str | Path, every: int = 1):
@@ -382,28 +374,41 @@ class RunRecorder:
             raise ValueError(f"record every N-th sample needs N >= 1, got {every}")
         self.path = Path(path)
         self.every = every  # decimation for long runs: every N-th sample's signals (events: all)
+        self.lock: PathLock | None = None
+        self.file: RecordingFile | None = None
         self.stream: rr.RecordingStream | None = None
         self.writer: RunWriter | None = None
         self.closed = False
+        self.output_error: OutputError | None = None
 
     def start(self, scenario: Scenario, columns: dict[str, list[str]],
               parameters: dict[str, dict[str, float]] | None = None) -> None:
         self.writer = RunWriter(scenario, columns, run_groups(scenario))
-        self.stream = self.writer.stream = _new_stream(self.path, run_blueprint(self.writer))
+        self.file = RecordingFile(self.path, run_blueprint(self.writer), self.lock)
+        self.stream = self.writer.stream = self.file.stream
         self.stream.send_recording_name(scenario.name)
         send_scenario_properties(self.stream, scenario, parameters)
         self.stream.send_property("recording", rr.AnyValues(record_every=self.every))
         send_view_properties(self.stream)
         self.writer.send_static()
-        self.stream.flush()
+        self._flush()
+
+    def _flush(self) -> None:
+        try:
+            self.file.flush()
+        except OutputError as exc:
+            self.output_error = exc
+            raise
 
     def block(self, time: np.ndarray, rows: dict[str, np.ndarray]) -> None:
         if len(time) and round(time[0] / self.writer.scenario.step_size) != self.writer.next_step:
             raise ValueError(f"block starts at t = {time[0]} s, expected sample {self.writer.next_step}")
         self.writer.send_block(rows, self.every)
-        self.stream.flush()  # the block is in the file before the run goes on
+        self._flush()  # the block is in the file before the run goes on
 
     def finish(self, result: RunResult) -> None:
+        if self.output_error is not None:
+            return
         if self.stream is None:  # failed before the first sample: record why
             self.start(result.scenario, {}, result.parameters)
         self.writer.send_end(result)
@@ -412,14 +417,24 @@ class RunRecorder:
         self.close()
 
     def close(self, error: BaseException | None = None) -> None:
-        if self.closed or self.stream is None:
+        if self.closed:
             return
-        if error is not None:
-            self.writer.send_events("run", [(max(self.writer.next_step - 1, 0), f"run aborted: {error!r}", "ERROR")])
-        _close(self.stream)
         self.closed = True
+        if self.file is None:  # never started
+            if self.lock is not None:
+                self.lock.release()
+            return
+        if error is not None and not self.file.failed:
+            self.writer.send_events("run", [(max(self.writer.next_step - 1, 0), f"run aborted: {error!r}", "ERROR")])
+        try:
+            self.file.close()
+        except OutputError as exc:
+            if self.output_error is None:  # a new failure (an earlier one was reported already)
+                self.output_error = exc
+                raise
 
     def __enter__(self) -> "RunRecorder":
+        self.lock = PathLock(self.path, "recording").acquire()
         return self
 
     def __exit__(self, exc_type, exc, tb) -> None:

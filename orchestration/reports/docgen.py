@@ -23,6 +23,7 @@ import numpy as np
 
 from fmu_controller.catalog import LABELS
 from fmu_controller.saturation import LIMIT_HANDLINGS
+from orchestration.outputs import atomic_write
 from orchestration.bench.speed import DOC_BLOCKS as SPEED_BLOCKS
 from orchestration.bench.speed import MEASUREMENT as SPEED_MEASUREMENT
 from orchestration.bench.speed import stored_block
@@ -336,13 +337,13 @@ def write(name: str, root: Path | None = None) -> bool:
     content = render(name)  # first: the file is read (and rewritten) only once the block is computed
     text = path.read_text()
     new = replace_block(text, name, content)
-    path.write_text(new)
+    atomic_write(path, new)
     return new != text
 
 
 def store_speed_measurement(data: dict, root: Path) -> list[Path]:
     """Store one ``sotc-cosim bench speed`` result as the measurement and regenerate its blocks."""
-    (root / SPEED_MEASUREMENT).write_text(json.dumps(data, indent=1) + "\n")
+    atomic_write(root / SPEED_MEASUREMENT, json.dumps(data, indent=1) + "\n")
     for name in SPEED_BLOCKS:
         write(name, root)
     return [root / SPEED_MEASUREMENT, *(root / f for f in SPEED_BLOCKS.values())]

@@ -57,7 +57,7 @@ class RunResult:
     wall_time_s: float
     failed: bool = False
     error: str | None = None
-    interrupted: bool = False  # stopped by SIGINT (``orchestration.run.interrupt``); ``failed`` is set too
+    interrupted: bool = False  # stopped by SIGINT, SIGTERM or SIGHUP (``orchestration.run.interrupt``); ``failed`` is set too
     logs: list[LogRecord] = field(default_factory=list)
     # every parameter of every instance as the FMU holds it after initialization (defaults included)
     parameters: dict[str, dict[str, float]] = field(default_factory=dict)
@@ -323,7 +323,7 @@ class _Session:
 
     def loop(self, targets: list) -> bool:
         """Every communication point: read, record, set inputs, step (lists only: no lookups per
-        step). True if SIGINT stopped it between two steps."""
+        step). True if a signal (orchestration.run.interrupt) stopped it between two steps."""
         n_steps, T, rows = self.scenario.steps, self.scenario.step_size, self.rows
         instances, clock, stop = list(self.loaded.values()), self.clock, interrupt.STATE
         streaming_observer = self.observer is not None
@@ -343,7 +343,7 @@ class _Session:
                     row = 0
             if k == n_steps:
                 return False
-            if stop.requested:  # SIGINT: stop here, between two steps, with every sample so far
+            if stop.requested:  # SIGINT/SIGTERM/SIGHUP: stop here, between two steps
                 return True
             t = k * T  # t_k = k T, the same double as np.arange(...) * T
             for ld in instances:
@@ -354,7 +354,7 @@ class _Session:
         completed, T = self.recorded, self.scenario.step_size
         if interrupted and error is None:
             where = f"after t = {(completed - 1) * T:.2f} s (sample {completed - 1})" if completed else "before the first sample"
-            error = f"interrupted by SIGINT {where}"
+            error = f"interrupted by {interrupt.signal_name()} {where}"
         common = dict(failed=error is not None, error=error, interrupted=interrupted, logs=self.logs,
                       parameters=self.parameters, fmus=self.fmus)
         if self.keep:  # views into the one array per instance: no second copy of the run
@@ -401,7 +401,7 @@ def run(
     interrupted, observer_ok = False, True
     started = time.perf_counter()
     try:
-        interrupt.check()  # SIGINT before the run: nothing is loaded
+        interrupt.check()  # a signal before the run: nothing is loaded
         interrupted = session.loop(session.load(fmu_paths))
     except ScenarioError:
         raise  # the scenario itself is wrong: nothing ran

@@ -9,6 +9,7 @@ import numpy as np
 
 from fmu_controller.catalog import CORES
 from fmu_controller.saturation import LIMIT_HANDLINGS
+from orchestration.outputs import atomic_write
 from orchestration.markdown import number
 from orchestration.run.master import RunResult
 from orchestration.run.metrics import LIMIT_FLAG_OUTPUTS, TrackingMetrics, limit_active
@@ -104,9 +105,7 @@ def summarize(result: RunResult) -> dict[str, Any]:
 
 
 def write_summary(summary: dict[str, Any], path: Path) -> None:
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(summary, indent=2, allow_nan=False) + "\n")
+    atomic_write(path, json.dumps(summary, indent=2, allow_nan=False) + "\n")
 
 
 def fmt_cell(value: Any, spec: str, width: int) -> str:

@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from fmu_controller.saturation import LIMIT_HANDLINGS
+from orchestration.outputs import atomic_write
 from orchestration.markdown import table as markdown_table
 from orchestration.run.scenario import Scenario, load_scenario
 from orchestration.run.summary import fmt_cell
@@ -145,17 +146,16 @@ def _stop_times(summaries: list[dict[str, Any]]) -> str:
 def write_table(summaries: list[dict[str, Any]], out_dir: Path) -> tuple[Path, Path, str]:
     header, rows = table_rows(summaries)
     out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
     md, cs = out_dir / "table1.md", out_dir / "table1.csv"
     text = markdown_table(header, rows) + "\n"
-    md.write_text(
+    atomic_write(md,
         "# Table 1 of the paper, extended\n\n"
         "Rows 'paper Table 1' are the paper's numbers (it reports MSE only, over 100 s); rows 'this run' are\n"
         "measured by this invocation of `sotc-cosim reproduce` (metrics defined in orchestration/run/metrics.py),\n"
         f"stop time {_stop_times(summaries)}.\n\n" + text
         + "\n## The learned value function (docs/paper-notes.md, section 3.1)\n\n" + value_table(summaries)
     )
-    cs.write_text(to_csv(header, rows))
+    atomic_write(cs, to_csv(header, rows))
     return md, cs, text
 
 

@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from orchestration.outputs import atomic_file, atomic_write
 from orchestration.markdown import number, replace_block, table
 from orchestration.sweep.spec import Axis, Sweep
 
@@ -94,7 +95,7 @@ class SweepStore:
 
     def write_table(self) -> Path:
         path = self.folder / "points.csv"
-        path.write_text(table_csv(self.sweep, self.rows()))
+        atomic_write(path, table_csv(self.sweep, self.rows()))
         self.table_written = time.monotonic()
         return path
 
@@ -258,7 +259,8 @@ def write_plots(sweep: Sweep, rows: list[dict[str, Any]], folder: Path) -> list[
         top.set_title(f"sweep {sweep.name}: {group}")
         fig.tight_layout()
         path = folder / plot_name(group)
-        fig.savefig(path, dpi=80)
+        with atomic_file(path, "wb") as f:
+            fig.savefig(f, dpi=80, format="png")
         plt.close(fig)
         written.append(path)
     return written
@@ -269,7 +271,7 @@ def write_reports(store: SweepStore, total: int) -> dict[str, Path]:
     sweep, rows = store.sweep, store.rows()
     out = {"table": store.write_table()}
     out["summary"] = store.folder / "summary.md"
-    out["summary"].write_text(summary_markdown(sweep, rows, total) + "\n")
+    atomic_write(out["summary"], summary_markdown(sweep, rows, total) + "\n")
     write_plots(sweep, rows, store.folder / "plots")
     out["plots"] = store.folder / "plots"
     traces = store.traces()
@@ -328,7 +330,7 @@ def write_doc(store: SweepStore, total: int, doc: Path) -> Path:
     folder.mkdir(parents=True, exist_ok=True)
     write_plots(sweep, rows, folder)
     shutil.copyfile(store.folder / "points.csv", folder / "points.csv")
-    (folder / "points.jsonl").write_text("".join(json.dumps(r, sort_keys=True) + "\n" for r in rows))
+    atomic_write(folder / "points.jsonl", "".join(json.dumps(r, sort_keys=True) + "\n" for r in rows))
     text = doc.read_text() if doc.is_file() else f"# {doc.stem}\n"
-    doc.write_text(replace_block(text, f"sweep-{sweep.name}", doc_block(sweep, rows, total, _doc_plots(sweep))))
+    atomic_write(doc, replace_block(text, f"sweep-{sweep.name}", doc_block(sweep, rows, total, _doc_plots(sweep))))
     return doc

@@ -16,7 +16,8 @@ from rerun.chunk import RrdReader
 from orchestration.cli import main
 from orchestration.recording.blueprint import VIEW_DESCRIPTIONS
 from orchestration.recording.overlays import record_comparison
-from orchestration.recording.writer import APPLICATION_ID, BLOCK_SIZE, RunRecorder
+from orchestration.recording.rrd_file import APPLICATION_ID
+from orchestration.recording.writer import BLOCK_SIZE, RunRecorder
 from orchestration.run.master import run
 from orchestration.run.scenario import load_scenario
 
@@ -251,7 +252,9 @@ def test_a_killed_run_leaves_a_readable_prefix(fmu_dir, fmu_paths, tmp_path):
         proc.send_signal(signal.SIGKILL)
         proc.wait()
     assert proc.returncode == -signal.SIGKILL
-    ents = read_entities(path)  # no footer, no finish: still readable
+    assert not path.exists()  # only a finished recording is renamed into place
+    path, = tmp_path.glob(".killed.rrd.*.part")
+    ents = read_entities(path)  # no footer, no finish: the temporary file is still readable
     reference = run(load_scenario("paper-ct").with_stop_time(15.0), fmu_paths)
     for inst in reference.outputs:
         e = ents[f"/fmu/{inst}"]
