@@ -11,7 +11,7 @@ from pathlib import Path
 from fmi_slave import VERSION
 from orchestration import exit_codes
 from orchestration.exit_codes import UsageError
-from orchestration.outputs import OutputError
+from orchestration.outputs import OutputError, PathLock
 from orchestration.fmu_build.build import (
     DEFAULT_FMU_DIR,
     FMU_SOURCES,
@@ -204,8 +204,6 @@ class _SweepListener:
 
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
-    from orchestration.sweep.results import SweepStore, write_doc, write_reports
-    from orchestration.sweep.runner import execute
     from orchestration.sweep.spec import grid_from_assignments, load_sweep
 
     if args.workers is not None and args.workers < 1:
@@ -216,6 +214,22 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     if args.stop_time is not None:
         sweep = dataclasses.replace(sweep, base=sweep.base.with_stop_time(args.stop_time))
     out = check_output_folder(args.out or Path("recordings") / sweep.name, "--out")
+    if args.doc:
+        check_output_file(args.doc, "--doc")
+    existed = out.exists()
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        with PathLock(out, "--out", folder=True):
+            return _sweep_into(args, sweep, out)
+    finally:
+        if not existed and out.is_dir() and not any(out.iterdir()):
+            out.rmdir()  # nothing was stored (the scheduler was unreachable, say): leave no empty folder
+
+
+def _sweep_into(args: argparse.Namespace, sweep, out: Path) -> int:
+    from orchestration.sweep.results import SweepStore, write_doc, write_reports
+    from orchestration.sweep.runner import execute
+
     store = SweepStore(out)
     listener = _SweepListener(sweep, out, args.workers, args.scheduler)
     try:

@@ -4,6 +4,8 @@
   place once complete; on any error the temporary file is removed and the target is as it was.
 - ``OutputError``: an output that could not be written (full disk, file-size limit, read-only or
   vanished folder, ...), naming the path and the errno; the CLI prints it on one line, exit 1.
+- ``private_folder``: a folder under the temporary directory that only this user can reach (0700,
+  checked), for caches and scratch space whose content is then run or trusted.
 - ``PathLock``: an advisory lock (``fcntl.flock``) on an output path, so that two commands never
   write one recording or one sweep folder at once; the second gets a ``UsageError`` (exit 2).
 """
@@ -12,6 +14,8 @@ from __future__ import annotations
 import errno
 import fcntl
 import os
+import stat
+import tempfile
 from contextlib import contextmanager
 from pathlib import Path
 from typing import IO, Iterator
@@ -103,3 +107,20 @@ class PathLock:
 
     def __exit__(self, *exc) -> None:
         self.release()
+
+
+def private_folder(*parts: str) -> Path:
+    """``$TMPDIR/sotc-cosim-<uid>/<parts>``, created 0700; refused (``OutputError``, EPERM) if the
+    per-user root belongs to someone else or others can write or enter it."""
+    root = Path(tempfile.gettempdir()) / f"sotc-cosim-{os.getuid()}"
+    try:
+        root.mkdir(mode=0o700, exist_ok=True)
+        st = os.lstat(root)
+        if not stat.S_ISDIR(st.st_mode) or st.st_uid != os.getuid() or st.st_mode & 0o077:
+            raise OutputError(root, errno.EPERM, "not a private folder of this user (owner, or 0700 mode): "
+                                                 "remove it or set TMPDIR elsewhere")
+        folder = root.joinpath(*parts)
+        folder.mkdir(mode=0o700, parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OutputError.of(root, exc) from None
+    return folder

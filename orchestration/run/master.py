@@ -268,7 +268,8 @@ class _Session:
     """One run: the loaded instances, one sample buffer per instance, and how far the samples were
     recorded and handed to the observer."""
 
-    def __init__(self, scenario: Scenario, observer, block_size: int, keep_samples: bool):
+    def __init__(self, scenario: Scenario, observer, block_size: int, keep_samples: bool,
+                 temp_root: Path | None = None):
         self.scenario, self.observer, self.block_size, self.keep = scenario, observer, block_size, keep_samples
         self.logs: list[LogRecord] = []
         self.clock = _Clock()
@@ -277,7 +278,7 @@ class _Session:
         n_steps = scenario.steps
         self.rows = n_steps + 1 if keep_samples else min(block_size, n_steps + 1)  # rows held per instance
         self.times = np.arange(n_steps + 1, dtype=float) * scenario.step_size if keep_samples else None
-        self.workdir = Path(tempfile.mkdtemp(prefix="sotc_run_"))
+        self.workdir = Path(tempfile.mkdtemp(prefix="sotc_run_", dir=temp_root))
         self.loaded: dict[str, _Loaded] = {}
         self.records: dict[str, np.ndarray] = {}
         self.k = -1  # the sample being computed
@@ -381,6 +382,7 @@ def run(
     observer: RunObserver | Sequence[RunObserver] | None = None,
     block_size: int = 1000,
     keep_samples: bool = True,
+    temp_root: Path | None = None,
 ) -> RunResult:
     """Run ``scenario`` with the FMUs at ``fmu_paths`` (model identifier -> .fmu file).
 
@@ -390,13 +392,14 @@ def run(
     Instances are always freed. A ``ScenarioError`` (the scenario itself is wrong) is raised.
     ``observer`` (optional, one or a list) is handed the samples every ``block_size`` samples and at
     the end. ``keep_samples=False`` streams: the master then holds one block per instance, not the
-    run (memory bounded for any stop time), and the result carries no sample arrays.
+    run (memory bounded for any stop time), and the result carries no sample arrays. The FMUs are
+    unpacked in a temporary folder (under ``temp_root`` if given), removed when the run ends.
     """
     if block_size < 1:
         raise ScenarioError(f"block_size must be >= 1, got {block_size}")
     if observer is not None and not hasattr(observer, "block"):
         observer = _Fanout(observer)
-    session = _Session(scenario, observer, block_size, keep_samples)
+    session = _Session(scenario, observer, block_size, keep_samples, temp_root)
     error: str | None = None
     interrupted, observer_ok = False, True
     started = time.perf_counter()

@@ -15,13 +15,15 @@ from __future__ import annotations
 import csv
 import io
 import json
+import os
+import sys
 import time
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from orchestration.outputs import atomic_file, atomic_write
+from orchestration.outputs import OutputError, atomic_file, atomic_write
 from orchestration.markdown import number, replace_block, table
 from orchestration.sweep.spec import Axis, Sweep
 
@@ -31,6 +33,20 @@ TABLE_METRICS = (  # (column, summary key, joint index or None)
     ("tail_max_abs_e1", "max_abs_error_last_half", 0), ("tail_max_abs_e2", "max_abs_error_last_half", 1),
     ("max_norm_tau", "max_norm_tau", None), ("samples_over_limit", "samples_over_limit", None),
 )
+
+
+ROW_FIELDS = {"index": int, "key": str, "settings": dict, "status": str}  # what a stored point has at least
+
+
+def _stored_row(line: str) -> dict[str, Any] | None:
+    """The point stored on ``line``, or None for anything else."""
+    try:
+        row = json.loads(line)
+    except ValueError:
+        return None
+    if not isinstance(row, dict) or not all(isinstance(row.get(k), t) for k, t in ROW_FIELDS.items()):
+        return None
+    return row if row["status"] in ("ok", "failed") and len(row["key"]) == 64 else None
 
 
 def metric(row: dict[str, Any], key: str, joint: int | None = None) -> Any:
@@ -54,20 +70,38 @@ class SweepStore:
         self.jsonl = self.folder / "points.jsonl"
 
     def load(self) -> dict[str, dict[str, Any]]:
-        """Stored rows by key (the last line of a key wins; a torn last line is ignored)."""
+        """Stored rows by key (the last line of a key wins). A line that is not a stored point (torn by
+        a crash, edited, foreign) is reported on stderr and skipped, so that point runs again."""
         rows: dict[str, dict[str, Any]] = {}
+        self.skipped_lines: list[int] = []
         if self.jsonl.is_file():
-            for line in self.jsonl.read_text().splitlines():
-                try:
-                    row = json.loads(line)
-                except json.JSONDecodeError:
-                    continue
-                rows[row["key"]] = row
+            for number, line in enumerate(self.jsonl.read_text(errors="replace").splitlines(), start=1):
+                row = _stored_row(line)
+                if row is None:
+                    self.skipped_lines.append(number)
+                else:
+                    rows[row["key"]] = row
+        if self.skipped_lines:
+            print(f"sotc-cosim: {self.jsonl}: skipped {len(self.skipped_lines)} line(s) that are not stored points "
+                  f"(line {', '.join(map(str, self.skipped_lines[:5]))}); those points run again", file=sys.stderr)
         return rows
+
+    def _repair_tail(self) -> None:
+        """A last line without its newline (a crash while appending) gets one, so that the next row
+        starts on a line of its own."""
+        try:
+            with open(self.jsonl, "rb+") as f:
+                if f.seek(0, os.SEEK_END) and (f.seek(-1, os.SEEK_END), f.read(1))[1] != b"\n":
+                    f.write(b"\n")
+        except FileNotFoundError:
+            pass
+        except OSError as exc:
+            raise OutputError.of(self.jsonl, exc) from None
 
     def begin(self, sweep: Sweep, keys: list[str]) -> None:
         self.folder.mkdir(parents=True, exist_ok=True)
         self.sweep, self.keys = sweep, keys
+        self._repair_tail()
         self.stored = self.load()
         self.table_written = 0.0
 
@@ -82,9 +116,13 @@ class SweepStore:
             (self.folder / "points").mkdir(exist_ok=True)
             (self.folder / "points" / f"{short}.rrd").write_bytes(rrd)
             row["recording"] = f"points/{short}.rrd"
-        with open(self.jsonl, "a") as f:
-            f.write(json.dumps(row, sort_keys=True, allow_nan=False) + "\n")
-            f.flush()
+        try:
+            with open(self.jsonl, "a") as f:
+                f.write(json.dumps(row, sort_keys=True, allow_nan=False) + "\n")
+                f.flush()
+                os.fsync(f.fileno())
+        except OSError as exc:
+            raise OutputError.of(self.jsonl, exc) from None
         self.stored[row["key"]] = row
         if time.monotonic() - self.table_written > TABLE_INTERVAL_S:  # the table follows, at most once a second
             self.write_table()

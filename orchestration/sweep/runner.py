@@ -31,6 +31,7 @@ import hashlib
 import json
 import logging
 import os
+import shutil
 import signal
 import socket
 import tempfile
@@ -45,6 +46,7 @@ import numpy as np
 from distributed import WorkerPlugin
 
 from orchestration.fmu_build.build import ensure_built
+from orchestration.outputs import atomic_write, private_folder
 from orchestration.run import interrupt
 from orchestration.run.parameter_check import check_scenarios
 from orchestration.run.scenario import Scenario, ScenarioError
@@ -130,18 +132,21 @@ class PointGuard:
 
 
 def _fmu_cache(blobs: dict[str, tuple[str, bytes]]) -> dict[str, Path]:
-    """Write each FMU once per worker machine into a folder named by its digest."""
-    root = Path(tempfile.gettempdir()) / "sotc-cosim-fmus"
+    """Each FMU once per worker machine, in this user's private folder under its SHA-256 digest; a
+    file already there is run only if its content still has that digest (else it is written again)."""
+    root = private_folder("fmus")
     paths = {}
     for model, (digest, data) in blobs.items():
         target = root / digest / f"{model}.fmu"
-        if not target.is_file():
-            target.parent.mkdir(parents=True, exist_ok=True)
-            partial = target.with_suffix(f".{os.getpid()}.part")
-            partial.write_bytes(data)
-            os.replace(partial, target)
+        if not (target.is_file() and _sha256(target) == digest):
+            target.parent.mkdir(mode=0o700, exist_ok=True)
+            atomic_write(target, data)
         paths[model] = target
     return paths
+
+
+def _sha256(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
 def run_point(task: dict[str, Any], blobs: dict[str, tuple[str, bytes]]) -> dict[str, Any]:
@@ -155,19 +160,20 @@ def run_point(task: dict[str, Any], blobs: dict[str, tuple[str, bytes]]) -> dict
     stride = max(1, int(np.ceil((scenario.steps + 1) / TRACE_POINTS)))
     row: dict[str, Any] = {"index": point.index, "key": task["key"], "settings": point.settings,
                            "worker": f"{socket.gethostname()}:{os.getpid()}"}
-    rrd_file = Path(tempfile.mkdtemp(prefix="sotc_point_")) / "point.rrd" if task["record"] else None
+    scratch = Path(tempfile.mkdtemp(prefix="sotc_point_", dir=private_folder("scratch", task.get("scratch", "points"))))
+    rrd_file = scratch / "point.rrd" if task["record"] else None
     guard = None
     try:
         paths = _fmu_cache({m: blobs[m] for m in {i.fmu for i in scenario.instances.values()}})
         if rrd_file is None:
             guard = PointGuard(task["time_limit"], task["state_bound"], stride)
-            result = run(scenario, paths, observer=guard, block_size=GUARD_BLOCK)
+            result = run(scenario, paths, observer=guard, block_size=GUARD_BLOCK, temp_root=scratch)
         else:
             from orchestration.recording.writer import PointRecorder
 
             with PointRecorder(rrd_file, point.settings, task["key"]) as recorder:
                 guard = PointGuard(task["time_limit"], task["state_bound"], stride, recorder)
-                result = run(scenario, paths, observer=guard, block_size=GUARD_BLOCK)
+                result = run(scenario, paths, observer=guard, block_size=GUARD_BLOCK, temp_root=scratch)
         summary = summarize(result)
         reason = guard.reason or (result.error if result.failed else None)
     except Exception as exc:  # a refused scenario, an FMU that cannot load, a bug: this point fails
@@ -179,11 +185,9 @@ def run_point(task: dict[str, Any], blobs: dict[str, tuple[str, bytes]]) -> dict
     trace = np.concatenate(guard.trace) if guard is not None and guard.trace else np.empty((0, 3))
     row["trace"] = trace
     row["rrd"] = None
-    if rrd_file is not None:
-        if rrd_file.is_file():
-            row["rrd"] = rrd_file.read_bytes()
-        rrd_file.unlink(missing_ok=True)
-        rrd_file.parent.rmdir()
+    if rrd_file is not None and rrd_file.is_file():
+        row["rrd"] = rrd_file.read_bytes()
+    shutil.rmtree(scratch, ignore_errors=True)
     return row
 
 
@@ -258,12 +262,14 @@ def execute(
     if todo:
         client = cluster = None
         futures = []
+        scratch = f"{os.getpid()}-{time.time_ns()}"  # each point's temporary folders, removed at the end
         try:
             client, cluster = _client(scheduler, workers)
             from distributed import as_completed
 
             [shared] = client.scatter([blobs], broadcast=True, hash=False)
-            base = {"time_limit": sweep.time_limit, "state_bound": sweep.state_bound, "record": record}
+            base = {"time_limit": sweep.time_limit, "state_bound": sweep.state_bound, "record": record,
+                    "scratch": scratch}
             todo_by_key = {f"point-{p.index}-{k[:12]}-{os.getpid()}-{time.time_ns()}": (p, k) for p, k in todo}
             futures = [client.submit(run_point, {**base, "point": p, "key": k}, shared, pure=False, key=task_key)
                        for task_key, (p, k) in todo_by_key.items()]
@@ -285,6 +291,7 @@ def execute(
             outcome.interrupted = True
         finally:
             _shutdown(client, cluster, futures, outcome.interrupted)
+            shutil.rmtree(private_folder("scratch") / scratch, ignore_errors=True)  # a killed point's too
     outcome.rows = store.rows()
     outcome.failed = sum(r["status"] != "ok" for r in outcome.rows)
     return outcome
