@@ -40,6 +40,23 @@ def _check_state_value(name: str, value: Any, var: Real | Integer, check: Parame
         raise ValueError(f"{where} = {value!r} must be finite")
 
 
+def _shape_problem(template: Any, value: Any, path: str) -> str | None:
+    """How ``value`` differs in form from ``template`` (this instance's own internal state): a table
+    with other keys, or a number, flag or text of another type; None if it does not. Lists and
+    absent values (None) are left to the model's ``restore_internal_state``."""
+    if isinstance(template, dict):
+        if not isinstance(value, dict):
+            return f"'{path}' must be a table, got {type(value).__name__}"
+        if set(value) != set(template):
+            return f"'{path}' must hold exactly the keys {sorted(template)}, got {sorted(map(str, value))}"
+        return next((p for k in template if (p := _shape_problem(template[k], value[k], f"{path}.{k}"))), None)
+    if isinstance(template, bool) or isinstance(template, str):
+        return None if type(value) is type(template) else f"'{path}' = {value!r} must be a {type(template).__name__}"
+    if isinstance(template, (int, float)) and not _is_real(value):
+        return f"'{path}' = {value!r} must be a number"
+    return None
+
+
 def _first_nonfinite(tree: Any, path: str) -> str | None:
     """Path of the first non-finite number (or non-JSON value) in a JSON tree, or None."""
     if isinstance(tree, dict):
@@ -150,6 +167,9 @@ class FmuStateMixin:
         bad = _first_nonfinite(state["internal"], "internal")
         if bad:
             raise ValueError(f"FMU state field '{bad}' is not a finite number")
+        problem = _shape_problem(self.internal_state(), state["internal"], "internal")
+        if problem:
+            raise ValueError(f"FMU state field {problem}")
 
     def _get_fmu_state(self) -> dict[str, Any]:
         with self._guarded("fmi2GetFMUstate"):

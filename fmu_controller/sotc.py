@@ -31,7 +31,6 @@ import numpy as np
 from fmi_slave.parameters import (
     ParameterError,
     ParameterSpec,
-    any_real,
     nonnegative,
     positive,
 )
@@ -70,6 +69,8 @@ from fmu_plant.dynamics import (
 
 TANH1 = math.tanh(1.0)
 
+W0_BOUND = 1e8  # |W0_i| far beyond this (1e300) or r_i below 1e-6 overflow (28) at the first sample
+
 # Reading switches (integer-coded parameters); index 0 is the chosen reading, see docs/paper-notes.md.
 CHI_A_FORMS = ("backstepping", "literal")  # chi_vd^a = dphi_d - L1 z_phi | dphi_d + L1 z_v (as printed)
 FV_ERROR_FORMS = ("drift", "zero")  # F_v(z_phi, z_v) = -D(z_phi)^-1 (H(z) z_v + G(z_v)) (as printed) | 0
@@ -100,10 +101,10 @@ SOTC_PARAMETER_SPECS: tuple[ParameterSpec, ...] = (
     positive("theta_2", 1.0, "1", _THETA.format("z_phi2"), high=1e6),
     positive("theta_3", 1.0, "1", _THETA.format("z_v1"), high=1e6),
     positive("theta_4", 1.0, "1", _THETA.format("z_v2"), high=1e6),
-    positive("r_1", 1.0, "1", _R.format("chi_vd*1"), high=1e6),
-    positive("r_2", 1.0, "1", _R.format("chi_vd*2"), high=1e6),
-    positive("r_3", 1.0, "1", _R.format("tau*1"), high=1e6),
-    positive("r_4", 1.0, "1", _R.format("tau*2"), high=1e6),
+    ParameterSpec("r_1", 1.0, "1", _R.format("chi_vd*1"), low=1e-6, high=1e6),
+    ParameterSpec("r_2", 1.0, "1", _R.format("chi_vd*2"), low=1e-6, high=1e6),
+    ParameterSpec("r_3", 1.0, "1", _R.format("tau*1"), low=1e-6, high=1e6),
+    ParameterSpec("r_4", 1.0, "1", _R.format("tau*2"), low=1e-6, high=1e6),
     positive("alpha1", 50.0, "1/s", "Critic learning rate alpha_1 of the tuning laws (30)/(31); paper: 50", high=1e6),
     positive("alpha2", 0.01, "1/s", "Stabilising gain alpha_2 of the tuning law (31); paper: 0.01", high=1e6),
     # lower bounds 1e-6 N.m: below that 1/(2 sigma r) of (28) overflows for admissible r
@@ -114,7 +115,7 @@ SOTC_PARAMETER_SPECS: tuple[ParameterSpec, ...] = (
     ParameterSpec("P", 20.0, "1",
                   "Size P of the concurrent-learning stack, an integer >= 10 = number of weights; paper: 20",
                   low=10.0, high=1000.0),
-    *(any_real(f"W0_{k}", 0.0, "1", f"Initial critic weight W_{k}(0) of eq. (27); paper: 0")
+    *(ParameterSpec(f"W0_{k}", 0.0, "1", f"Initial critic weight W_{k}(0) of eq. (27); paper: 0", -W0_BOUND, W0_BOUND)
       for k in range(1, N_BASIS + 1)),
     nonnegative("pe_amplitude", 0.5, "N.m", "Gain of the section-4 probing signal PE (the paper's factor 0.5)",
                 high=1e3),
@@ -274,8 +275,12 @@ class SotcCore(ControllerCore):
             raise ValueError(f"state has {len(W)} weights, the SOTC critic has {N_BASIS}")
         self.stack.from_state(state["stack"])
         self.W = W
-        self.next_record_t = float(state["next_record_t"])
         prev = state.get("prev_chi")
+        if prev is not None and (not isinstance(prev, list) or len(prev) != 3):
+            raise ValueError(f"state prev_chi = {prev!r} must be null or [t, chi_vd1, chi_vd2]")
+        if isinstance(state["next_record_t"], bool):
+            raise ValueError(f"state next_record_t = {state['next_record_t']!r} must be a time in s")
+        self.next_record_t = float(state["next_record_t"])
         self.prev_chi = None if prev is None else [float(v) for v in prev]
         self._pending = None
         self._last_inputs = None

@@ -22,7 +22,7 @@ from orchestration.fmu_build.build import (
 from orchestration.paths import check_output_file, check_output_folder
 from orchestration.run import interrupt
 from orchestration.run.parameter_check import check_scenarios
-from orchestration.run.scenario import ScenarioError, available_scenarios, load_scenario
+from orchestration.run.scenario import MAX_STEPS, ScenarioError, available_scenarios, load_scenario
 
 DEFAULT_SCENARIO = "paper"
 MAX_BLOCK = 20_000  # samples per block handed to the recorder at most (about 12 MB of buffers for paper)
@@ -249,7 +249,7 @@ def _sweep_into(args: argparse.Namespace, sweep, out: Path) -> int:
         again += ["--record"] if args.record else []
         again += ["--stop-time", repr(args.stop_time)] if args.stop_time is not None else []
         print(f"interrupted: the {len(outcome.rows)} finished points are kept in {out}; resume with: "
-              f"{' '.join(again)}", file=sys.stderr)
+              f"{' '.join(again)}")
         return interrupt.exit_code()
     if args.doc:
         print(f"doc: {write_doc(store, outcome.total, args.doc)}")
@@ -262,13 +262,6 @@ def _fmu_files(names: list[str], fmu_dir: Path) -> list[Path]:
     unknown = [n for n in names if n not in FMU_SOURCES and not Path(n).is_file()]
     if unknown:
         raise BuildError(f"no FMU {unknown}: give a model ({', '.join(FMU_SOURCES)}) or a .fmu path")
-    from orchestration.compliance.validate import archive_problems
-
-    for name in names:
-        if name not in FMU_SOURCES:
-            problems = archive_problems(Path(name))
-            if problems:
-                raise BuildError(f"{name} is refused, nothing was extracted: {problems[0]}")
     built = ensure_built([n for n in names if n in FMU_SOURCES], fmu_dir)
     return [built[n] if n in FMU_SOURCES else Path(n) for n in names]
 
@@ -322,12 +315,13 @@ def _cmd_bench(args: argparse.Namespace) -> int:
 
 
 def _positive_int(text: str) -> int:
+    """A whole number from 1 to MAX_STEPS (the most steps a run may have: no count here needs more)."""
     try:
         value = int(text)
     except ValueError:
         value = 0
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number >= 1")
+    if not 1 <= value <= MAX_STEPS:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number from 1 to {MAX_STEPS}")
     return value
 
 

@@ -236,7 +236,7 @@ def bench_sweep(fmu_dir, points: int = 8, stop_time: float = 10.0, rounds: int =
     try:
         for workers in (1, 2):  # both clusters up (idle) before any timing; each warmed with a point per worker
             t0 = time.perf_counter()
-            clusters[workers] = _client(None, workers)
+            clusters[workers] = _client(None, workers, f"bench-{os.getpid()}")
             started[workers] = time.perf_counter() - t0
         shared = {}
         for workers, (client, _) in clusters.items():

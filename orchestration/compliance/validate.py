@@ -54,6 +54,8 @@ FREE_PARAMETERS: dict[str, str] = {
 # of PERTURBATIONS
 PROBE_STEPS = (0, 1, 10, 40)
 PERTURBATIONS = (0.05, -0.7, 3.0, -30.0)
+MAX_EXPANDED_BYTES = 256 * 1024 * 1024  # an FMU of ours expands to about 3 MB
+MAX_ENTRIES = 10_000
 CHECKS = ("archive", "fmpy", "fmutool", "units", "starts", "descriptions", "step", "ranges", "state", "standalone",
           "dependencies")
 
@@ -88,11 +90,19 @@ def _fmpy_problems(path: Path) -> list[str]:
 
 
 def archive_problems(path: Path) -> list[str]:
+    """What makes ``path`` unsafe to extract: not a zip, an entry leaving its folder, or more than
+    ``MAX_EXPANDED_BYTES`` or ``MAX_ENTRIES`` when expanded (a zip bomb). Read from the zip's
+    directory only: nothing is extracted."""
     try:
         with zipfile.ZipFile(path) as archive:
-            names = archive.namelist()
-    except (OSError, zipfile.BadZipFile) as exc:
+            infos = archive.infolist()
+    except (OSError, zipfile.BadZipFile, ValueError) as exc:
         return [f"not a readable zip archive: {exc}"]
+    names = [i.filename for i in infos]
+    expanded = sum(i.file_size for i in infos)
+    if expanded > MAX_EXPANDED_BYTES or len(infos) > MAX_ENTRIES:
+        return [f"expands to {expanded:,} bytes in {len(infos):,} entries; at most {MAX_EXPANDED_BYTES:,} bytes "
+                f"and {MAX_ENTRIES:,} entries are accepted (nothing was extracted)"]
     problems = []
     for name in names:
         parts = name.replace("\\", "/").split("/")
@@ -199,6 +209,20 @@ def _python_bundle(path: Path) -> dict[str, bytes]:
         return {n: z.read(n) for n in z.namelist() if n.startswith("resources/") and n.endswith(".py")}
 
 
+def _digest_problems(path: Path, stem: str) -> list[str]:
+    """The module names must carry the digest of the bundled content (one name, one content)."""
+    from orchestration.fmu_build.packaging import bundle_digest
+
+    model, _, named = stem.rpartition("_")
+    with zipfile.ZipFile(path) as z:
+        files = {n[len("resources/"):]: z.read(n) for n in z.namelist()
+                 if n.startswith("resources/") and not n.endswith("/") and not n.endswith("parameter_starts.json")}
+    actual = bundle_digest(files, stem, model.removeprefix("sotc_"))[:12]
+    if actual != named:
+        return [f"the bundled code has digest {actual}, but its module names say {named}: changed after the build"]
+    return []
+
+
 def _standalone_problems(path: Path) -> list[str]:
     import ast
     import sys
@@ -209,6 +233,7 @@ def _standalone_problems(path: Path) -> list[str]:
     stem = _slave_module(path)
     if not stem:
         return ["resources/slavemodule.txt is missing: not a pythonfmu FMU"]
+    problems = _digest_problems(path, stem)
     lib = f"{stem}_lib"
     with zipfile.ZipFile(path) as z:
         try:
@@ -216,7 +241,6 @@ def _standalone_problems(path: Path) -> list[str]:
         except KeyError:
             return ["resources/requirements.txt is missing: a host cannot tell what to install"]
     allowed = {lib, "__future__"} | {parse_requirement(r)[0].lower().replace("-", "_") for r in requirements}
-    problems = []
     for name, text in sorted(_python_bundle(path).items()):
         if name != f"resources/{stem}.py" and not name.startswith(f"resources/{lib}/"):
             problems.append(f"{name} lies outside {stem}.py and {lib}/: another FMU may bring the same module name")

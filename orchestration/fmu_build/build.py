@@ -22,6 +22,7 @@ from pathlib import Path
 
 from fmu_controller.catalog import CONTROLLERS
 from orchestration.outputs import atomic_write
+from orchestration.paths import OutputPathError, check_output_folder
 from orchestration.fmu_build import packaging
 
 DEFAULT_FMU_DIR = Path("build") / "fmus"
@@ -74,13 +75,19 @@ def fmu_path(model: str, out_dir: Path) -> Path:
     return Path(out_dir) / f"{model}.fmu"
 
 
+def file_digest(path: Path) -> str:
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
 def is_current(model: str, out_dir: Path) -> bool:
-    stamp = Path(out_dir) / f"{model}.sources.sha256"
-    return (
-        fmu_path(model, out_dir).is_file()
-        and stamp.is_file()
-        and stamp.read_text().strip() == source_digest(FMU_SOURCES[model])
-    )
+    """The FMU is there, built from today's sources, and its bytes are the ones that build wrote (the
+    stamp holds both digests): a truncated, corrupt or replaced FMU is built again."""
+    stamp, fmu = Path(out_dir) / f"{model}.sources.sha256", fmu_path(model, out_dir)
+    try:
+        lines = stamp.read_text().split()
+        return fmu.is_file() and lines == [source_digest(FMU_SOURCES[model]), file_digest(fmu)]
+    except OSError:
+        return False
 
 
 def _build_one(source: FmuSource, out_dir: Path) -> Path:
@@ -89,8 +96,8 @@ def _build_one(source: FmuSource, out_dir: Path) -> Path:
         digest = source_digest(source)
         built = packaging.package_fmu(
             source.model, PACKAGE_ROOT / source.script, {pkg: PACKAGE_ROOT / pkg for pkg in source.packages},
-            [PACKAGE_ROOT / e for e in source.equations], digest, fmu_path(source.model, out_dir), Path(tmp))
-    atomic_write(out_dir / f"{source.model}.sources.sha256", digest + "\n")
+            [PACKAGE_ROOT / e for e in source.equations], fmu_path(source.model, out_dir), Path(tmp))
+    atomic_write(out_dir / f"{source.model}.sources.sha256", f"{digest}\n{file_digest(built)}\n")
     return built
 
 
@@ -101,11 +108,20 @@ def build_fmus(models: list[str] | None = None, out_dir: Path = DEFAULT_FMU_DIR)
     if unknown:
         raise BuildError(f"unknown FMU {unknown}; known: {', '.join(FMU_SOURCES)}")
     out_dir = Path(out_dir)
+    try:
+        check_output_folder(out_dir, "the FMU folder")
+    except OutputPathError as exc:
+        raise BuildError(f"{', '.join(models)} must be built: {exc}") from None
+    occupied = [str(fmu_path(m, out_dir)) for m in models if fmu_path(m, out_dir).exists()
+                and not fmu_path(m, out_dir).is_file()]
+    if occupied:
+        raise BuildError(f"{', '.join(occupied)}: not a file where the FMU goes; remove it")
     out_dir.mkdir(parents=True, exist_ok=True)
     cmd = [sys.executable, "-m", "orchestration.fmu_build.build", "--out", str(out_dir.resolve()), *models]
     proc = subprocess.run(cmd, capture_output=True, text=True, cwd=str(PACKAGE_ROOT))
-    if proc.returncode != 0:
-        raise BuildError(f"building {models} failed:\n{proc.stdout}\n{proc.stderr}")
+    if proc.returncode != 0:  # the child's last line says why (its whole output would be a traceback)
+        last = next((line for line in reversed(proc.stderr.splitlines()) if line.strip()), "no message")
+        raise BuildError(f"building {', '.join(models)} in {out_dir} failed: {last.strip()}")
     return [fmu_path(m, out_dir) for m in models]
 
 

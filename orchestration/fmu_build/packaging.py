@@ -25,6 +25,7 @@ exactly the code that ships; the binary is pythonfmu's, renamed to the modelIden
 from __future__ import annotations
 
 import ast
+import hashlib
 import html
 import importlib
 import importlib.metadata
@@ -39,6 +40,7 @@ from xml.dom.minidom import parseString
 from xml.etree.ElementTree import Element, tostring
 
 from fmi_slave.host_check import parse_requirement
+from orchestration.outputs import atomic_file
 
 BUNDLED = ("fmi_slave", "fmu_plant", "fmu_controller", "pythonfmu")  # top-level packages renamed into <stem>_lib
 DISTRIBUTION = "sotc-cosim"
@@ -53,6 +55,35 @@ class PackagingError(RuntimeError):
 
 def bundle_stem(model: str, digest: str) -> str:
     return f"sotc_{model}_{digest[:12]}"
+
+
+PLACEHOLDER_DIGEST = "0" * 12  # the stem while staging: the real one is named by the staged content
+
+
+def bundle_digest(files: dict[str, bytes], stem: str, model: str) -> str:
+    """SHA-256 of a bundle (path under resources/ -> bytes) with its own stem written as the
+    placeholder stem: the digest a bundle's module names must carry (``bundle_stem``), so that one
+    module name always stands for one content, whichever FMU brings it first into a process."""
+    neutral = bundle_stem(model, PLACEHOLDER_DIGEST).encode()
+    h = hashlib.sha256()
+    for name in sorted(files, key=lambda n: n.replace(stem, "")):
+        h.update(name.replace(stem, neutral.decode()).encode() + b"\0")
+        h.update(files[name].replace(stem.encode(), neutral) + b"\0")
+    return h.hexdigest()
+
+
+def bundled_files(resources: Path) -> dict[str, bytes]:
+    """What ``bundle_digest`` covers: every staged file but the parameter starts of a copy."""
+    return {f.relative_to(resources).as_posix(): f.read_bytes() for f in sorted(resources.rglob("*"))
+            if f.is_file() and "__pycache__" not in f.parts and f.name != "parameter_starts.json"}
+
+
+def _rename_bundle(resources: Path, old: str, new: str) -> None:
+    for f in sorted(resources.rglob("*"), key=lambda p: len(p.parts), reverse=True):
+        if f.is_file():
+            f.write_bytes(f.read_bytes().replace(old.encode(), new.encode()))
+        if old in f.name:
+            f.rename(f.with_name(f.name.replace(old, new)))
 
 
 def _pythonfmu_folder() -> Path:
@@ -256,24 +287,25 @@ def documentation_html(model: str, xml: Element, equations: list[str], requireme
 
 def write_fmu(dest_file: Path, model: str, resources: Path, xml: Element, documentation: str) -> None:
     """Zip the FMU: modelDescription, pythonfmu's binaries renamed to the model, resources, docs."""
-    tmp = dest_file.with_suffix(".fmu.part")
-    with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as z:
+    with atomic_file(dest_file, "wb") as f, zipfile.ZipFile(f, "w", zipfile.ZIP_DEFLATED) as z:
         z.writestr("modelDescription.xml", parseString(tostring(xml, "UTF-8")).toprettyxml(encoding="UTF-8"))
         for binary, platform in pythonfmu_binaries():
             z.write(binary, f"binaries/{platform}/{model}{binary.suffix}")
-        for f in sorted(resources.rglob("*")):
-            if f.is_file() and "__pycache__" not in f.parts:
-                z.write(f, f"resources/{f.relative_to(resources).as_posix()}")
+        for item in sorted(resources.rglob("*")):
+            if item.is_file() and "__pycache__" not in item.parts:
+                z.write(item, f"resources/{item.relative_to(resources).as_posix()}")
         z.writestr("documentation/index.html", documentation)
-    tmp.replace(dest_file)
 
 
-def package_fmu(model: str, script: Path, packages: dict[str, Path], equations: list[Path], digest: str,
+def package_fmu(model: str, script: Path, packages: dict[str, Path], equations: list[Path],
                 dest_file: Path, workdir: Path) -> Path:
-    """Stage, describe and zip one FMU into ``dest_file``."""
-    stem = bundle_stem(model, digest)
+    """Stage, describe and zip one FMU into ``dest_file``. The bundle's module names carry the digest
+    of its own content (``bundle_digest``)."""
     resources = workdir / "resources"
-    requirements = stage(model, script, packages, stem, resources)
+    placeholder = bundle_stem(model, PLACEHOLDER_DIGEST)
+    requirements = stage(model, script, packages, placeholder, resources)
+    stem = bundle_stem(model, bundle_digest(bundled_files(resources), placeholder, model))
+    _rename_bundle(resources, placeholder, stem)
     xml = model_description(resources, stem, model)
     docs = [ast.get_docstring(ast.parse(p.read_text())) or "" for p in [script, *equations]]
     write_fmu(dest_file, model, resources, xml, documentation_html(model, xml, docs, requirements))

@@ -24,8 +24,12 @@ def _model_description(path: str, mtime_ns: int):
 
 
 def model_description(fmu: Path):
-    """The modelDescription of ``fmu`` (cached while the file is unchanged)."""
-    return _model_description(str(fmu), Path(fmu).stat().st_mtime_ns)
+    """The modelDescription of ``fmu`` (cached while the file is unchanged); ``ScenarioError`` if it
+    is no readable FMU."""
+    try:
+        return _model_description(str(fmu), Path(fmu).stat().st_mtime_ns)
+    except Exception as exc:  # fmpy raises zip, XML and its own errors alike
+        raise ScenarioError(f"{fmu}: not a readable FMU ({type(exc).__name__}: {exc})") from None
 
 
 def parameter_problem(md, name: str, value: float, check_range: bool = True) -> str | None:

@@ -217,7 +217,9 @@ class SweepOutcome:
     rows: list[dict[str, Any]] = field(default_factory=list)  # every stored row of this sweep, by index
 
 
-def _client(scheduler: str | None, workers: int | None):
+def _client(scheduler: str | None, workers: int | None, scratch: str):
+    """A client of the scheduler at ``scheduler``, or of a local cluster whose workers keep their
+    files in this sweep's private scratch folder (removed with it)."""
     from distributed import Client, LocalCluster
 
     if scheduler:
@@ -228,8 +230,12 @@ def _client(scheduler: str | None, workers: int | None):
         except (ValueError, TypeError) as exc:  # not an address: no port, a bad port, an unknown protocol
             raise ScenarioError(f"--scheduler {scheduler}: not a Dask scheduler address such as tcp://host:8786 "
                                 f"({exc})") from None
+    import dask
+
+    files = str(private_folder("scratch", scratch, "dask"))
+    dask.config.set({"temporary-directory": files})  # the scheduler's and workers' lock files go there too
     cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
-                           dashboard_address=None, silence_logs=logging.ERROR)
+                           dashboard_address=None, silence_logs=logging.ERROR, local_directory=files)
     client = Client(cluster)
     client.register_plugin(IgnoreSigint())
     return client, cluster
@@ -263,8 +269,9 @@ def execute(
         client = cluster = None
         futures = []
         scratch = f"{os.getpid()}-{time.time_ns()}"  # each point's temporary folders, removed at the end
+        private_folder("fmus")  # a cache folder others could write in is refused here, before any point
         try:
-            client, cluster = _client(scheduler, workers)
+            client, cluster = _client(scheduler, workers, scratch)
             from distributed import as_completed
 
             [shared] = client.scatter([blobs], broadcast=True, hash=False)

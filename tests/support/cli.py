@@ -1,0 +1,69 @@
+"""Run the installed ``sotc-cosim`` console script in a child process, as a user or a batch system
+would, and read what it said."""
+from __future__ import annotations
+
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+SCRIPT = shutil.which("sotc-cosim", path=str(Path(sys.executable).parent)) or "sotc-cosim"
+TIME_LIMIT = 240  # s: a child still running then has hung, and the test fails
+
+
+def env_for(cwd: Path) -> dict[str, str]:
+    """The environment with TMPDIR in ``cwd/tmp``, so a test can see what a command leaves there."""
+    (cwd / "tmp").mkdir(parents=True, exist_ok=True)
+    return {**os.environ, "TMPDIR": str(cwd / "tmp")}
+
+
+def leftovers(cwd: Path) -> list[str]:
+    """What is in the command's TMPDIR now, but the private FMU cache (kept on purpose)."""
+    tmp = cwd / "tmp"
+    return sorted(str(p.relative_to(tmp)) for p in tmp.rglob("*")
+                  if "fmus" not in p.relative_to(tmp).parts and not p.is_dir())
+
+
+def run(args: list[str], cwd: Path, limit_bytes: int | None = None, timeout: float = TIME_LIMIT):
+    """``sotc-cosim ARGS`` in ``cwd``; ``limit_bytes`` sets RLIMIT_FSIZE (a file-size limit) first."""
+    def limit() -> None:
+        import resource
+
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit_bytes, limit_bytes))
+
+    return subprocess.run([SCRIPT, *args], cwd=cwd, capture_output=True, text=True, timeout=timeout,
+                          preexec_fn=limit if limit_bytes else None, env=env_for(cwd))
+
+
+def start(args: list[str], cwd: Path) -> subprocess.Popen:
+    return subprocess.Popen([SCRIPT, *args], cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            env=env_for(cwd))
+
+
+def signal_when(proc: subprocess.Popen, ready, signum: int, timeout: float = TIME_LIMIT) -> tuple[int, str, str]:
+    """Send ``signum`` once ``ready()`` is true (polled), then wait; return (exit code, stdout, stderr)."""
+    deadline = time.monotonic() + timeout
+    while not ready() and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.05)
+    if proc.poll() is None:
+        proc.send_signal(signum)
+    out, err = proc.communicate(timeout=timeout)
+    return proc.returncode, out, err
+
+
+def one_line(err: str) -> str:
+    """The single line a refused or failed command prints on stderr (no traceback)."""
+    lines = [line for line in err.strip().splitlines() if line.strip()]
+    assert len(lines) == 1 and "Traceback" not in err, err
+    return lines[0]
+
+
+def exit_code_of(signum: int) -> int:
+    return 128 + signum
+
+
+SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+
