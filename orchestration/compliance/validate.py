@@ -373,7 +373,7 @@ def validate_fmus(paths: list[Path]) -> ValidationReport:
     set_problems = []
     seen: dict[str, tuple[Path, dict[str, bytes]]] = {}
     for r in reports:
-        stem = _slave_module(r.path)
+        stem = None if r.problems["archive"] else _slave_module(r.path)
         if stem is None:
             continue
         bundle = _python_bundle(r.path)

@@ -30,7 +30,8 @@ ALLOWED = {
     "orchestration/reports": {"fmu_plant", "fmu_controller", "orchestration", "orchestration/run",
                               "orchestration/study", "orchestration/sweep", "orchestration/bench"},
 }
-BASE = {"orchestration.paths", "orchestration.progress", "orchestration.markdown", "orchestration.exit_codes"}
+BASE = {"orchestration.paths", "orchestration.progress", "orchestration.markdown", "orchestration.exit_codes",
+        "orchestration.outputs"}
 ARM_MODEL = {"fmu_plant.dynamics", "fmu_plant.kinematics", "fmu_plant.trajectory"}
 CORE_FOLDERS = ("fmi_slave", "fmu_plant", "fmu_controller")
 MAX_MODULE_LINES = 500

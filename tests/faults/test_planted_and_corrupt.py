@@ -58,7 +58,7 @@ def test_resume_skips_foreign_and_torn_lines_and_reruns_those_points(fmu_dir, tm
     lines = jsonl.read_text().splitlines()
     parsed = [line for line in lines if line.startswith("{") and line.endswith("}")]
     assert len(lines) == 4 and len({json.loads(line).get("key") for line in parsed[-2:]}) >= 1
-    assert len(jsonl.read_text().splitlines()[-1]) == len(second)  # the rerun point starts its own line
+    assert json.loads(lines[-1])["key"] == json.loads(second)["key"]  # the rerun point starts its own line
 
 
 def _copy_with(src: Path, dst: Path, change) -> Path:
@@ -125,3 +125,25 @@ def test_a_restored_sotc_state_of_the_wrong_form_is_refused_naming_the_field(fie
         assert field in unit.logged()
     finally:
         unit.free()
+
+
+@pytest.mark.parametrize("damage", ["garbage", "truncated", "folder"])
+def test_a_damaged_fmu_in_the_fmu_folder_is_built_again_or_refused(damage, fmu_dir, tmp_path):
+    fmus = tmp_path / "fmus"
+    fmus.mkdir()
+    for f in fmu_dir.iterdir():
+        (fmus / f.name).write_bytes(f.read_bytes())
+    target = fmus / "ReferenceTrajectory.fmu"
+    if damage == "folder":
+        target.unlink()
+        target.mkdir()
+    else:
+        target.write_bytes(b"garbage" if damage == "garbage" else (fmu_dir / target.name).read_bytes()[:3000])
+    proc = run(["run", "paper", "--stop-time", "0.5", "--no-recording", "--fmu-dir", str(fmus)], tmp_path)
+    if damage == "folder":
+        assert proc.returncode == 2
+        assert "not a file where the FMU goes" in one_line(proc.stderr)
+        assert not list(fmus.glob("*.part"))
+    else:
+        assert proc.returncode == 0, proc.stderr
+        assert zipfile.is_zipfile(target)

@@ -68,7 +68,7 @@ def test_sweep_interrupt_resume_determinism_and_recordings(fmu_dir, tmp_path):
     assert proc.returncode == 130, (out, err)
     kept = _lines(first / "points.jsonl")
     assert 2 <= len(kept) < 6
-    assert f"resume with: sotc-cosim sweep {tmp_path / 'tiny.toml'} --out {first}" in err
+    assert f"resume with: sotc-cosim sweep {tmp_path / 'tiny.toml'} --out {first}" in out
     assert "Traceback" not in err
     assert all(json.loads(line)["index"] != 1 for line in kept)  # the time-limited point was still running
 

@@ -113,7 +113,11 @@ def test_a_sweep_over_controllers_reuses_one_worker_process(shipped, shipped_fmu
 
 
 def _grown(path: Path, size: int):
-    return lambda: path.is_file() and path.stat().st_size > size
+    """True once the recording being written (``.<name>.<pid>.part`` until it is closed) has > size bytes."""
+    def ready() -> bool:
+        files = [path, *path.parent.glob(f".{path.name}.*.part")]
+        return any(f.is_file() and f.stat().st_size > size for f in files)
+    return ready
 
 
 @pytest.mark.parametrize("after_bytes", [1, 2_000_000])
