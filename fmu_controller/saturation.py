@@ -46,23 +46,42 @@ def limit_handling_spec(default: int, what: str) -> ParameterSpec:
 
 # shrink_into_disc: candidate factors k_i = 1 - 2^(i - 53), i = 0 .. 53 (k_53 = 0 always fits)
 SHRINK_STEPS = 54
+# in_disc: below this fraction of the bound no rounded norm can exceed it (they err by a few ulps)
+CLEARLY_INSIDE = 1.0 - 2.0**-40
 # accel_projection: bisection steps on the multiplier (halves the bracket each time; 200 >> 2 * 53)
 PROJECTION_BISECTIONS = 200
 
 
+def in_disc(v1: float, v2: float, bound: float) -> bool:
+    """v1^2 + v2^2 <= bound^2 evaluated exactly (integer arithmetic on the floats' exact values), and the
+    two rounded forms ``math.hypot(v1, v2)`` and ``sqrt(v1*v1 + v2*v2)`` (also ``np.linalg.norm``'s) <=
+    bound: then every norm a host computes, a correctly rounded ``hypot`` such as C's and numpy's
+    included, is <= bound as well. A test of
+    ``math.hypot`` alone let numpy's ``hypot`` report 4.000000000000001 for a torque limited to 4."""
+    h = math.hypot(v1, v2)
+    if h <= bound * CLEARLY_INSIDE:  # every rounded norm is within a few ulps of the exact one
+        return True
+    if not (h <= bound and math.sqrt(v1 * v1 + v2 * v2) <= bound):
+        return False
+    (n1, d1), (n2, d2), (nb, db) = v1.as_integer_ratio(), v2.as_integer_ratio(), bound.as_integer_ratio()
+    d = max(d1, d2, db)  # powers of two: each divides the largest
+    a, b, c = n1 * (d // d1), n2 * (d // d2), nb * (d // db)
+    return a * a + b * b <= c * c
+
+
 def shrink_into_disc(v1: float, v2: float, bound: float) -> tuple[float, float]:
     """(k v1, k v2) with k = 1 - 2^(i - 53) for the smallest i in 0 .. 53 such that
-    ``math.hypot(k v1, k v2) <= bound`` (k = 1 if it already holds): removes the rounding that can
-    leave a vector scaled onto the circle a hair outside it. For a normal vector a few ulps out, the
-    first or second candidate fits (the k of one ulp, as a one-ulp walk would give); where one-ulp
-    steps cannot move the product (subnormal entries), the doubling step still ends within
-    ``SHRINK_STEPS`` tries, at k = 0 at the latest (bound >= 0)."""
-    if math.hypot(v1, v2) <= bound:
+    ``in_disc(k v1, k v2, bound)`` (k = 1 if it already holds): removes the rounding that can leave a
+    vector scaled onto the circle a hair outside it. For a normal vector a few ulps out, the first or
+    second candidate fits (the k of one ulp, as a one-ulp walk would give); where one-ulp steps cannot
+    move the product (subnormal entries), the doubling step still ends within ``SHRINK_STEPS`` tries,
+    at k = 0 at the latest (bound >= 0)."""
+    if in_disc(v1, v2, bound):
         return v1, v2
     k = 0.0
     for i in range(SHRINK_STEPS):
         k = 1.0 - math.ldexp(1.0, i - 53)
-        if math.hypot(v1 * k, v2 * k) <= bound:
+        if in_disc(v1 * k, v2 * k, bound):
             break
     return v1 * k, v2 * k
 
@@ -70,14 +89,13 @@ def shrink_into_disc(v1: float, v2: float, bound: float) -> tuple[float, float]:
 def saturate_norm(v1: float, v2: float, bound: float) -> tuple[float, float, float, bool]:
     """Scale (v1, v2) down to Euclidean norm ``bound`` if it is larger (direction kept).
 
-    Returns (v1', v2', norm of the input, saturated); the result satisfies
-    ``math.hypot(v1', v2') <= bound`` exactly."""
+    Returns (v1', v2', norm of the input, saturated); the result satisfies ``in_disc(v1', v2', bound)``."""
     norm = math.hypot(v1, v2)
-    if norm > bound:
-        k = bound / norm
-        s1, s2 = shrink_into_disc(v1 * k, v2 * k, bound)
-        return s1, s2, norm, True
-    return v1, v2, norm, False
+    if in_disc(v1, v2, bound):
+        return v1, v2, norm, False
+    k = bound / norm if norm > bound else 1.0  # (at norm == bound a rounded norm can still exceed it)
+    s1, s2 = shrink_into_disc(v1 * k, v2 * k, bound)
+    return s1, s2, norm, True
 
 
 def clip_box(v1: float, v2: float, bound: float) -> tuple[float, float, bool]:
@@ -109,7 +127,7 @@ def accel_projection(
     to their design. In D's eigenbasis the KKT system is diagonal; l is found by bisection
     (||tau(l)|| decreases with l), at most ``PROJECTION_BISECTIONS`` steps."""
     n = math.hypot(t1, t2)
-    if n <= bound:
+    if in_disc(t1, t2, bound):
         return t1, t2, False
     half_tr, half_diff = 0.5 * (d11 + d22), 0.5 * (d11 - d22)
     rad = math.hypot(half_diff, d12)

@@ -20,6 +20,27 @@ from fmu_controller.sotc import SotcCore
 D = (3.957, 0.438, 0.196)  # inertia entries (D11, D12, D22) at phi2 = 0 (paper's constants)
 
 
+def _norms(c1: float, c2: float) -> list[float]:
+    """Every way a host computes ||tau||: numpy's and C's hypot, np.linalg.norm, the plain formula, Python's."""
+    return [float(np.hypot(c1, c2)), float(np.linalg.norm([c1, c2])), math.sqrt(c1 * c1 + c2 * c2), math.hypot(c1, c2)]
+
+
+@pytest.mark.parametrize("code", range(3))
+def test_every_limited_torque_is_within_rho_by_every_norm_a_host_computes(code):
+    """Property: random directions and magnitudes just above, far above and at exact multiples of rho
+    (and rho itself drawn over decades): every norm of the result is <= rho in floating point. Before
+    the exact disc test, numpy's hypot reported 4.000000000000001 for LQR under radial."""
+    g = np.random.default_rng(100 + code)
+    over = 0
+    for i in range(30_000):
+        rho = 4.0 if i % 2 else float(10 ** g.uniform(-3, 3))
+        ang = g.uniform(0, 2 * np.pi)
+        mag = (rho * (1 + g.uniform(0, 1e-9)), rho * g.uniform(1, 100), rho * int(g.integers(1, 60)), rho)[i % 4]
+        c1, c2, _ = limit_torque(code, mag * math.cos(ang), mag * math.sin(ang), rho, *D)
+        over += any(n > rho for n in _norms(c1, c2))
+    assert over == 0
+
+
 @pytest.mark.parametrize("code", range(3))
 def test_every_handling_lands_in_the_disc_and_leaves_small_vectors_alone(code):
     g = np.random.default_rng(code)
