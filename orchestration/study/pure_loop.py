@@ -3,10 +3,15 @@
 Per step k (t_k = k T, computed from the step count, never by summing T):
 
 1. sample the reference r(t_k);
-2. controller.evaluate(t_k, y(t_k), r(t_k)) -> torque (direct feedthrough);
-3. record sample k;
-4. plant: RK4 (``dynamics.integrate``) over [t_k, t_k + T) with the torque held (zero-order hold);
+2. controller.evaluate(t_k, y_m(t_k), r(t_k)) -> torque (direct feedthrough), where y_m = y plus the
+   measurement noise of draw k (``fmu_plant.perturbation.NoiseSequence``, the MeasurementNoise FMU's);
+3. record sample k (the true y);
+4. plant: RK4 (``dynamics.integrate``) over [t_k, t_k + T) with tau + d(t_k) held (zero-order hold;
+   d = ``perturbation.disturbance_torque``, the Disturbance FMU's);
 5. controller.advance(t_k, T) (learning over the same interval).
+
+With a plant ``arm`` other than the controller's model, a disturbance and noise, this is the
+``paper-perturbed`` scenario through the FMUs (tests/orchestration/test_pure_loop_perturbed.py).
 
 Samples are recorded at t_0 .. t_N inclusive (N = stop_time / T; 10,001 samples for 100 s at
 T = 0.01 s); at t_N the controller is evaluated and recorded but neither the plant nor the
@@ -20,8 +25,37 @@ import numpy as np
 
 from fmu_controller.base import ControllerCore
 from fmu_plant.dynamics import ArmParameters, integrate
+from fmu_plant.perturbation import NoiseSequence, disturbance_torque
 from fmu_plant.trajectory import CircleTrajectory
 from orchestration.run.metrics import tracking_metrics
+
+
+@dataclass(frozen=True)
+class Perturbation:
+    """The Disturbance and MeasurementNoise FMUs' parameters (their defaults: no perturbation)."""
+
+    step1: float = 0.0
+    step2: float = 0.0
+    step_time: float = 0.0
+    sin1: float = 0.0
+    sin2: float = 0.0
+    omega: float = 1.0
+    std_phi: float = 0.0
+    std_dphi: float = 0.0
+    seed: int = 0
+
+    def disturbance(self, t: float) -> tuple[float, float]:
+        return disturbance_torque(t, self.step1, self.step2, self.step_time, self.sin1, self.sin2, self.omega)
+
+    def measure(self, state: tuple[float, float, float, float], noise: NoiseSequence, k: int) -> tuple[float, ...]:
+        if self.std_phi == 0.0 and self.std_dphi == 0.0:
+            return state
+        draw = noise.at(k)
+        std = (self.std_phi, self.std_phi, self.std_dphi, self.std_dphi)
+        return tuple(x + s * float(n) for x, s, n in zip(state, std, draw))
+
+
+NO_PERTURBATION = Perturbation()
 
 
 @dataclass
@@ -57,6 +91,7 @@ def simulate(
     phi0: tuple[float, float] = (0.5, -0.5),
     dphi0: tuple[float, float] = (0.0, 0.0),
     substeps: int = 4,
+    perturbation: Perturbation = NO_PERTURBATION,
 ) -> LoopResult:
     """Run the sampled zero-order-hold loop (see module docstring) and return the recording."""
     arm = arm if arm is not None else ArmParameters()
@@ -70,10 +105,11 @@ def simulate(
     refs = np.empty((n + 1, 8))
     outs = np.empty((n + 1, len(names)))
     state = (float(phi0[0]), float(phi0[1]), float(dphi0[0]), float(dphi0[1]))
+    noise = NoiseSequence(perturbation.seed)
     for k in range(n + 1):
         t = k * step
         ref = trajectory.sample(t)
-        controller_core.evaluate(t, state, ref[:6])
+        controller_core.evaluate(t, perturbation.measure(state, noise, k), ref[:6])
         out = controller_core.outputs
         ts[k] = t
         ys[k] = state
@@ -81,7 +117,8 @@ def simulate(
         outs[k] = out
         if k == n:
             break
-        state = integrate(state, out[0], out[1], step, substeps, arm)
+        d1, d2 = perturbation.disturbance(t)
+        state = integrate(state, out[0] + d1, out[1] + d2, step, substeps, arm)
         controller_core.advance(t, step)
     return LoopResult(ts, ys, refs, outs, names)
 
