@@ -6,8 +6,9 @@ Runs are cached per process: several generated tables share them (``orchestratio
 
 Fair comparison: each controller is run under each handling of
 ``fmu_controller.saturation`` (SOTC: of its feedforward under (5), then the actuator limit; CT, LQR:
-of the computed torque; OTC: unclipped as in the paper, and clipped by each handling), and the
-baselines get the same small tuning search under each handling (``TUNING_GRIDS``).
+of the computed torque; OTC: unclipped as in the paper, and clipped by each handling), and every
+controller, the SOTC included, gets the same tuning protocol under each handling
+(``orchestration.study.tuning``); ``orchestration.study.fair`` judges them on points the tuning never saw.
 """
 from __future__ import annotations
 
@@ -22,18 +23,10 @@ from fmu_plant.dynamics import TORQUE_LIMIT
 from orchestration.run.metrics import limit_active, tracking_metrics
 from orchestration.run.scenario import load_scenario
 from orchestration.study.pure_loop import LoopResult, simulate
+from orchestration.study.tuning import NOMINAL_SCENARIO, best_design, tuned_parameters
 
 # (scenario, handlings to run): the scenario's own default first
 COMPARED = (("paper", (2, 0, 1)), ("paper-ct", (0, 1, 2)), ("paper-lqr", (0, 1, 2)), ("paper-otc", (3, 0, 1, 2)))
-# the tuning search, the same size for both baselines; the first point is the paper-like nominal
-# (CT: kp = kd = 2, the error dynamics of Lambda = I; LQR: Theta = I4, r = 1, the SOTC's weights)
-TUNING_GRIDS = {
-    "paper-ct": ({"kp": 2.0, "kd": 2.0}, {"kp": 4.0, "kd": 4.0}, {"kp": 9.0, "kd": 6.0}, {"kp": 25.0, "kd": 10.0},
-                 {"kp": 100.0, "kd": 20.0}, {"kp": 400.0, "kd": 40.0}),
-    "paper-lqr": ({"q": 1.0, "r": 1.0}, {"q": 1.0, "r": 0.1}, {"q": 1.0, "r": 0.01}, {"q": 1.0, "r": 0.0016},
-                  {"q": 10.0, "r": 1.0}, {"q": 100.0, "r": 0.01}),
-}
-
 # the OTC reconstruction's sensitivity (docs/baselines.md 3.4), each a change of the paper-otc defaults
 OTC_VARIANTS: tuple[tuple[str, dict[str, float]], ...] = (
     ("defaults", {}),
@@ -66,16 +59,32 @@ def controller_of(scenario: str, **overrides: float) -> tuple[str, dict[str, flo
 
 
 @functools.lru_cache(maxsize=None)
-def _cached(fmu: str, params: tuple[tuple[str, float], ...], stop_time: float) -> dict[str, Any]:
+def _cached(fmu: str, params: tuple[tuple[str, float], ...], stop_time: float, substeps: int) -> dict[str, Any]:
     p = dict(params)
     limit = float(p.get("rho", TORQUE_LIMIT))
-    return loop_metrics(simulate(CORES[fmu](**p), stop_time=stop_time), limit)
+    return loop_metrics(simulate(CORES[fmu](**p), stop_time=stop_time, substeps=substeps), limit)
 
 
-def run_metrics(scenario: str, stop_time: float = 100.0, **overrides: float) -> dict[str, Any]:
+def run_metrics(scenario: str, stop_time: float = 100.0, substeps: int = 4, **overrides: float) -> dict[str, Any]:
     """Metrics of a scenario's controller (with overrides) in the pure loop; cached per process."""
     fmu, params = controller_of(scenario, **overrides)
-    return _cached(fmu, tuple(sorted(params.items())), stop_time)
+    return _cached(fmu, tuple(sorted(params.items())), stop_time, substeps)
+
+
+# a reading is chaotic when Table 1's metric moves by more than this under either nudge below
+CHAOS_THRESHOLD = 0.10
+PE_NUDGE = 1e-4  # N.m off the SOTC's PE amplitude 0.5
+
+
+def sensitivity(scenario: str, **overrides: float) -> tuple[float, float, float]:
+    """(relative change of MSE_1 + MSE_2 when the SOTC's PE amplitude moves by -PE_NUDGE, when the plant's
+    RK4 substeps double, the lowest MSE_1 + MSE_2 of the three runs)."""
+    base = run_metrics(scenario, **overrides)
+    amplitude = controller_of(scenario, **overrides)[1].get("pe_amplitude", 0.5)
+    nudged = run_metrics(scenario, **{**overrides, "pe_amplitude": amplitude - PE_NUDGE})
+    finer = run_metrics(scenario, substeps=8, **overrides)
+    b = mse_sum(base)
+    return abs(mse_sum(nudged) - b) / b, abs(mse_sum(finer) - b) / b, min(b, mse_sum(nudged), mse_sum(finer))
 
 
 def handling_code(fmu: str, params: dict[str, float]) -> int:
@@ -88,36 +97,15 @@ def handling_name(scenario: str, **overrides: float) -> str:
     return LIMIT_HANDLINGS[handling_code(*controller_of(scenario, **overrides))]
 
 
-def tuning(scenario: str, handling: int, stop_time: float = 100.0) -> list[tuple[dict[str, float], dict[str, Any]]]:
-    """(parameters, metrics) for every point of the scenario's tuning grid under one handling."""
-    return [(point, run_metrics(scenario, stop_time, limit_handling=handling, **point))
-            for point in TUNING_GRIDS[scenario]]
-
-
 def mse_sum(m: dict[str, Any]) -> float:
-    """The tuning criterion: mse1 + mse2 (Table 1's metric); inf for a run without it."""
+    """Table 1's metric mse1 + mse2 (the tuning criterion); inf for a run without it."""
     mse = m.get("mse")
     return float(np.sum(mse)) if mse and None not in mse else float("inf")
 
 
-def best_tuning(scenario: str, handling: int, stop_time: float = 100.0) -> tuple[dict[str, float], dict[str, Any]]:
-    return min(tuning(scenario, handling, stop_time), key=lambda pm: mse_sum(pm[1]))
-
-
-@functools.lru_cache(maxsize=None)
-def tuned_scenarios() -> dict[str, str]:
-    """Controller FMU -> the scenario whose tuning grid tunes it (CT, LQR; the SOTC and OTC have none)."""
-    return {controller_of(scenario)[0]: scenario for scenario in TUNING_GRIDS}
-
-
-def tuned_parameter_names(fmu: str) -> set[str]:
-    """The parameters the tuning search of a controller FMU sets (empty: the FMU has no search)."""
-    scenario = tuned_scenarios().get(fmu)
-    return {k for point in TUNING_GRIDS[scenario] for k in point} if scenario else set()
-
-
-def best_parameters(fmu: str, handling: int) -> dict[str, float]:
-    """The controller parameters of the best point of ``fmu``'s tuning search under a limit handling:
-    the tuning the README's results table reports (``tuning = "best"`` of a sweep file). About a second
-    of pure-loop runs per (fmu, handling) the first time; the runs are cached per process."""
-    return dict(best_tuning(tuned_scenarios()[fmu], int(handling))[0])
+def tuned_metrics(fmu: str, handling: int, stop_time: float = 100.0) -> tuple[dict[str, float], dict[str, Any]]:
+    """(design point, metrics of the nominal `paper` loop) of ``fmu`` tuned under a handling by the
+    protocol of ``orchestration.study.tuning`` (its stored result)."""
+    design = best_design(fmu, handling)
+    return design, run_metrics(NOMINAL_SCENARIO[fmu], stop_time, limit_handling=handling,
+                               **tuned_parameters(fmu, handling))

@@ -31,12 +31,10 @@ every group (equal lengths), ``one-at-a-time`` varies each group alone with the 
 scenario's values. A ``controller`` axis names controller FMUs (model identifiers); the controller
 instance keeps the base scenario's parameters only for the same FMU; ``controller_settings`` gives a
 controller FMU its own parameters (a fair comparison tunes each baseline, not only the base scenario's
-controller). ``tuning = "best"`` takes them from the one place the baselines' tuning search lives,
-``orchestration.study.comparison`` (``TUNING_GRIDS``; the point ``best_tuning`` picks, Table 1's metric on
-the paper's 100 s loop) under the point's own ``controller.limit_handling``: the tuning the README's
-results table reports. Only FMUs with a tuning grid have it (CT, LQR; not the SOTC or the OTC); it
-costs a second or two of pure-loop runs per FMU and handling when the file is loaded. The parameters a
-point gets this way are part of its settings (and of its resume key). Random axes draw from
+controller). ``tuning = "best"`` takes them from the one tuning protocol every controller gets,
+``orchestration.study.tuning`` (the same budget for the SOTC, CT, LQR and the OTC; its stored best
+point, Table 1's metric on the paper's 100 s loop) under the point's own ``controller.limit_handling``:
+the tuning the README's results table reports. The parameters a point gets this way are part of its settings (and of its resume key). Random axes draw from
 ``numpy.random.default_rng([seed, axis number])``: the same file and seed give the same points.
 
 Every value is checked before anything runs: a non-numeric or non-finite value is refused with the
@@ -100,11 +98,12 @@ class ControllerSettings:
         under the scenario's limit handling, then the explicit values."""
         out: dict[str, float] = {}
         if self.tuning == "best":
-            from orchestration.study.comparison import best_parameters, handling_code
+            from orchestration.study.comparison import handling_code
+            from orchestration.study.tuning import tuned_parameters
 
             params = {**scenario.instances["controller"].parameters,
                       **{k.partition(".")[2]: v for k, v in self.values.items() if k.startswith("controller.")}}
-            out = {f"controller.{k}": v for k, v in best_parameters(self.fmu, handling_code(self.fmu, params)).items()}
+            out = {f"controller.{k}": v for k, v in tuned_parameters(self.fmu, handling_code(self.fmu, params)).items()}
         return {**out, **self.values}
 
 
@@ -281,7 +280,7 @@ def parse_sweep(raw: dict[str, Any], label: str, folder: Path | None = None, def
 def _controller_settings(raw: Any, base: Scenario, axes: tuple[Axis, ...], where: str) -> dict[str, ControllerSettings]:
     """``[controller_settings.<fmu>]`` tables: each FMU one that the sweep runs, every value a finite number
     (or ``tuning``), no parameter that an axis varies or that the tuning search sets too."""
-    from orchestration.study.comparison import tuned_parameter_names, tuned_scenarios
+    from orchestration.study.tuning import CONTROLLERS, tuned_parameter_names
 
     if not isinstance(raw, dict) or not all(isinstance(v, dict) for v in raw.values()):
         raise SweepError(f"{where}: controller_settings must hold tables [controller_settings.<controller FMU>]")
@@ -300,8 +299,8 @@ def _controller_settings(raw: Any, base: Scenario, axes: tuple[Axis, ...], where
             raise SweepError(f"{here}.tuning = {tuning!r}; choose {' or '.join(repr(t) for t in TUNINGS)}")
         tuned = {f"controller.{p}" for p in tuned_parameter_names(fmu)}
         if tuning and not tuned:
-            raise SweepError(f"{here}.tuning: {fmu} has no tuning search (orchestration.study.comparison.TUNING_GRIDS "
-                             f"tunes {', '.join(sorted(tuned_scenarios()))}); give its parameters instead")
+            raise SweepError(f"{here}.tuning: {fmu} has no tuning search (orchestration.study.tuning tunes "
+                             f"{', '.join(CONTROLLERS)}); give its parameters instead")
         specs = {s.name: s for s in CORES[fmu].PARAMETER_SPECS} if fmu in CORES else None
         for key, value in values.items():
             at = f'{here}."{key}"'

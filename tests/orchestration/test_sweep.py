@@ -79,29 +79,30 @@ def test_controller_settings_reach_only_the_points_of_that_controller():
             "OtcController: `controller.limit_handling = 3`.") in md
 
 
-def test_tuning_best_asks_the_comparison_search_under_each_points_limit_handling(monkeypatch):
-    from orchestration.study import comparison
+def test_tuning_best_asks_the_tuning_protocol_under_each_points_limit_handling(monkeypatch):
+    """Every controller, the SOTC and the OTC included, can ask for its tuned parameters."""
+    from orchestration.study import tuning
 
     asked = []
 
-    def best_tuning(scenario, handling, stop_time=100.0):  # stands in for the pure-loop runs
-        asked.append((scenario, handling))
-        return comparison.TUNING_GRIDS[scenario][handling + 1], {}
+    def tuned_parameters(fmu, handling):  # stands in for the stored search
+        asked.append((fmu, handling))
+        return {name: 10.0 * handling + 1 for name in sorted(tuning.tuned_parameter_names(fmu))[:1]}
 
-    monkeypatch.setattr(comparison, "best_tuning", best_tuning)
-    tuned = {"CtController": {"tuning": "best"}, "LqrController": {"tuning": "best"}}
+    monkeypatch.setattr(tuning, "tuned_parameters", tuned_parameters)
+    tuned = {fmu: {"tuning": "best"} for fmu in tuning.CONTROLLERS}
     s = parse_sweep({**CONTROLLERS, "controller_settings": tuned}, "test")
-    _, ct, lqr, _ = s.points()
-    assert ct.scenario.instances["controller"].parameters == {"limit_handling": 2, "kp": 25.0, "kd": 10.0}
-    assert lqr.settings == {"controller": "LqrController", "controller.q": 1.0, "controller.r": 0.0016}
-    assert set(asked) == {("paper-ct", 2), ("paper-lqr", 2)}
+    sotc, ct, lqr, otc = s.points()
+    assert ct.scenario.instances["controller"].parameters == {"limit_handling": 2, "kd": 21.0}
+    assert sotc.settings["controller.alpha1"] == 21.0 and otc.settings["controller.lambda1"] == 21.0
+    assert set(asked) == {(fmu, 2) for fmu in tuning.CONTROLLERS}
     # without `set`, each FMU's default handling (radial for CT and LQR); one given in the table counts
     s = parse_sweep({**CONTROLLERS, "set": {}, "controller_settings": {
         "CtController": {"tuning": "best"}, "LqrController": {"tuning": "best", "controller.limit_handling": 1}}}, "test")
     _, ct, lqr, _ = s.points()
-    assert ct.settings == {"controller": "CtController", "controller.kp": 4.0, "controller.kd": 4.0}
-    assert lqr.scenario.instances["controller"].parameters == {"limit_handling": 1, "q": 1.0, "r": 0.01}
-    assert {("paper-ct", 0), ("paper-lqr", 1)} <= set(asked)
+    assert ct.settings == {"controller": "CtController", "controller.kd": 1.0}
+    assert lqr.scenario.instances["controller"].parameters == {"limit_handling": 1, "q": 11.0}
+    assert {("CtController", 0), ("LqrController", 1)} <= set(asked)
 
 
 @pytest.mark.parametrize("settings, message", [
@@ -112,8 +113,8 @@ def test_tuning_best_asks_the_comparison_search_under_each_points_limit_handling
     ({"LqrController": {"controller.q": -1.0}}, "'q': -1 is outside the valid range"),
     ({"LqrController": {"controller.kp": 1.0}}, "LqrController has no parameter 'kp'"),
     ({"LqrController": {"nosuch.q": 1.0}}, '"nosuch.q": write instance.parameter'),
-    ({"OtcController": {"tuning": "best"}}, "OtcController has no tuning search"),
-    ({"SotcController": {"tuning": "best"}}, "SotcController has no tuning search"),
+    ({"OtcController": {"tuning": "best", "controller.q": 2.0}}, "sets controller.q already"),
+    ({"SotcController": {"tuning": "best", "controller.alpha1": 3.0}}, "sets controller.alpha1 already"),
     ({"CtController": {"tuning": "fastest"}}, "tuning = 'fastest'; choose 'best'"),
     ({"CtController": {"tuning": "best", "controller.kp": 9.0}}, "tuning = 'best' sets controller.kp already"),
     ({"CtController": 3}, "must hold tables"),
@@ -185,7 +186,7 @@ def test_bad_files_are_refused(tmp_path):
 
 def test_shipped_sweeps_load():
     sizes = {name: len(load_sweep(name).points()) for name in ("robustness", "learning", "controllers")}
-    assert sizes == {"robustness": 41, "learning": 24, "controllers": 48}
+    assert sizes == {"robustness": 41, "learning": 24, "controllers": 64}
     controllers = load_sweep("controllers")
     pts = controllers.points()
     # every controller sees the same perturbed plants from the same initial states
@@ -195,15 +196,14 @@ def test_shipped_sweeps_load():
         by_ctrl.setdefault(p.settings["controller"], []).append(plant)
     first, *others = by_ctrl.values()
     assert len(by_ctrl) == 4 and all(o == first for o in others)
-    # the same tuning effort: each baseline runs the best point of its tuning search under the sweep's handling
-    from orchestration.study.comparison import best_tuning
+    # the same tuning effort: every controller runs the best point of the one tuning protocol under the sweep's handling
+    from orchestration.study.tuning import tuned_parameters
 
     handling = controllers.fixed["controller.limit_handling"]
     for p in pts:
         params, fmu = p.scenario.instances["controller"].parameters, p.settings["controller"]
-        if fmu in ("CtController", "LqrController"):
-            best, _ = best_tuning("paper-ct" if fmu == "CtController" else "paper-lqr", handling)
-            assert {k: params[k] for k in best} == best
+        best = tuned_parameters(fmu, handling)
+        assert {k: params[k] for k in best} == best
 
 
 def test_point_key_changes_with_the_scenario_and_the_fmu_digest():

@@ -1,0 +1,30 @@
+"""Intervals and paired verdicts of the fair comparison (orchestration.study.statistics)."""
+import math
+
+import numpy as np
+
+from orchestration.study.statistics import geometric_interval, paired
+
+
+def test_the_geometric_interval_holds_the_geometric_mean_and_counts_failures():
+    g = np.random.default_rng(1)
+    values = list(10 ** g.normal(-2, 0.3, 16)) + [None, math.inf]
+    i = geometric_interval(values)
+    assert i.n == 16 and i.failed == 2
+    assert i.low < i.value < i.high
+    assert math.isclose(i.value, 10 ** np.mean(np.log10(values[:16])))
+
+
+def test_paired_verdicts_follow_the_interval_of_the_ratio():
+    g = np.random.default_rng(2)
+    b = 10 ** g.uniform(-3, 0, 16)  # spread over decades: only pairing sees the effect
+    assert paired(b * 0.8 * 10 ** g.normal(0, 0.02, 16), b).verdict == "better"
+    assert paired(b * 1.25 * 10 ** g.normal(0, 0.02, 16), b).verdict == "worse"
+    same = paired(b * 10 ** g.normal(0, 0.2, 16), b)
+    assert same.verdict == "not distinguishable" and same.ratio.low < 1 < same.ratio.high
+
+
+def test_a_failed_run_is_counted_apart_and_left_out_of_the_pairs():
+    v = paired([1.0, None, 2.0, 4.0], [2.0, 1.0, 4.0, None])
+    assert (v.failed_a, v.failed_b, v.ratio.n) == (1, 1, 2)
+    assert math.isclose(v.ratio.value, 0.5) and v.verdict == "better"
