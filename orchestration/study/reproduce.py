@@ -20,28 +20,41 @@ from orchestration.markdown import table as markdown_table
 from orchestration.run.scenario import Scenario, load_scenario
 from orchestration.run.summary import fmt_cell
 from orchestration.study.comparison import COMPARED
+from orchestration.study.tuning import CONTROLLERS, NOMINAL_SCENARIO, tuned_parameters
 
 
-def _runs() -> tuple[tuple[str, int | None, str], ...]:
-    """(scenario, limit_handling code or None for the scenario's own, run name): the SOTC readings
-    first, then every controller of ``COMPARED`` under each handling (its default under its own name)."""
-    runs = [("paper-literal", None, "paper-literal"), ("paper-near-literal", None, "paper-near-literal"),
-            ("paper-pe-only", None, "paper-pe-only")]
+TUNED_HANDLINGS = (2, 0)  # the tuned rows of the README's results table: accel, radial
+
+
+def _runs() -> tuple[tuple[str, int | None, str, bool], ...]:
+    """(scenario, limit_handling code or None for the scenario's own, run name, tuned): the SOTC
+    readings first, then every controller of ``COMPARED`` under each handling (its default under its own
+    name), then every controller tuned by the protocol (``orchestration.study.tuning``) under
+    ``TUNED_HANDLINGS``."""
+    runs = [("paper-literal", None, "paper-literal", False), ("paper-near-literal", None, "paper-near-literal", False),
+            ("paper-pe-only", None, "paper-pe-only", False)]
     for scenario, codes in COMPARED:
-        runs.append((scenario, None, scenario))
-        runs += [(scenario, code, f"{scenario}-{LIMIT_HANDLINGS[code]}") for code in codes[1:]]
+        runs.append((scenario, None, scenario, False))
+        runs += [(scenario, code, f"{scenario}-{LIMIT_HANDLINGS[code]}", False) for code in codes[1:]]
+    for fmu in CONTROLLERS:
+        scenario = NOMINAL_SCENARIO[fmu]
+        runs += [(scenario, code, f"{scenario}-tuned-{LIMIT_HANDLINGS[code]}", True) for code in TUNED_HANDLINGS]
     return tuple(runs)
 
 
 REPRODUCE_RUNS = _runs()
-REPRODUCE_SCENARIOS = tuple(name for _, _, name in REPRODUCE_RUNS)
+REPRODUCE_SCENARIOS = tuple(name for _, _, name, _ in REPRODUCE_RUNS)
 
 
 def reproduce_scenarios() -> list[Scenario]:
     out = []
-    for scenario, code, name in REPRODUCE_RUNS:
+    for scenario, code, name, tuned in REPRODUCE_RUNS:
         sc = load_scenario(scenario)
-        out.append(sc if code is None else sc.with_parameters({"controller.limit_handling": code}, name=name))
+        overrides: dict[str, float] = {} if code is None else {"controller.limit_handling": code}
+        if tuned:
+            fmu = sc.controller_fmu()
+            overrides.update({f"controller.{k}": v for k, v in tuned_parameters(fmu, code).items()})
+        out.append(sc if not overrides else sc.with_parameters(overrides, name=name))
     return out
 
 # Table 1 of the paper (MSE, eq. (50)); no other metric is reported there.
@@ -51,25 +64,28 @@ PAPER_TABLE1 = {
 }
 
 
-def _joint(key: str, joint: int, fmt: str) -> Callable[[dict[str, Any]], str]:
-    def get(s: dict[str, Any]) -> str:
+def _text(v: Any, fmt: str, full: bool) -> str:
+    return "" if v is None else (repr(v) if full and isinstance(v, float) else format(v, fmt))
+
+
+def _joint(key: str, joint: int, fmt: str) -> Callable[[dict[str, Any], bool], str]:
+    def get(s: dict[str, Any], full: bool = False) -> str:
         v = s.get(key)
-        return "" if v is None or v[joint] is None else format(v[joint], fmt)
+        return "" if v is None else _text(v[joint], fmt, full)
 
     return get
 
 
-def _scalar(key: str, fmt: str) -> Callable[[dict[str, Any]], str]:
-    def get(s: dict[str, Any]) -> str:
-        v = s.get(key)
-        return "" if v is None else format(v, fmt)
+def _scalar(key: str, fmt: str) -> Callable[[dict[str, Any], bool], str]:
+    def get(s: dict[str, Any], full: bool = False) -> str:
+        return _text(s.get(key), fmt, full)
 
     return get
 
 
 # (column title, unit, extractor from a run summary)
 COLUMNS: list[tuple[str, str, Callable[[dict[str, Any]], str]]] = [
-    ("limit handling", "", lambda s: s.get("limit_handling") or ""),
+    ("limit handling", "", lambda s, full=False: s.get("limit_handling") or ""),
     ("MSE joint 1", "rad^2", _joint("mse", 0, ".5f")),
     ("MSE joint 2", "rad^2", _joint("mse", 1, ".5f")),
     ("MSE1 t>=5s", "rad^2", _joint("mse_after_5s", 0, ".3e")),
@@ -100,8 +116,9 @@ COLUMNS: list[tuple[str, str, Callable[[dict[str, Any]], str]]] = [
 ]
 
 
-def table_rows(summaries: list[dict[str, Any]]) -> tuple[list[str], list[list[str]]]:
-    """Header and rows: the paper's rows first (MSE only), then one row per run of ours."""
+def table_rows(summaries: list[dict[str, Any]], full: bool = False) -> tuple[list[str], list[list[str]]]:
+    """Header and rows: the paper's rows first (MSE only), then one row per run of ours; ``full``:
+    every number at full precision (``repr``, for table1.csv) instead of the column's format."""
     header = ["source", "scenario", "controller", "status"] + [
         f"{title} [{unit}]" if unit else title for title, unit, _ in COLUMNS
     ]
@@ -109,7 +126,8 @@ def table_rows(summaries: list[dict[str, Any]]) -> tuple[list[str], list[list[st
     for name, (m1, m2) in PAPER_TABLE1.items():
         rows.append(["paper Table 1", "", name, ""] + ["", f"{m1:.5f}", f"{m2:.5f}"] + [""] * (len(COLUMNS) - 3))
     for s in summaries:
-        rows.append(["this run", s["scenario"], str(s["controller"]), s["status"]] + [get(s) for _, _, get in COLUMNS])
+        rows.append(["this run", s["scenario"], str(s["controller"]), s["status"]]
+                    + [get(s, full) for _, _, get in COLUMNS])
     return header, rows
 
 
@@ -155,7 +173,7 @@ def write_table(summaries: list[dict[str, Any]], out_dir: Path) -> tuple[Path, P
         f"stop time {_stop_times(summaries)}.\n\n" + text
         + "\n## The learned value function (docs/paper-notes.md, section 3.1)\n\n" + value_table(summaries)
     )
-    atomic_write(cs, to_csv(header, rows))
+    atomic_write(cs, to_csv(*table_rows(summaries, full=True)))
     return md, cs, text
 
 
@@ -171,8 +189,8 @@ def compact_table(summaries: list[dict[str, Any]]) -> str:
         late = s.get("mse_after_5s") or [None, None]
         lines.append(
             f"{s['scenario']:<22} {str(s['controller']):<15} {str(s.get('limit_handling')):<7} "
-            f"{fmt_cell(mse[0], '.5f', 9)} {fmt_cell(mse[1], '.5f', 9)} {fmt_cell(late[0], '.2e', 10)} "
-            f"{fmt_cell(late[1], '.2e', 10)} {fmt_cell(s.get('tracking_cost'), '.4f', 8)} "
-            f"{fmt_cell(s.get('max_norm_tau'), '.3f', 10)} {fmt_cell(s.get('samples_over_limit'), 'd', 10)}"
+            f"{fmt_cell(mse[0], '.4g', 9)} {fmt_cell(mse[1], '.4g', 9)} {fmt_cell(late[0], '.3g', 10)} "
+            f"{fmt_cell(late[1], '.3g', 10)} {fmt_cell(s.get('tracking_cost'), '.4g', 8)} "
+            f"{fmt_cell(s.get('max_norm_tau'), '.4g', 10)} {fmt_cell(s.get('samples_over_limit'), 'd', 10)}"
         )
     return "\n".join(lines)

@@ -11,6 +11,8 @@ from rerun.chunk import RrdReader
 import orchestration.run.summary as summary_module
 from orchestration.cli import main
 from orchestration.study.comparison import run_metrics
+from orchestration.run.scenario import load_scenario
+from orchestration.study.tuning import tuned_parameters
 from orchestration.study.reproduce import (
     COLUMNS,
     PAPER_TABLE1,
@@ -53,12 +55,12 @@ def test_reproduce_writes_the_table_from_its_own_runs(fmu_dir, tmp_path, monkeyp
     assert [s["scenario"] for s in captured] == list(REPRODUCE_SCENARIOS)
     for row, s in zip(ours, captured):
         assert s["stop_time"] == 3.0 and s["samples"] == 301
-        assert row[4:] == [get(s) for _, _, get in COLUMNS]
-        assert row[4] == s["limit_handling"] and float(row[5]) == float(format(s["mse"][0], ".5f"))
+        assert row[4:] == [get(s, True) for _, _, get in COLUMNS]  # table1.csv: full precision
+        assert row[4] == s["limit_handling"] and float(row[5]) == s["mse"][0]
         assert s["mse_after_5s"] is None and row[header.index("MSE1 t>=5s [rad^2]")] == ""  # a 3 s run
         after = s["mse_after_limit"]
-        assert row[header.index("MSE2 after last limit [rad^2]")] == ("" if after is None else format(after[1], ".3e"))
-        assert float(row[header.index("realised cost int z'z")]) == float(format(s["tracking_cost"], ".4f"))
+        assert row[header.index("MSE2 after last limit [rad^2]")] == ("" if after is None else repr(after[1]))
+        assert float(row[header.index("realised cost int z'z")]) == s["tracking_cost"]
         assert int(row[header.index("samples over limit")]) == s["samples_over_limit"]
     # every controller under every limit handling, the OTC clipped and unclipped
     cells = {(s["controller"], s["limit_handling"]) for s in captured}
@@ -70,10 +72,15 @@ def test_reproduce_writes_the_table_from_its_own_runs(fmu_dir, tmp_path, monkeyp
     assert unclipped["samples_over_limit"] > 0 and all(
         s["samples_over_limit"] == 0 for s in captured if s["limit_handling"] != "none")
     assert "paper-otc-accel" in printed and "wrote" in printed
+    # every controller tuned by the one protocol, under accel and radial (the README's tuned rows)
+    assert {f"{sc}-tuned-{h}" for sc in ("paper", "paper-ct", "paper-lqr", "paper-otc") for h in ("accel", "radial")} <= {
+        line.split()[0] for line in printed.splitlines() if line.split()}
     # the docs' tables come from the pure loop: it gives these FMU runs' numbers
     by_name = {s["scenario"]: s for s in captured}
-    for scenario, code, name in REPRODUCE_RUNS:
-        pure = run_metrics(scenario, 3.0, **({} if code is None else {"limit_handling": code}))
+    for scenario, code, name, tuned in REPRODUCE_RUNS:
+        fmu_name = load_scenario(scenario).controller_fmu()
+        overrides = {} if code is None else {"limit_handling": code}
+        pure = run_metrics(scenario, 3.0, **overrides, **(tuned_parameters(fmu_name, code) if tuned else {}))
         fmu = by_name[name]
         assert np.allclose(pure["mse"], fmu["mse"], rtol=1e-9, atol=0.0), name
         assert pure["tracking_cost"] == pytest.approx(fmu["tracking_cost"], rel=1e-9), name
