@@ -52,13 +52,14 @@ CLEARLY_INSIDE = 1.0 - 2.0**-40
 PROJECTION_BISECTIONS = 200
 
 
-def in_disc(v1: float, v2: float, bound: float) -> bool:
+def in_disc(v1: float, v2: float, bound: float, h: float | None = None) -> bool:
     """v1^2 + v2^2 <= bound^2 evaluated exactly (integer arithmetic on the floats' exact values), and the
     two rounded forms ``math.hypot(v1, v2)`` and ``sqrt(v1*v1 + v2*v2)`` (also ``np.linalg.norm``'s) <=
     bound: then every norm a host computes, a correctly rounded ``hypot`` such as C's and numpy's
     included, is <= bound as well. A test of
-    ``math.hypot`` alone let numpy's ``hypot`` report 4.000000000000001 for a torque limited to 4."""
-    h = math.hypot(v1, v2)
+    ``math.hypot`` alone let numpy's ``hypot`` report 4.000000000000001 for a torque limited to 4.
+    ``h``: ``math.hypot(v1, v2)`` when the caller has it already."""
+    h = math.hypot(v1, v2) if h is None else h
     if h <= bound * CLEARLY_INSIDE:  # every rounded norm is within a few ulps of the exact one
         return True
     if not (h <= bound and math.sqrt(v1 * v1 + v2 * v2) <= bound):
@@ -91,7 +92,7 @@ def saturate_norm(v1: float, v2: float, bound: float) -> tuple[float, float, flo
 
     Returns (v1', v2', norm of the input, saturated); the result satisfies ``in_disc(v1', v2', bound)``."""
     norm = math.hypot(v1, v2)
-    if in_disc(v1, v2, bound):
+    if in_disc(v1, v2, bound, norm):
         return v1, v2, norm, False
     k = bound / norm if norm > bound else 1.0  # (at norm == bound a rounded norm can still exceed it)
     s1, s2 = shrink_into_disc(v1 * k, v2 * k, bound)
@@ -127,7 +128,7 @@ def accel_projection(
     to their design. In D's eigenbasis the KKT system is diagonal; l is found by bisection
     (||tau(l)|| decreases with l), at most ``PROJECTION_BISECTIONS`` steps."""
     n = math.hypot(t1, t2)
-    if in_disc(t1, t2, bound):
+    if in_disc(t1, t2, bound, n):
         return t1, t2, False
     half_tr, half_diff = 0.5 * (d11 + d22), 0.5 * (d11 - d22)
     rad = math.hypot(half_diff, d12)

@@ -25,24 +25,32 @@ import numpy as np
 
 from fmu_controller.base import ControllerCore
 from fmu_plant.dynamics import ArmParameters, integrate
-from fmu_plant.perturbation import NoiseSequence, disturbance_torque
+from fmu_plant.perturbation import (
+    DISTURBANCE_PARAMETER_SPECS,
+    NOISE_PARAMETER_SPECS,
+    NoiseSequence,
+    disturbance_torque,
+)
 from fmu_plant.trajectory import CircleTrajectory
 from orchestration.run.metrics import tracking_metrics
+
+
+_DEFAULT = {spec.name: spec.default for spec in (*DISTURBANCE_PARAMETER_SPECS, *NOISE_PARAMETER_SPECS)}
 
 
 @dataclass(frozen=True)
 class Perturbation:
     """The Disturbance and MeasurementNoise FMUs' parameters (their defaults: no perturbation)."""
 
-    step1: float = 0.0
-    step2: float = 0.0
-    step_time: float = 0.0
-    sin1: float = 0.0
-    sin2: float = 0.0
-    omega: float = 1.0
-    std_phi: float = 0.0
-    std_dphi: float = 0.0
-    seed: int = 0
+    step1: float = _DEFAULT["step1"]
+    step2: float = _DEFAULT["step2"]
+    step_time: float = _DEFAULT["step_time"]
+    sin1: float = _DEFAULT["sin1"]
+    sin2: float = _DEFAULT["sin2"]
+    omega: float = _DEFAULT["omega"]
+    std_phi: float = _DEFAULT["std_phi"]
+    std_dphi: float = _DEFAULT["std_dphi"]
+    seed: int = 0  # the MeasurementNoise FMU's default seed
 
     def disturbance(self, t: float) -> tuple[float, float]:
         return disturbance_torque(t, self.step1, self.step2, self.step_time, self.sin1, self.sin2, self.omega)

@@ -22,6 +22,7 @@ the code disagree.
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import math
 from concurrent.futures import ProcessPoolExecutor
@@ -131,7 +132,9 @@ def search(workers: int = 2) -> dict[str, Any]:
     return result
 
 
+@functools.lru_cache(maxsize=1)
 def stored() -> dict[str, Any]:
+    """The stored search, read once per process (every tuned point of a sweep or a batch asks for it)."""
     return json.loads(TUNED_FILE.read_text())
 
 
