@@ -28,12 +28,7 @@ from typing import Any, ClassVar, Sequence
 
 import numpy as np
 
-from fmi_slave.parameters import (
-    ParameterError,
-    ParameterSpec,
-    nonnegative,
-    positive,
-)
+from fmi_slave.parameters import ParameterError, ParameterSpec, nonnegative, positive
 from fmu_controller.base import ControllerCore, OutputSpec
 from fmu_controller.saturation import (
     ACCEL,
@@ -46,15 +41,8 @@ from fmu_controller.saturation import (
     saturate_norm,
 )
 from fmu_controller.small_linalg import solve
-from fmu_controller.sotc_math import (
-    N_BASIS,
-    basis,
-    basis_directional,
-    omega_term_of_arg,
-    probing_signal,
-    value_gradient,
-    value_hessian,
-)
+from fmu_controller.sotc_math import (N_BASIS, basis, basis_directional, omega_term_of_arg, probing_signal,
+                                      value_gradient, value_hessian)
 from fmu_controller.sotc_stack import REPLAYS as CL_REPLAYS
 from fmu_controller.sotc_stack import SELECTIONS as CL_SELECTIONS
 from fmu_controller.sotc_stack import CLStack
@@ -360,6 +348,11 @@ class SotcCore(ControllerCore):
         x = (gJ1 / (2.0 * s * rr[0]), gJ2 / (2.0 * s * rr[1]),
              (i11 * gJ3 + i12 * gJ4) / (2.0 * s * rr[2]), (i12 * gJ3 + i22 * gJ4) / (2.0 * s * rr[3]))
         return x, (math.tanh(x[0]), math.tanh(x[1]), math.tanh(x[2]), math.tanh(x[3]))
+
+    def optimal_virtual_velocity(self, z: tuple[float, ...]) -> tuple[float, float]:
+        """chi_vd* of (28) at the error z under the current W (it does not depend on D^-1)."""
+        _, (t1, t2, _, _) = self._policy_arguments(z, (1.0, 0.0, 1.0))
+        return -self.s * t1, -self.s * t2
 
     def _error_rate(self, z: tuple[float, ...], cs: tuple[float, float], tc: tuple[float, float],
                     dinv: tuple[float, float, float]) -> tuple:

@@ -204,13 +204,10 @@ def readings_table() -> str:
 
 def value_table() -> str:
     from orchestration.study.sotc_study import run
-    from orchestration.study.value_function import VALUE_HEADER, value_rows
+    from orchestration.study.value_function import value_report, value_rows
 
-    ctrl, _ = run("paper")
-    rows = [[label, number(ratio, ".3g"), number(cost, ".4g"), number(rel, ".4g"), f"{below} of {n}"]
-            for label, ratio, cost, rel, below, n in value_rows(np.array(ctrl.W))]
-    rows[0][0] = "learned W (`paper`, 100 s)"
-    return table(VALUE_HEADER, rows)
+    ctrl, res = run("paper")
+    return value_report(value_rows(np.array(ctrl.W), res))
 
 
 def learned_w_table() -> str:

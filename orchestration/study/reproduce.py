@@ -144,16 +144,16 @@ def value_table(summaries: list[dict[str, Any]]) -> str:
     this invocation learned, beside W = 0, the paper's W and the LQR weights (horizon: the stop time,
     at most 20 s)."""
     from orchestration.run import interrupt
-    from orchestration.study.value_function import HORIZON, VALUE_HEADER, value_rows
+    from orchestration.study.sotc_study import run
+    from orchestration.study.value_function import HORIZON, value_report, value_rows
 
     if interrupt.requested():  # Ctrl-C: write what finished now, not seconds of extra runs later
         return "(no value-function table: the invocation was interrupted)\n"
     paper = next((s for s in summaries if s["scenario"] == "paper" and s.get("final_weights")), None)
     if paper is None:
         return "(no value-function table: the `paper` run did not finish)\n"
-    rows = [[label, f"{ratio:.3g}", f"{cost:.4g}", f"{rel:.4g}", f"{below} of {n}"]
-            for label, ratio, cost, rel, below, n in value_rows(paper["final_weights"], min(HORIZON, paper["stop_time"]))]
-    return markdown_table(VALUE_HEADER, rows) + "\n"
+    _, visited = run("paper", stop_time=paper["stop_time"])  # the pure loop: the FMU run's samples, bit for bit
+    return value_report(value_rows(paper["final_weights"], visited, min(HORIZON, paper["stop_time"]))) + "\n"
 
 
 def _stop_times(summaries: list[dict[str, Any]]) -> str:

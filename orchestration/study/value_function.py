@@ -1,85 +1,199 @@
 """How good is a critic W as a value function, and how good is the policy (28) it induces?
 
-Two measures, both through the SOTC core itself (no second copy of its formulas):
+Every W is scored at the same points and in the same coordinates. J_hat = W^T zeta(z) and the HJB
+equation (22) live in the SOTC's error z = [z_phi, z_v], z_phi = e = phi - phi_d and (chosen reading,
+Lambda_1 = I) z_v = e_dot + e - chi_vd*(W): for W = 0 this is the shared z = [e, e_dot + e] (the
+README's realised-cost coordinates), for any other W its z_v is shifted by its own chi_vd*.
 
-* ``hjb_residual_ratio``: the residual of (29), e1 = W^T eta + z^T Theta z + Omega(mu_hat(W)), which
-  is the HJB residual (22) of J_hat = W^T zeta under its own minimising policy, on a grid of error
-  states (e, e_dot) at frozen configurations phi2 (the core's ``e1`` output, with PE and CL off);
-  reported as RMS over the grid relative to W = 0 (whose residual is z^T Theta z);
-* ``cost_to_go``: the realised cost (12), integral of z^T Theta z + Omega(mu_hat) (the core's
-  ``cost_rate``), from a fixed set of initial states around the path over a horizon, with W frozen
-  (alpha1 = alpha2 = 1e-9, no CL, no PE): the cost of the policy W induces.
+* HJB residual: e1 of (29), e1 = W^T eta + z^T Theta z + Omega(mu_hat(W)), the residual of (22) for
+  J_hat under its own minimising policy (the core's ``e1`` output, PE and CL off). It depends on z and
+  phi2 only, and is reported as RMS relative to W = 0's (whose residual is z^T Theta z) over
+  (a) ``grid_points``: a grid fixed in z (each component in ``GRID``) at frozen configurations phi2,
+      the same z points for every W; (b) ``visited_points``: the (z, phi2) the learning run passes
+      through (every ``VISIT_EVERY``-th sample of the run that learned W), whole and for t >= ``SETTLED``;
+  and, at fixed physical states instead (whose z moves with W), (c) the grid laid in the shared
+  [e, e_dot + e] and (d) the earlier grid laid in (e, e_dot).
+* Cost-to-go: from ``N_STATES`` seeded initial states with W frozen (alpha1 = alpha2 = 1e-9, no CL, no
+  PE), over ``HORIZON``: the integral of z^T Theta z in the shared z (every W's states weighed alike),
+  and the same plus Omega(mu_hat(W)) of (17), each policy paying for its own optimal input (W = 0 has
+  mu_hat = 0 and pays none). The earlier figure integrated the core's ``cost_rate``, i.e. in each W's
+  own z.
 """
 from __future__ import annotations
 
 import itertools
+from dataclasses import dataclass
 
 import numpy as np
 
 from fmu_controller.sotc import SotcCore
 from fmu_plant.trajectory import CircleTrajectory
+from orchestration.markdown import table
 from orchestration.run.metrics import _trapezoid
-from orchestration.study.pure_loop import simulate
+from orchestration.study.pure_loop import LoopResult, simulate
 
 PHI2_GRID = (0.6, 1.4, 2.2)  # rad, across the circle's range of phi2_d [0.59, 2.19]
-ERROR_GRID = np.linspace(-0.2, 0.2, 5)  # e_i [rad] and e_dot_i [rad/s]
+GRID = np.linspace(-0.2, 0.2, 5)  # each component of the grid [rad or rad/s]
 N_STATES, SPAN, HORIZON, SEED = 16, 0.3, 20.0, 0
+VISIT_EVERY, SETTLED = 20, 5.0  # samples between two visited states (0.2 s); the transient's end [s]
 FROZEN = {"alpha1": 1e-9, "alpha2": 1e-9, "cl_enabled": 0.0, "pe_amplitude": 0.0}
+State = tuple[float, tuple[float, ...], tuple[float, ...]]  # (t, y, r) as the core's evaluate takes them
 
 
 def _core(W: np.ndarray, **params: float) -> SotcCore:
     return SotcCore(**{f"W0_{k + 1}": float(w) for k, w in enumerate(W)}, **FROZEN, **params)
 
 
-def hjb_residuals(W: np.ndarray, **params: float) -> np.ndarray:
-    """e1 of (29) at every grid point (e1, e2, de1, de2) x phi2, with the reference at rest."""
-    core = _core(W, **params)
+def state_at(core: SotcCore, z: tuple[float, ...], phi2: float) -> State:
+    """The sample (t, y, r), reference at rest, at which the core's error is z with the configuration
+    phi2: e = z_phi and e_dot = z_v - Lambda_1 e + chi_vd*(z) (the chosen reading's z_v, eq. (4))."""
+    if not core.backstepping:
+        raise ValueError("the value measures follow the chosen reading of (4) (chi_a_form backstepping)")
+    c1, c2 = core.optimal_virtual_velocity(z)
+    (l1, l2), (e1, e2, v1, v2) = core.lam1, z
+    return 1.0, (e1, phi2, v1 - l1 * e1 + c1, v2 - l2 * e2 + c2), (0.0, phi2 - e2, 0.0, 0.0, 0.0, 0.0)
+
+
+def grid_points() -> list[tuple[tuple[float, ...], float]]:
+    """(point, phi2) for every point of ``GRID``^4 at each frozen phi2 of ``PHI2_GRID``."""
+    return [(p, phi2) for phi2 in PHI2_GRID for p in itertools.product(GRID, repeat=4)]
+
+
+def physical_states(shared: bool) -> list[State]:
+    """The grid read at fixed physical states: (a1, a2, b1, b2) as [e, e_dot + e] (``shared``) or, the
+    earlier grid, as (e, e_dot); reference at rest."""
     out = []
+    for (a1, a2, b1, b2), phi2 in grid_points():
+        de1, de2 = (b1 - a1, b2 - a2) if shared else (b1, b2)
+        out.append((1.0, (a1, phi2, de1, de2), (0.0, phi2 - a2, 0.0, 0.0, 0.0, 0.0)))
+    return out
+
+
+def visited_points(run: LoopResult, since: float = 0.0) -> list[tuple[tuple[float, ...], float]]:
+    """(z, phi2) at every ``VISIT_EVERY``-th sample of ``run`` from t = ``since`` (z: the core's z1..z4)."""
+    z = run.outputs[:, [run.names.index(n) for n in ("z1", "z2", "z3", "z4")]]
+    return [(tuple(z[k]), float(run.y[k, 1])) for k in range(0, len(run.t), VISIT_EVERY) if run.t[k] >= since]
+
+
+def hjb_residuals(W: np.ndarray, states=None, points=None, **params: float) -> np.ndarray:
+    """e1 of (29) under W at each of ``states`` (samples) or of ``points`` ((z, phi2), placed with
+    ``state_at`` for this W)."""
+    core = _core(np.asarray(W, dtype=float), **params)
     k = core.output_names().index("e1")
-    for phi2 in PHI2_GRID:
-        for e1, e2, de1, de2 in itertools.product(ERROR_GRID, repeat=4):
-            core.evaluate(1.0, (e1, phi2, de1, de2), (0.0, phi2 - e2, 0.0, 0.0, 0.0, 0.0))
-            out.append(core.outputs[k])
-    return np.array(out)
+    samples = states if points is None else [state_at(core, z, phi2) for z, phi2 in points]
+    out = np.empty(len(samples))
+    for i, (t, y, r) in enumerate(samples):
+        core.evaluate(t, y, r)
+        out[i] = core.outputs[k]
+    return out
 
 
-def hjb_residual_ratio(W: np.ndarray, **params: float) -> float:
-    """RMS of the HJB residual of W over the grid, relative to W = 0's."""
-    rms = lambda w: float(np.sqrt(np.mean(hjb_residuals(w, **params) ** 2)))  # noqa: E731
-    return rms(np.asarray(W, dtype=float)) / rms(np.zeros(10))
+def rms(values: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(values ** 2)))
 
 
 def initial_states() -> list[tuple[tuple[float, float], tuple[float, float]]]:
     """N_STATES (phi(0), dphi(0)): the path's start plus uniform errors in [-SPAN, SPAN] (seeded)."""
     ref = CircleTrajectory().sample(0.0)
     g = np.random.default_rng(SEED)
-    out = []
-    for d in g.uniform(-SPAN, SPAN, (N_STATES, 4)):
-        out.append(((ref[0] + d[0], ref[1] + d[1]), (ref[2] + d[2], ref[3] + d[3])))
-    return out
+    return [((ref[0] + d[0], ref[1] + d[1]), (ref[2] + d[2], ref[3] + d[3])) for d in g.uniform(-SPAN, SPAN, (N_STATES, 4))]
 
 
-def cost_to_go(W: np.ndarray, horizon: float = HORIZON, **params: float) -> np.ndarray:
-    """Realised cost (12) over ``horizon`` from each of ``initial_states()`` under the frozen policy of W."""
-    costs = []
-    for phi0, dphi0 in initial_states():
-        res = simulate(_core(np.asarray(W, dtype=float), **params), stop_time=horizon, phi0=phi0, dphi0=dphi0)
-        costs.append(float(_trapezoid(res.out("cost_rate"), res.t)))
-    return np.array(costs)
+def frozen_runs(W: np.ndarray, horizon: float = HORIZON, **params: float) -> list[LoopResult]:
+    """The closed loop under the frozen policy of W from each of ``initial_states()``."""
+    return [simulate(_core(np.asarray(W, dtype=float), **params), stop_time=horizon, phi0=phi0, dphi0=dphi0)
+            for phi0, dphi0 in initial_states()]
 
 
-VALUE_HEADER = ["W", "HJB residual RMS / W = 0's", "cost-to-go, sum over the states", "relative to LQR",
-                "states where below LQR"]
+def shared_z(res: LoopResult) -> np.ndarray:
+    """z = [e, e_dot + e] at every sample, (N+1, 4)."""
+    e, de = res.error, res.y[:, 2:4] - res.ref[:, 2:4]
+    return np.hstack([e, de + e])
 
 
-def value_rows(learned: np.ndarray, horizon: float = HORIZON) -> list[tuple[str, float, float, float, int, int]]:
-    """(label, HJB residual ratio, summed cost-to-go, relative to LQR's, states below LQR, states) for the
-    learned W, W = 0, the paper's W and the LQR weights of the linearised (6) at phi2 = 1.39 rad."""
+def own_cost(res: LoopResult) -> float:
+    """The earlier cost-to-go: the core's cost_rate, in its own z (z_v moves with W)."""
+    return float(_trapezoid(res.out("cost_rate"), res.t))
+
+
+@dataclass(frozen=True)
+class ValueRow:
+    label: str
+    residuals: tuple[float, ...]  # RMS / W = 0's, in RESIDUAL_HEADER's order
+    state_cost: np.ndarray  # per initial state: integral of z^T Theta z, shared z
+    omega_cost: np.ndarray  # per initial state: integral of Omega(mu_hat(W))
+    cost_earlier: np.ndarray  # per initial state: the core's cost_rate, own z
+
+
+RESIDUAL_HEADER = ["W", "z grid", "z visited by the learning run", f"same, t >= {SETTLED:g} s",
+                   "grid at fixed [e, e_dot + e]", "earlier: grid at fixed (e, e_dot)"]
+COST_HEADER = ["W", "z^T Theta z, shared z", "states where below LQR", "+ Omega(mu_hat(W))",
+               "earlier: z^T Theta z + Omega in own z"]
+
+
+def candidates(learned: np.ndarray) -> list[tuple[str, np.ndarray]]:
     from orchestration.study.sotc_study import PAPER_W, lqr_weights
 
-    candidates = [("learned W", np.asarray(learned, dtype=float)), ("W = 0 (feedforward only)", np.zeros(10)),
-                  ("the paper's W", PAPER_W), ("LQR of the linearised (6), phi2 = 1.39", lqr_weights(1.39, SotcCore()))]
-    costs = [cost_to_go(w, horizon) for _, w in candidates]
-    ref = costs[-1]
-    return [(label, hjb_residual_ratio(w), float(c.sum()), float(c.sum() / ref.sum()), int(np.sum(c < ref - 1e-12)),
-             len(c)) for (label, w), c in zip(candidates, costs)]
+    return [("learned W", np.asarray(learned, dtype=float)), ("W = 0", np.zeros(10)),
+            ("the paper's W", PAPER_W), ("LQR", lqr_weights(1.39, SotcCore()))]
+
+
+LONG_LABELS = {"W = 0": "W = 0 (feedforward only)", "LQR": "LQR of the linearised (6), phi2 = 1.39"}
+
+
+def value_rows(learned: np.ndarray, learning_run: LoopResult, horizon: float = HORIZON) -> list[ValueRow]:
+    """The measures of the module docstring for the learned W (learned in ``learning_run``), W = 0, the
+    paper's W and the LQR weights of the linearised (6) at phi2 = 1.39 rad (the cost reference)."""
+    named = candidates(learned)
+    theta = np.asarray(SotcCore().theta)
+    runs = [frozen_runs(w, horizon) for _, w in named]
+    measures = (dict(points=grid_points()), dict(points=visited_points(learning_run)),
+                dict(points=visited_points(learning_run, SETTLED)),
+                dict(states=physical_states(True)), dict(states=physical_states(False)))
+    base = [rms(hjb_residuals(np.zeros(10), **m)) for m in measures]
+    rows = []
+    for (label, w), rs in zip(named, runs):
+        residuals = tuple(rms(hjb_residuals(w, **m)) / b for m, b in zip(measures, base))
+        state = [float(_trapezoid(shared_z(r) ** 2 @ theta, r.t)) for r in rs]
+        omega = [float(_trapezoid(r.out("Omega"), r.t)) for r in rs]
+        rows.append(ValueRow(label, residuals, np.array(state), np.array(omega), np.array([own_cost(r) for r in rs])))
+    return rows
+
+
+def residual_cells(rows: list[ValueRow]) -> list[list[str]]:
+    return [[LONG_LABELS.get(r.label, r.label), *(f"{v:.3g}" for v in r.residuals)] for r in rows]
+
+
+def cost_cells(rows: list[ValueRow]) -> list[list[str]]:
+    """Sums over the initial states relative to LQR's (the last row), 4 significant digits."""
+    ref = rows[-1]
+    rel = lambda a, b: f"{a.sum() / b.sum():.4g}"  # noqa: E731
+    return [[LONG_LABELS.get(r.label, r.label), rel(r.state_cost, ref.state_cost),
+             f"{int(np.sum(r.state_cost < ref.state_cost - 1e-12))} of {len(r.state_cost)}",
+             rel(r.state_cost + r.omega_cost, ref.state_cost + ref.omega_cost), rel(r.cost_earlier, ref.cost_earlier)]
+            for r in rows]
+
+
+def _ranking(rows: list[ValueRow], cost) -> str:
+    ref = cost(rows[-1]).sum()
+    ranked = sorted(rows, key=lambda r: cost(r).sum())
+    return " < ".join(f"{r.label} ({cost(r).sum() / ref:.4g})" for r in ranked)
+
+
+def value_report(rows: list[ValueRow]) -> str:
+    """Both tables and the sentence that resolves each earlier figure, from the same measures."""
+    learned, zero = rows[0], rows[1]
+    return "\n".join([
+        "HJB residual, RMS relative to W = 0's:", "", table(RESIDUAL_HEADER, residual_cells(rows)), "",
+        "Cost-to-go from the 16 initial states, summed, relative to LQR's:", "",
+        table(COST_HEADER, cost_cells(rows)), "",
+        f"- Residual: the earlier figure (learned W at {learned.residuals[-1]:.3g} x W = 0's) was taken at fixed "
+        "(e, e_dot), which each W maps to other z; at the same z for every W it is "
+        f"{learned.residuals[0]:.3g} on the grid and {learned.residuals[1]:.3g} on the z the learning run visits "
+        f"({learned.residuals[2]:.3g} once the transient is over, t >= {SETTLED:g} s).",
+        f"- Cost-to-go: the earlier figure (W = 0 at {zero.cost_earlier.sum() / rows[-1].cost_earlier.sum():.4g} x "
+        "LQR's, the lowest) integrated each W's own z, in which W = 0's z_v is not the others'; in the shared z "
+        f"the state cost ranks {_ranking(rows, lambda r: r.state_cost)}, and with each policy's own "
+        f"Omega(mu_hat(W)) added {_ranking(rows, lambda r: r.state_cost + r.omega_cost)} (mu_hat(0) = 0 costs "
+        "nothing).",
+    ])

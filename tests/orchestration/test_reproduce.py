@@ -46,7 +46,7 @@ def test_reproduce_writes_the_table_from_its_own_runs(fmu_dir, tmp_path, monkeyp
     header, rows = _read(tmp_path / "out" / "table1.csv")
     md = (tmp_path / "out" / "table1.md").read_text()
     first, value = md.split("## The learned value function")
-    assert first.count("\n| ") == len(rows) + 2 and value.count("\n| ") == 2 + 4  # header, rule, 4 W
+    assert first.count("\n| ") == len(rows) + 2 and value.count("\n| ") == 2 * (2 + 4)  # two tables: header, rule, 4 W
     assert header[:4] == ["source", "scenario", "controller", "status"] and len(header) == 4 + len(COLUMNS)
     paper_rows = [r for r in rows if r[0] == "paper Table 1"]
     ours = [r for r in rows if r[0] == "this run"]
