@@ -158,11 +158,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
 
 def _cmd_reproduce(args: argparse.Namespace) -> int:
     from orchestration.recording.overlays import record_comparison
-    from orchestration.study.reproduce import (
-        compact_table,
-        reproduce_scenarios,
-        write_table,
-    )
+    from orchestration.study.reproduce import chaos_notes, compact_table, reproduce_scenarios, write_table
 
     def check(_) -> None:
         check_output_folder(args.out, "--out")
@@ -170,9 +166,10 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
 
     results, summaries = zip(*_run_each(*_prepare(reproduce_scenarios(), args.stop_time, args.fmu_dir, check),
                                         progress_label="reproduce"))
-    md, cs, text = write_table(summaries, args.out)
+    notes = chaos_notes(summaries)
+    md, cs, text = write_table(summaries, args.out, notes)
     print(text)
-    print(compact_table(summaries))
+    print(compact_table(summaries, notes))
     print(f"wrote {md} and {cs}")
     print(f"recording: {record_comparison(results, args.recording)} (paper Figs 10-12: every run overlaid)")
     return _exit_code(summaries)

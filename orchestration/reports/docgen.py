@@ -30,20 +30,18 @@ from orchestration.bench.speed import stored_block
 from orchestration.markdown import block_pattern, number, pair, replace_block, table
 from orchestration.reports import fair_tables
 from orchestration.study.comparison import (
-    CHAOS_THRESHOLD,
     COMPARED,
     OTC_VARIANTS,
-    PE_NUDGE,
+    PAPER_TABLE1,
+    chaos_text,
     controller_of,
     handling_name,
     mse_sum,
     run_metrics,
-    sensitivity,
     tuned_metrics,
 )
 from orchestration.study import tuning
 from orchestration.study.tuning import CONTROLLERS, NOMINAL_SCENARIO
-from orchestration.study.reproduce import PAPER_TABLE1
 from orchestration.study.statistics import paired
 from orchestration.study.sotc_study import NO_LEARNING
 from orchestration.sweep.results import (
@@ -88,16 +86,10 @@ def reading_cells(scenario: str, **overrides: float) -> list[str]:
     """``metric_cells`` of an SOTC reading, or, for a chaotic one (Table 1's metric moves by more than
     ``CHAOS_THRESHOLD`` when the PE amplitude moves by ``PE_NUDGE`` or the RK4 substeps double), what is
     reproducible about it: the lower bound of its MSE and the sensitivity."""
-    m = run_metrics(scenario, **overrides)
-    pe, sub, low = sensitivity(scenario, **overrides)
-    if max(pe, sub) <= CHAOS_THRESHOLD:
-        return metric_cells(m)
-    paper = sum(PAPER_TABLE1["SOTC"])
-    what = "does not track" if low > 10 * paper else "chaotic"
-    cells = metric_cells(m)
-    cells[0] = (f"{what} (MSE_1 + MSE_2 > {number(0.9 * low, '.2g')}; moves {100 * pe:.0f} % when the PE amplitude "
-                f"moves by {PE_NUDGE:g}, {100 * sub:.0f} % with 8 RK4 substeps)")
-    cells[1:4] = ["-", "-", "-"]
+    cells = metric_cells(run_metrics(scenario, **overrides))
+    chaos = chaos_text(scenario, **overrides)
+    if chaos is not None:
+        cells[:4] = [chaos, "-", "-", "-"]
     return cells
 
 
@@ -148,6 +140,9 @@ def results_verdict() -> str:
         return m["mse"][0] <= 1.3 * paper[0] and m["mse"][1] <= 1.3 * paper[1]
 
     def text(s, o, m):
+        chaos = chaos_text(s, **o)
+        if chaos is not None:
+            return f"{_reading_label(s, o)}: {chaos}"
         return f"{_reading_label(s, o)}: MSE {pair(m['mse'])}, realised cost {number(m['tracking_cost'])}"
 
     reach = [text(s, o, m) for s, o, m in measured if within(m)]
@@ -248,7 +243,10 @@ def controllers_verdict() -> str:
 
     def label(fmu: str) -> str:
         params = " or ".join(", ".join(f"{k.partition('.')[2]} {v:g}" for k, v in p.items()) for p in own.get(fmu, []))
-        if fmu in sweep.per_controller and sweep.per_controller[fmu].tuning == "best":
+        entry = sweep.per_controller.get(fmu)
+        if entry is not None and not entry.learning:
+            return f"{fmu} (the design of {LABELS.get(entry.fmu, entry.fmu)} above, critic frozen: alpha1 = alpha2 = 1e-9)"
+        if entry is not None and entry.tuning == "best":
             how = f"best of its tuning search: {params}"
         elif params:
             how = params

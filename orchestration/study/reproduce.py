@@ -12,56 +12,104 @@ from __future__ import annotations
 import csv
 import io
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any, Callable, NamedTuple
 
 from fmu_controller.saturation import LIMIT_HANDLINGS
 from orchestration.outputs import atomic_write
 from orchestration.markdown import table as markdown_table
 from orchestration.run.scenario import Scenario, load_scenario
 from orchestration.run.summary import fmt_cell
-from orchestration.study.comparison import COMPARED
+from orchestration.study.comparison import COMPARED, PAPER_TABLE1, chaos_text
+from orchestration.study.sotc_study import NO_LEARNING
 from orchestration.study.tuning import CONTROLLERS, NOMINAL_SCENARIO, tuned_parameters
 
 
 TUNED_HANDLINGS = (2, 0)  # the tuned rows of the README's results table: accel, radial
 
 
-def _runs() -> tuple[tuple[str, int | None, str, bool], ...]:
-    """(scenario, limit_handling code or None for the scenario's own, run name, tuned): the SOTC
-    readings first, then every controller of ``COMPARED`` under each handling (its default under its own
-    name), then every controller tuned by the protocol (``orchestration.study.tuning``) under
-    ``TUNED_HANDLINGS``."""
-    runs = [("paper-literal", None, "paper-literal", False), ("paper-near-literal", None, "paper-near-literal", False),
-            ("paper-pe-only", None, "paper-pe-only", False)]
+class Run(NamedTuple):
+    """One run of ``reproduce``: a scenario, the limit handling (None: the scenario's own), the run's
+    name, whether the controller runs its tuned design (``orchestration.study.tuning``) and whether the
+    SOTC's critic learns (False: alpha1 = alpha2 = 1e-9)."""
+
+    scenario: str
+    code: int | None
+    name: str
+    tuned: bool = False
+    learning: bool = True
+
+    def overrides(self) -> dict[str, float]:
+        """The controller parameters this run sets over its scenario's."""
+        out: dict[str, float] = {} if self.code is None else {"limit_handling": self.code}
+        if self.tuned:
+            out.update(tuned_parameters(load_scenario(self.scenario).controller_fmu(), self.code))
+        return out if self.learning else {**out, **NO_LEARNING}
+
+
+def _runs() -> tuple[Run, ...]:
+    """The SOTC readings first, then every controller of ``COMPARED`` under each handling (its default
+    under its own name), every controller tuned by the one protocol under ``TUNED_HANDLINGS``, and the
+    SOTC with its learning off at its nominal and its tuned designs (paired with the runs before)."""
+    runs = [Run("paper-literal", None, "paper-literal"), Run("paper-near-literal", None, "paper-near-literal"),
+            Run("paper-pe-only", None, "paper-pe-only")]
     for scenario, codes in COMPARED:
-        runs.append((scenario, None, scenario, False))
-        runs += [(scenario, code, f"{scenario}-{LIMIT_HANDLINGS[code]}", False) for code in codes[1:]]
+        runs.append(Run(scenario, None, scenario))
+        runs += [Run(scenario, code, f"{scenario}-{LIMIT_HANDLINGS[code]}") for code in codes[1:]]
     for fmu in CONTROLLERS:
         scenario = NOMINAL_SCENARIO[fmu]
-        runs += [(scenario, code, f"{scenario}-tuned-{LIMIT_HANDLINGS[code]}", True) for code in TUNED_HANDLINGS]
+        runs += [Run(scenario, code, f"{scenario}-tuned-{LIMIT_HANDLINGS[code]}", True) for code in TUNED_HANDLINGS]
+    sotc = NOMINAL_SCENARIO["SotcController"]
+    runs.append(Run(sotc, None, f"{sotc}-learning-off", learning=False))
+    runs += [Run(sotc, code, f"{sotc}-tuned-{LIMIT_HANDLINGS[code]}-learning-off", True, False) for code in TUNED_HANDLINGS]
     return tuple(runs)
 
 
 REPRODUCE_RUNS = _runs()
-REPRODUCE_SCENARIOS = tuple(name for _, _, name, _ in REPRODUCE_RUNS)
+REPRODUCE_SCENARIOS = tuple(r.name for r in REPRODUCE_RUNS)
 
 
 def reproduce_scenarios() -> list[Scenario]:
     out = []
-    for scenario, code, name, tuned in REPRODUCE_RUNS:
-        sc = load_scenario(scenario)
-        overrides: dict[str, float] = {} if code is None else {"controller.limit_handling": code}
-        if tuned:
-            fmu = sc.controller_fmu()
-            overrides.update({f"controller.{k}": v for k, v in tuned_parameters(fmu, code).items()})
-        out.append(sc if not overrides else sc.with_parameters(overrides, name=name))
+    for run in REPRODUCE_RUNS:
+        sc, overrides = load_scenario(run.scenario), run.overrides()
+        out.append(sc.with_parameters({f"controller.{k}": v for k, v in overrides.items()}, name=run.name)
+                   if run.name != run.scenario else sc)
     return out
 
-# Table 1 of the paper (MSE, eq. (50)); no other metric is reported there.
-PAPER_TABLE1 = {
-    "SOTC": (0.0025, 0.0084),
-    "OTC": (0.0059, 0.0159),
-}
+
+def learning_pairs() -> list[tuple[Run, Run]]:
+    """(learning on, learning off) for every SOTC run whose learning-off twin ``reproduce`` runs."""
+    on = {(r.scenario, r.code, r.tuned): r for r in REPRODUCE_RUNS if r.learning}
+    return [(on[(r.scenario, r.code, r.tuned)], r) for r in REPRODUCE_RUNS if not r.learning]
+
+
+def chaos_notes(summaries: list[dict[str, Any]]) -> dict[str, str]:
+    """Run name -> ``chaos_text`` for every SOTC reading of this invocation (untuned, learning) whose
+    Table 1 metric is chaotic at its stop time (the pure loop, which equals the FMU runs)."""
+    from orchestration.run import interrupt
+
+    stop = {s["scenario"]: s["stop_time"] for s in summaries}
+    out = {}
+    for run in REPRODUCE_RUNS:
+        if (run.name in stop and not run.tuned and run.learning and not interrupt.requested()
+                and load_scenario(run.scenario).controller_fmu() == "SotcController"):
+            text = chaos_text(run.scenario, stop[run.name], **run.overrides())
+            if text is not None:
+                out[run.name] = text
+    return out
+
+
+def learning_lines(summaries: list[dict[str, Any]]) -> list[str]:
+    """What the critic's learning adds, per pair: Table 1's metric with learning and without."""
+    by = {s["scenario"]: s for s in summaries}
+    lines = []
+    for on, off in learning_pairs():
+        a, b = by.get(on.name, {}), by.get(off.name, {})
+        if a.get("mse") and b.get("mse") and None not in a["mse"] + b["mse"]:
+            m_on, m_off = sum(a["mse"]), sum(b["mse"])
+            lines.append(f"{on.name}: MSE_1 + MSE_2 {m_on:.4g} with learning, {m_off:.4g} without "
+                         f"(on / off {m_on / m_off:.3g}); realised cost {a['tracking_cost']:.4g} / {b['tracking_cost']:.4g}")
+    return lines
 
 
 def _text(v: Any, fmt: str, full: bool) -> str:
@@ -161,36 +209,55 @@ def _stop_times(summaries: list[dict[str, Any]]) -> str:
     return " / ".join(f"{t:g} s" for t in times) if times else "-"
 
 
-def write_table(summaries: list[dict[str, Any]], out_dir: Path) -> tuple[Path, Path, str]:
+def sections(summaries: list[dict[str, Any]], notes: dict[str, str]) -> str:
+    """The chaotic readings said as such, and what the critic's learning adds, as text lines."""
+    out = []
+    if notes:
+        out += ["Chaotic readings (only a lower bound of their MSE is reproducible):"]
+        out += [f"  {name}: {text}" for name, text in notes.items()]
+    pairs = learning_lines(summaries)
+    if pairs:
+        out += ["What the critic's learning adds (the same run with alpha1 = alpha2 = 1e-9):"] + [f"  {p}" for p in pairs]
+    return "\n".join(out)
+
+
+def write_table(summaries: list[dict[str, Any]], out_dir: Path, notes: dict[str, str]) -> tuple[Path, Path, str]:
     header, rows = table_rows(summaries)
     out_dir = Path(out_dir)
     md, cs = out_dir / "table1.md", out_dir / "table1.csv"
     text = markdown_table(header, rows) + "\n"
+    extra = sections(summaries, notes)
     atomic_write(md,
         "# Table 1 of the paper, extended\n\n"
         "Rows 'paper Table 1' are the paper's numbers (it reports MSE only, over 100 s); rows 'this run' are\n"
         "measured by this invocation of `sotc-cosim reproduce` (metrics defined in orchestration/run/metrics.py),\n"
-        f"stop time {_stop_times(summaries)}.\n\n" + text
+        f"stop time {_stop_times(summaries)}.\n\n" + text + (f"\n```\n{extra}\n```\n" if extra else "")
         + "\n## The learned value function (docs/paper-notes.md, section 3.1)\n\n" + value_table(summaries)
     )
     atomic_write(cs, to_csv(*table_rows(summaries, full=True)))
     return md, cs, text
 
 
-def compact_table(summaries: list[dict[str, Any]]) -> str:
-    """The console version: MSE beside the paper's, and the torque bound."""
-    lines = [f"{'':<22} {'controller':<15} {'limit':<7} {'MSE 1':>9} {'MSE 2':>9} {'MSE1 t>=5':>10} "
+def compact_table(summaries: list[dict[str, Any]], notes: dict[str, str]) -> str:
+    """The console version: MSE beside the paper's (a chaotic reading's MSE: see the notes below), the
+    torque bound, then ``sections``."""
+    w = max(22, *(len(s["scenario"]) for s in summaries)) if summaries else 22
+    lines = [f"{'':<{w}} {'controller':<15} {'limit':<7} {'MSE 1':>9} {'MSE 2':>9} {'MSE1 t>=5':>10} "
              f"{'MSE2 t>=5':>10} {'cost':>8} {'max||tau||':>10} {'over limit':>10}"]
     for name, (m1, m2) in PAPER_TABLE1.items():
         bound = "<= 4" if name == "SOTC" else "?"  # the paper states the bound for SOTC only
-        lines.append(f"{'paper':<22} {name:<15} {'':<7} {m1:>9.5f} {m2:>9.5f} {'':>10} {'':>10} {'':>8} {bound:>10} {'':>10}")
+        lines.append(f"{'paper':<{w}} {name:<15} {'':<7} {m1:>9.5f} {m2:>9.5f} {'':>10} {'':>10} {'':>8} {bound:>10} {'':>10}")
     for s in summaries:
         mse = s.get("mse") or [None, None]
         late = s.get("mse_after_5s") or [None, None]
+        first = (f"{fmt_cell(mse[0], '.4g', 9)} {fmt_cell(mse[1], '.4g', 9)} {fmt_cell(late[0], '.3g', 10)} "
+                 f"{fmt_cell(late[1], '.3g', 10)}")
+        if s["scenario"] in notes:
+            first = f"{'chaotic: see below':>41}"
         lines.append(
-            f"{s['scenario']:<22} {str(s['controller']):<15} {str(s.get('limit_handling')):<7} "
-            f"{fmt_cell(mse[0], '.4g', 9)} {fmt_cell(mse[1], '.4g', 9)} {fmt_cell(late[0], '.3g', 10)} "
-            f"{fmt_cell(late[1], '.3g', 10)} {fmt_cell(s.get('tracking_cost'), '.4g', 8)} "
+            f"{s['scenario']:<{w}} {str(s['controller']):<15} {str(s.get('limit_handling')):<7} {first} "
+            f"{fmt_cell(s.get('tracking_cost'), '.4g', 8)} "
             f"{fmt_cell(s.get('max_norm_tau'), '.4g', 10)} {fmt_cell(s.get('samples_over_limit'), 'd', 10)}"
         )
-    return "\n".join(lines)
+    extra = sections(summaries, notes)
+    return "\n".join(lines) + (f"\n{extra}" if extra else "")

@@ -175,7 +175,8 @@ def _value_text(value: Any) -> str:
 
 
 def _controller(row: dict[str, Any]) -> str:
-    return str(metric(row, "controller") or row["settings"].get("controller", ""))
+    """The point's controller axis value (an FMU or a named entry), else the FMU its summary names."""
+    return str(row["settings"].get("controller") or metric(row, "controller") or "")
 
 
 def _group_value(row: dict[str, Any], axes: list[Axis]) -> Any:

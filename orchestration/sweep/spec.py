@@ -16,6 +16,11 @@ A sweep file is TOML (``orchestration/sweep/presets/<name>.toml``, shipped as pa
     tuning = "best"                 # optional: the best point of this FMU's tuning search (below)
     "controller.r" = 0.1            # instance.parameter = number, like `set`
 
+    [controller_settings."SOTC, learning off"]   # a named entry: a controller axis value of its own
+    fmu = "SotcController"          # the FMU it runs
+    tuning = "best"
+    learning = false                # the critic frozen (alpha1 = alpha2 = 1e-9), after the tuning
+
     [[axis]]
     name = "plant.p1"               # instance.parameter, or a setting: controller, step_size, stop_time
     values = [0.8, 1.0, 1.2]        # a list; or
@@ -31,7 +36,9 @@ every group (equal lengths), ``one-at-a-time`` varies each group alone with the 
 scenario's values. A ``controller`` axis names controller FMUs (model identifiers); the controller
 instance keeps the base scenario's parameters only for the same FMU; ``controller_settings`` gives a
 controller FMU its own parameters (a fair comparison tunes each baseline, not only the base scenario's
-controller). ``tuning = "best"`` takes them from the one tuning protocol every controller gets,
+controller); a table with ``fmu = "<FMU>"`` is a named entry (any label) that a ``controller`` axis lists
+like an FMU, so one FMU can run twice, e.g. with and without learning, paired on the same points.
+``tuning = "best"`` takes them from the one tuning protocol every controller gets,
 ``orchestration.study.tuning`` (the same budget for the SOTC, CT, LQR and the OTC; its stored best
 point, Table 1's metric on the paper's 100 s loop) under the point's own ``controller.limit_handling``:
 the tuning the README's results table reports. The parameters a point gets this way are part of its settings (and of its resume key). Random axes draw from
@@ -88,10 +95,12 @@ class Axis:
 
 @dataclass(frozen=True)
 class ControllerSettings:
-    """``[controller_settings.<fmu>]``: parameters for the points whose controller is ``fmu``."""
+    """``[controller_settings.<label>]``: parameters for the points whose controller axis value is the
+    label (an FMU's model identifier, or a named entry that runs ``fmu``)."""
     fmu: str
     values: dict[str, float]  # instance.parameter -> value
     tuning: str = ""  # "best": the parameters of the best point of the FMU's tuning search
+    learning: bool = True  # False: alpha1 = alpha2 = 1e-9 after everything else (the SOTC's critic frozen)
 
     def parameters(self, scenario: Scenario) -> dict[str, float]:
         """What this applies to a point's scenario (whose controller is ``fmu``): the tuned parameters
@@ -104,7 +113,12 @@ class ControllerSettings:
             params = {**scenario.instances["controller"].parameters,
                       **{k.partition(".")[2]: v for k, v in self.values.items() if k.startswith("controller.")}}
             out = {f"controller.{k}": v for k, v in tuned_parameters(self.fmu, handling_code(self.fmu, params)).items()}
-        return {**out, **self.values}
+        out.update(self.values)
+        if not self.learning:
+            from orchestration.study.sotc_study import NO_LEARNING
+
+            out.update({f"controller.{k}": v for k, v in NO_LEARNING.items()})
+        return out
 
 
 @dataclass(frozen=True)
@@ -150,18 +164,18 @@ class Sweep:
             settings = {a.label: v for axes, values in combo for a, v in zip(axes, values)}
             applied = [(a, v) for axes, values in combo for a, v in zip(axes, values)]
             scenario = self._apply(applied, f"{self.name}#{i}")
-            own = self.per_controller.get(scenario.controller_fmu() or "")
+            own = self.per_controller.get(settings.get("controller", scenario.controller_fmu() or ""))
             extra = own.parameters(scenario) if own else {}
             points.append(Point(i, {**settings, **extra}, scenario.with_parameters(extra) if extra else scenario))
         return points
 
     def controller_parameters(self) -> dict[str, list[dict[str, Any]]]:
-        """Per FMU of ``controller_settings``: the distinct parameter sets its points get (one, unless
+        """Per label of ``controller_settings``: the distinct parameter sets its points get (one, unless
         ``tuning = "best"`` meets points of different limit handlings)."""
         labels = {a.label for a in self.axes}
         out: dict[str, list[dict[str, Any]]] = {fmu: [] for fmu in self.per_controller}
         for p in self.points():
-            seen = out.get(p.scenario.controller_fmu() or "")
+            seen = out.get(p.settings.get("controller", p.scenario.controller_fmu() or ""))
             extra = {k: v for k, v in p.settings.items() if k not in labels}
             if seen is not None and extra not in seen:
                 seen.append(extra)
@@ -171,9 +185,9 @@ class Sweep:
         sc = self.base
         for axis, value in sorted(applied, key=lambda av: av[0].name != "controller"):  # controller first
             if axis.name == "controller":
-                old = sc.instances["controller"]
-                params = old.parameters if value == old.fmu else {}
-                sc = dataclasses.replace(sc, instances={**sc.instances, "controller": Instance("controller", value, params)})
+                old, fmu = sc.instances["controller"], self.fmu_of(value)
+                params = old.parameters if fmu == old.fmu else {}
+                sc = dataclasses.replace(sc, instances={**sc.instances, "controller": Instance("controller", fmu, params)})
         params: dict[str, float] = {}
         for axis, value in applied:
             if axis.name == "step_size":
@@ -187,8 +201,13 @@ class Sweep:
     def model_names(self) -> list[str]:
         """Every FMU model identifier a point of this sweep may load."""
         models = {i.fmu for i in self.base.instances.values()}
-        models |= {v for a in self.axes if a.name == "controller" for v in a.values}
+        models |= {self.fmu_of(v) for a in self.axes if a.name == "controller" for v in a.values}
         return sorted(models)
+
+    def fmu_of(self, controller: str) -> str:
+        """The FMU a controller axis value runs (a named entry's ``fmu``, else the value itself)."""
+        own = self.per_controller.get(controller)
+        return own.fmu if own else controller
 
 
 def _base_value(base: Scenario, axis: Axis) -> float:
@@ -288,20 +307,25 @@ def _controller_settings(raw: Any, base: Scenario, axes: tuple[Axis, ...], where
     runs = sorted(set(axis_fmus)) if axis_fmus else [f for f in [base.controller_fmu()] if f]
     swept = {a.name for a in axes}
     out = {}
-    for fmu, table in raw.items():
-        here = f"{where}: controller_settings.{fmu}"
-        if fmu not in runs:
-            raise SweepError(f"{here}: no point of this sweep runs controller {fmu!r}; its controllers: "
+    for label, table in raw.items():
+        here = f"{where}: controller_settings.{label}"
+        if label not in runs:
+            raise SweepError(f"{here}: no point of this sweep runs controller {label!r}; its controllers: "
                              f"{', '.join(runs) or 'none'}")
-        tuning = table.get("tuning", "")
-        values = {k: v for k, v in table.items() if k != "tuning"}
+        fmu, tuning, learning = table.get("fmu", label), table.get("tuning", ""), table.get("learning", True)
+        if fmu not in CORES:
+            raise SweepError(f"{here}.fmu = {fmu!r}; choose a controller FMU: {', '.join(CORES)}")
+        values = {k: v for k, v in table.items() if k not in ("tuning", "fmu", "learning")}
         if "tuning" in table and tuning not in TUNINGS:
             raise SweepError(f"{here}.tuning = {tuning!r}; choose {' or '.join(repr(t) for t in TUNINGS)}")
         tuned = {f"controller.{p}" for p in tuned_parameter_names(fmu)}
         if tuning and not tuned:
             raise SweepError(f"{here}.tuning: {fmu} has no tuning search (orchestration.study.tuning tunes "
                              f"{', '.join(CONTROLLERS)}); give its parameters instead")
-        specs = {s.name: s for s in CORES[fmu].PARAMETER_SPECS} if fmu in CORES else None
+        specs = {s.name: s for s in CORES[fmu].PARAMETER_SPECS}
+        if not isinstance(learning, bool) or (not learning and not {"alpha1", "alpha2"} <= set(specs)):
+            raise SweepError(f"{here}.learning = {learning!r}: true, or false for a controller with critic rates "
+                             "alpha1, alpha2 (the SotcController)")
         for key, value in values.items():
             at = f'{here}."{key}"'
             value = values[key] = _number(value, at)
@@ -311,7 +335,7 @@ def _controller_settings(raw: Any, base: Scenario, axes: tuple[Axis, ...], where
             if tuning and key in tuned:
                 raise SweepError(f"{at}: tuning = {tuning!r} sets {key} already")
             inst, _, pname = key.partition(".")
-            if inst == "controller" and specs is not None:
+            if inst == "controller":
                 if pname not in specs:
                     renamed = (f" ({pname!r} was renamed {RENAMED_PARAMETERS[pname]!r} in 0.2.0, see CHANGELOG.md)"
                                if pname in RENAMED_PARAMETERS else "")
@@ -320,7 +344,7 @@ def _controller_settings(raw: Any, base: Scenario, axes: tuple[Axis, ...], where
                     specs[pname].check(value)
                 except ValueError as exc:
                     raise SweepError(f"{at}: {exc}") from None
-        out[fmu] = ControllerSettings(fmu, values, tuning)
+        out[label] = ControllerSettings(fmu, values, tuning, learning)
     return out
 
 
@@ -362,7 +386,7 @@ def _parse_axis(spec: Any, number: int, seed: int, base: Scenario, where: str) -
     kind = kinds[0]
     if name == "controller":
         if kind != "values" or not spec["values"] or not all(isinstance(v, str) and v for v in spec["values"]):
-            raise SweepError(f"{here}: values must be a list of controller FMU model identifiers")
+            raise SweepError(f"{here}: values must be a list of controller FMU model identifiers or named entries")
         values: tuple[Any, ...] = tuple(spec["values"])
     elif kind == "values":
         if not isinstance(spec["values"], list) or not spec["values"]:

@@ -11,12 +11,13 @@ from rerun.chunk import RrdReader
 import orchestration.run.summary as summary_module
 from orchestration.cli import main
 from orchestration.study.comparison import run_metrics
-from orchestration.run.scenario import load_scenario
-from orchestration.study.tuning import tuned_parameters
 from orchestration.study.reproduce import (
     COLUMNS,
     PAPER_TABLE1,
     REPRODUCE_RUNS,
+    compact_table,
+    chaos_notes,
+    learning_pairs,
     REPRODUCE_SCENARIOS,
 )
 
@@ -77,14 +78,18 @@ def test_reproduce_writes_the_table_from_its_own_runs(fmu_dir, tmp_path, monkeyp
         line.split()[0] for line in printed.splitlines() if line.split()}
     # the docs' tables come from the pure loop: it gives these FMU runs' numbers
     by_name = {s["scenario"]: s for s in captured}
-    for scenario, code, name, tuned in REPRODUCE_RUNS:
-        fmu_name = load_scenario(scenario).controller_fmu()
-        overrides = {} if code is None else {"limit_handling": code}
-        pure = run_metrics(scenario, 3.0, **overrides, **(tuned_parameters(fmu_name, code) if tuned else {}))
-        fmu = by_name[name]
+    for run in REPRODUCE_RUNS:
+        pure = run_metrics(run.scenario, 3.0, **run.overrides())
+        name, fmu = run.name, by_name[run.name]
         assert np.allclose(pure["mse"], fmu["mse"], rtol=1e-9, atol=0.0), name
         assert pure["tracking_cost"] == pytest.approx(fmu["tracking_cost"], rel=1e-9), name
         assert (pure["samples_over_limit"], pure["last_limit_time"]) == (fmu["samples_over_limit"], fmu["last_limit_time"])
+    # the SOTC with and without learning, paired at its nominal and its tuned designs
+    assert "What the critic's learning adds" in printed
+    for on, off in learning_pairs():
+        assert by_name[off.name]["controller"] == "SotcController" and off.scenario == on.scenario
+        assert f"{on.name}: MSE_1 + MSE_2" in printed and f"{on.name}: MSE_1 + MSE_2" in md
+    assert {on.name for on, _ in learning_pairs()} == {"paper", "paper-tuned-accel", "paper-tuned-radial"}
     # the comparison recording overlays every run of this invocation (paper Figs 10-12)
     entities = {c.entity_path for c in RrdReader(rrd).stream().to_chunks()}
     for name in REPRODUCE_SCENARIOS:
@@ -104,3 +109,14 @@ def test_reproduce_console_script_in_a_fresh_interpreter_outside_the_repo(tmp_pa
     for handling in ("radial", "joint", "accel", "none"):
         assert handling in proc.stdout
     assert (tmp_path / "recordings" / "table1.md").is_file() and (tmp_path / "recordings" / "reproduce.rrd").is_file()
+
+
+def test_paper_literal_is_reported_as_not_tracking_with_its_sensitivity():
+    """A chaotic reading is said as such (the README's results block and reproduce share chaos_text)."""
+    notes = chaos_notes([{"scenario": "paper-literal", "stop_time": 100.0}, {"scenario": "paper-accel", "stop_time": 100.0}])
+    assert list(notes) == ["paper-literal"]
+    assert notes["paper-literal"].startswith("does not track (MSE_1 + MSE_2 > ")
+    assert "when the PE amplitude moves by 0.0001" in notes["paper-literal"] and "with 8 RK4 substeps" in notes["paper-literal"]
+    table = compact_table([{"scenario": "paper-literal", "controller": "SotcController", "limit_handling": "radial",
+                            "mse": [1.7, 6.6], "tracking_cost": 1885.0, "max_norm_tau": 4.0, "samples_over_limit": 0}], notes)
+    assert "1.7" not in table.splitlines()[3] and "chaotic: see below" in table and notes["paper-literal"] in table

@@ -186,7 +186,7 @@ def test_bad_files_are_refused(tmp_path):
 
 def test_shipped_sweeps_load():
     sizes = {name: len(load_sweep(name).points()) for name in ("robustness", "learning", "controllers")}
-    assert sizes == {"robustness": 41, "learning": 24, "controllers": 64}
+    assert sizes == {"robustness": 41, "learning": 24, "controllers": 80}
     controllers = load_sweep("controllers")
     pts = controllers.points()
     # every controller sees the same perturbed plants from the same initial states
@@ -195,15 +195,34 @@ def test_shipped_sweeps_load():
         plant = {k: v for k, v in p.settings.items() if k.partition(".")[0] != "controller"}
         by_ctrl.setdefault(p.settings["controller"], []).append(plant)
     first, *others = by_ctrl.values()
-    assert len(by_ctrl) == 4 and all(o == first for o in others)
+    assert len(by_ctrl) == 5 and all(o == first for o in others)
     # the same tuning effort: every controller runs the best point of the one tuning protocol under the sweep's handling
     from orchestration.study.tuning import tuned_parameters
 
     handling = controllers.fixed["controller.limit_handling"]
     for p in pts:
-        params, fmu = p.scenario.instances["controller"].parameters, p.settings["controller"]
+        params, fmu = p.scenario.instances["controller"].parameters, p.scenario.controller_fmu()
         best = tuned_parameters(fmu, handling)
+        if p.settings["controller"] == "SOTC, learning off":  # the same design, its critic frozen after the tuning
+            assert fmu == "SotcController" and params["alpha1"] == params["alpha2"] == 1e-9
+            best = {k: v for k, v in best.items() if k not in ("alpha1", "alpha2")}
         assert {k: params[k] for k in best} == best
+
+
+def test_named_controller_entries(tmp_path):
+    """A named entry runs its FMU under its own label; learning = false only where the FMU learns."""
+    s = sweep_of(scenario="paper", axis=[{"name": "controller", "values": ["SotcController", "frozen"]}],
+                 controller_settings={"frozen": {"fmu": "SotcController", "learning": False, "controller.lambda1_1": 2.0}})
+    on, off = s.points()
+    assert off.scenario.controller_fmu() == "SotcController" and off.settings["controller"] == "frozen"
+    assert off.scenario.instances["controller"].parameters["alpha1"] == 1e-9 and off.settings["controller.lambda1_1"] == 2.0
+    assert on.scenario.instances["controller"].parameters["alpha1"] != 1e-9
+    assert s.model_names().count("SotcController") == 1
+    with pytest.raises(ValueError, match="learning = False"):
+        sweep_of(axis=[{"name": "controller", "values": ["CtController"]}],
+                 controller_settings={"CtController": {"learning": False}})
+    with pytest.raises(ValueError, match="fmu = 'Nope'"):
+        sweep_of(axis=[{"name": "controller", "values": ["x"]}], controller_settings={"x": {"fmu": "Nope"}})
 
 
 def test_point_key_changes_with_the_scenario_and_the_fmu_digest():
