@@ -120,3 +120,8 @@ def test_paper_literal_is_reported_as_not_tracking_with_its_sensitivity():
     table = compact_table([{"scenario": "paper-literal", "controller": "SotcController", "limit_handling": "radial",
                             "mse": [1.7, 6.6], "tracking_cost": 1885.0, "max_norm_tau": 4.0, "samples_over_limit": 0}], notes)
     assert "1.7" not in table.splitlines()[3] and "chaotic: see below" in table and notes["paper-literal"] in table
+
+
+def test_readme_counts_the_runs_reproduce_makes():
+    readme = (Path(__file__).resolve().parents[2] / "README.md").read_text()
+    assert f"{len(REPRODUCE_RUNS)} runs;" in readme
