@@ -22,13 +22,14 @@ README's realised-cost coordinates), for any other W its z_v is shifted by its o
 from __future__ import annotations
 
 import itertools
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from fmu_controller.sotc import SotcCore
 from fmu_plant.trajectory import CircleTrajectory
-from orchestration.markdown import table
+from orchestration.markdown import number, table
 from orchestration.run.metrics import _trapezoid
 from orchestration.study.pure_loop import LoopResult, simulate
 
@@ -89,7 +90,8 @@ def hjb_residuals(W: np.ndarray, states=None, points=None, **params: float) -> n
 
 
 def rms(values: np.ndarray) -> float:
-    return float(np.sqrt(np.mean(values ** 2)))
+    """Root mean square; NaN for no values (a run shorter than ``SETTLED`` visits none after it)."""
+    return float(np.sqrt(np.mean(values ** 2))) if values.size else math.nan
 
 
 def initial_states() -> list[tuple[tuple[float, float], tuple[float, float]]]:
@@ -161,7 +163,7 @@ def value_rows(learned: np.ndarray, learning_run: LoopResult, horizon: float = H
 
 
 def residual_cells(rows: list[ValueRow]) -> list[list[str]]:
-    return [[LONG_LABELS.get(r.label, r.label), *(f"{v:.3g}" for v in r.residuals)] for r in rows]
+    return [[LONG_LABELS.get(r.label, r.label), *(number(v, ".3g") for v in r.residuals)] for r in rows]
 
 
 def cost_cells(rows: list[ValueRow]) -> list[list[str]]:
@@ -183,16 +185,17 @@ def _ranking(rows: list[ValueRow], cost) -> str:
 def value_report(rows: list[ValueRow]) -> str:
     """Both tables and the sentence that resolves each earlier figure, from the same measures."""
     learned, zero = rows[0], rows[1]
+    lowest = ", the lowest" if min(rows, key=lambda r: r.cost_earlier.sum()) is zero else ""
     return "\n".join([
         "HJB residual, RMS relative to W = 0's:", "", table(RESIDUAL_HEADER, residual_cells(rows)), "",
         "Cost-to-go from the 16 initial states, summed, relative to LQR's:", "",
         table(COST_HEADER, cost_cells(rows)), "",
         f"- Residual: the earlier figure (learned W at {learned.residuals[-1]:.3g} x W = 0's) was taken at fixed "
         "(e, e_dot), which each W maps to other z; at the same z for every W it is "
-        f"{learned.residuals[0]:.3g} on the grid and {learned.residuals[1]:.3g} on the z the learning run visits "
-        f"({learned.residuals[2]:.3g} once the transient is over, t >= {SETTLED:g} s).",
+        f"{number(learned.residuals[0], '.3g')} on the grid and {number(learned.residuals[1], '.3g')} on the z the "
+        f"learning run visits ({number(learned.residuals[2], '.3g')} once the transient is over, t >= {SETTLED:g} s).",
         f"- Cost-to-go: the earlier figure (W = 0 at {zero.cost_earlier.sum() / rows[-1].cost_earlier.sum():.4g} x "
-        "LQR's, the lowest) integrated each W's own z, in which W = 0's z_v is not the others'; in the shared z "
+        f"LQR's{lowest}) integrated each W's own z, in which W = 0's z_v is not the others'; in the shared z "
         f"the state cost ranks {_ranking(rows, lambda r: r.state_cost)}, and with each policy's own "
         f"Omega(mu_hat(W)) added {_ranking(rows, lambda r: r.state_cost + r.omega_cost)} (mu_hat(0) = 0 costs "
         "nothing).",
