@@ -30,8 +30,12 @@ MAX_BLOCK = 20_000  # samples per block handed to the recorder at most (about 12
 
 def _cmd_build(args: argparse.Namespace) -> int:
     check_output_folder(args.out, "--out")
+    from orchestration.fmu_build.compiled import SWITCH, describe, requested, unavailable
+
+    if requested() and unavailable():
+        print(f"{SWITCH}=1, but the cores stay Python: {unavailable()}")
     for path in build_fmus(args.models or None, args.out):
-        print(path)
+        print(f"{path}: {describe(path)}")
     return exit_codes.OK
 
 

@@ -23,7 +23,7 @@ from pathlib import Path
 from fmu_controller.catalog import CONTROLLERS
 from orchestration.outputs import atomic_write
 from orchestration.paths import OutputPathError, check_output_folder
-from orchestration.fmu_build import packaging
+from orchestration.fmu_build import compiled, packaging
 
 DEFAULT_FMU_DIR = Path("build") / "fmus"
 PACKAGE_ROOT = Path(__file__).resolve().parents[2]  # folder holding fmu_plant/, fmu_controller/
@@ -56,15 +56,17 @@ class BuildError(RuntimeError):
 
 
 def _source_files(source: FmuSource) -> list[Path]:
-    files = [PACKAGE_ROOT / source.script, Path(__file__).resolve(), Path(packaging.__file__).resolve()]
+    files = [PACKAGE_ROOT / source.script, Path(__file__).resolve(), Path(packaging.__file__).resolve(),
+             Path(compiled.__file__).resolve()]
     for pkg in source.packages:
         files += sorted((PACKAGE_ROOT / pkg).glob("*.py"))
     return sorted(set(files)) + packaging.pythonfmu_sources()
 
 
 def source_digest(source: FmuSource) -> str:
-    """What the FMU is built from: its sources, pythonfmu's Python half and the packaging code."""
-    h = hashlib.sha256(source.model.encode())
+    """What the FMU is built from: its sources, pythonfmu's Python half, the packaging code and
+    whether its cores are compiled (``compiles``)."""
+    h = hashlib.sha256(source.model.encode() + (f" compiled for {compiled.target()}".encode() if compiles() else b""))
     for f in _source_files(source):
         h.update(f.name.encode())
         h.update(f.read_bytes())
@@ -90,15 +92,20 @@ def is_current(model: str, out_dir: Path) -> bool:
         return False
 
 
-def _build_one(source: FmuSource, out_dir: Path) -> Path:
+def compiles() -> bool:
+    """Whether builds compile the hot cores: asked for (``compiled.SWITCH``) and possible here."""
+    return compiled.requested() and compiled.unavailable() is None
+
+
+def _build_one(source: FmuSource, out_dir: Path) -> tuple[Path, list[str]]:
     """Runs in the child process only."""
     with tempfile.TemporaryDirectory(prefix="sotc_stage_") as tmp:
         digest = source_digest(source)
-        built = packaging.package_fmu(
+        built, cores = packaging.package_fmu(
             source.model, PACKAGE_ROOT / source.script, {pkg: PACKAGE_ROOT / pkg for pkg in source.packages},
-            [PACKAGE_ROOT / e for e in source.equations], fmu_path(source.model, out_dir), Path(tmp))
+            [PACKAGE_ROOT / e for e in source.equations], fmu_path(source.model, out_dir), Path(tmp), compiles())
     atomic_write(out_dir / f"{source.model}.sources.sha256", f"{digest}\n{file_digest(built)}\n")
-    return built
+    return built, cores
 
 
 def build_fmus(models: list[str] | None = None, out_dir: Path = DEFAULT_FMU_DIR) -> list[Path]:
@@ -140,7 +147,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     for model in args.models or list(FMU_SOURCES):
-        print(_build_one(FMU_SOURCES[model], args.out))
+        print(_build_one(FMU_SOURCES[model], args.out)[0])
     return 0
 
 

@@ -40,6 +40,7 @@ from xml.dom.minidom import parseString
 from xml.etree.ElementTree import Element, tostring
 
 from fmi_slave.host_check import parse_requirement
+from orchestration.fmu_build import compiled
 from orchestration.outputs import atomic_file
 
 BUNDLED = ("fmi_slave", "fmu_plant", "fmu_controller", "pythonfmu")  # top-level packages renamed into <stem>_lib
@@ -249,7 +250,17 @@ def _range(v: Element) -> str:
     return "" if low is None and high is None else f"[{low if low is not None else '-inf'}, {high if high is not None else 'inf'}]"
 
 
-def documentation_html(model: str, xml: Element, equations: list[str], requirements: list[str]) -> str:
+def _compiled_html(cores: list[str]) -> str:
+    if not cores:
+        return "<h2>Compiled cores</h2><p>None: every module runs as Python source.</p>"
+    names = ", ".join(f"<code>{html.escape(c)}</code>" for c in cores)
+    return (f"<h2>Compiled cores</h2><p>{names} also ship compiled (Cython, from the same source) for "
+            f"{html.escape(compiled.target())}; any other Python or platform runs their <code>.py</code>, "
+            "with the same results.</p>")
+
+
+def documentation_html(model: str, xml: Element, equations: list[str], requirements: list[str],
+                       cores: list[str] = ()) -> str:
     """``documentation/index.html``: what the FMU is, its ports, and what its host needs (no links)."""
     esc = html.escape
     rows: dict[str, list[str]] = {"input": [], "output": [], "parameter": []}
@@ -282,7 +293,7 @@ def documentation_html(model: str, xml: Element, equations: list[str], requireme
         f"{reqs}</ul><p>These are listed in <code>resources/requirements.txt</code>; "
         f"<code>pythonfmu deploy -f {esc(model)}.fmu</code> installs them. A missing package makes "
         "fmi2Instantiate fail with a logged message that names it and its version range.</p>"
-        f"{tables}<h2>Equations</h2>{maths}</body></html>\n")
+        f"{_compiled_html(list(cores))}{tables}<h2>Equations</h2>{maths}</body></html>\n")
 
 
 def write_fmu(dest_file: Path, model: str, resources: Path, xml: Element, documentation: str) -> None:
@@ -298,16 +309,18 @@ def write_fmu(dest_file: Path, model: str, resources: Path, xml: Element, docume
 
 
 def package_fmu(model: str, script: Path, packages: dict[str, Path], equations: list[Path],
-                dest_file: Path, workdir: Path) -> Path:
-    """Stage, describe and zip one FMU into ``dest_file``. The bundle's module names carry the digest
-    of its own content (``bundle_digest``)."""
+                dest_file: Path, workdir: Path, compile_cores: bool = False) -> tuple[Path, list[str]]:
+    """Stage, describe and zip one FMU into ``dest_file``; return it and the cores compiled into it
+    (``compile_cores``: ``compiled.compile_bundle``). The bundle's module names carry the digest of its
+    own content (``bundle_digest``), the extensions included."""
     resources = workdir / "resources"
     placeholder = bundle_stem(model, PLACEHOLDER_DIGEST)
     requirements = stage(model, script, packages, placeholder, resources)
+    cores = compiled.compile_bundle(resources, f"{placeholder}_lib") if compile_cores else []
     stem = bundle_stem(model, bundle_digest(bundled_files(resources), placeholder, model))
     _rename_bundle(resources, placeholder, stem)
     xml = model_description(resources, stem, model)
     docs = [ast.get_docstring(ast.parse(p.read_text())) or "" for p in [script, *equations]]
-    write_fmu(dest_file, model, resources, xml, documentation_html(model, xml, docs, requirements))
+    write_fmu(dest_file, model, resources, xml, documentation_html(model, xml, docs, requirements, cores))
     shutil.rmtree(resources)
-    return dest_file
+    return dest_file, cores

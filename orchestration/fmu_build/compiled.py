@@ -1,0 +1,105 @@
+"""Compiled cores, opt-in (``SOTC_COSIM_COMPILE=1`` at build time): Cython compiles a staged bundle's
+hot modules in place, from the same ``.py`` files, so every formula still lives once.
+
+Each extension sits beside its ``.py`` under the bundle's module name. CPython's import system tries
+extension modules before sources, and only an extension whose suffix matches the running interpreter
+(``importlib.machinery.EXTENSION_SUFFIXES``, e.g. ``.cpython-311-x86_64-linux-gnu.so``): any other
+Python or platform imports the ``.py``, so the FMU stays standalone.
+
+The bundle is compiled while it still carries the placeholder stem, and renamed afterwards by the
+same-length byte replacement as every other file (``packaging._rename_bundle``). That is safe only
+with ``-fvisibility=hidden``: the one exported symbol is then ``PyInit_<module>``, whose name holds no
+stem, while a renamed exported symbol would no longer match the ELF hash table and fail to load;
+and with ``CYTHON_COMPRESS_STRINGS=0``, else Cython stores the module names compressed. The
+fully qualified module name the extension registers is renamed with the rest, so two builds of one FMU
+in one process each run their own code (tests/fmu/test_compiled_cores.py). Plain Cython on the
+unchanged modules gives the pure-Python outputs bit for bit (same test).
+"""
+from __future__ import annotations
+
+import importlib.machinery
+import importlib.util
+import os
+import shutil
+import subprocess
+import sys
+import sysconfig
+import tempfile
+from pathlib import Path
+
+SWITCH = "SOTC_COSIM_COMPILE"  # "1": compile the hot cores when the FMUs are built
+# the hot path of a step (controller evaluate/learn, the plant's RK4, the reference, the limiters)
+HOT = ("fmu_controller/sotc.py", "fmu_controller/sotc_math.py", "fmu_controller/sotc_zv.py",
+       "fmu_controller/sotc_stack.py", "fmu_controller/saturation.py", "fmu_controller/small_linalg.py",
+       "fmu_plant/dynamics.py", "fmu_plant/trajectory.py")
+CFLAGS = "-O2 -g0 -fvisibility=hidden -DCYTHON_COMPRESS_STRINGS=0"  # names stay plain bytes (renamed)
+TIME_LIMIT = 900.0  # s for compiling one bundle
+_SCRIPT = """import sys
+from setuptools import setup
+from Cython.Build import cythonize
+setup(ext_modules=cythonize(sys.argv[2:], quiet=True,
+                            compiler_directives={"language_level": 3, "annotation_typing": False}),
+      script_args=["build_ext", "--inplace", "--build-temp", sys.argv[1], "--build-lib", sys.argv[1]])
+"""
+
+
+class CompileError(RuntimeError):
+    pass
+
+
+def requested() -> bool:
+    return os.environ.get(SWITCH, "") == "1"
+
+
+def unavailable() -> str | None:
+    """Why this interpreter cannot compile the cores (None: it can)."""
+    if importlib.util.find_spec("Cython") is None or importlib.util.find_spec("setuptools") is None:
+        return "Cython and setuptools are not installed (pip install cython setuptools)"
+    compiler = (sysconfig.get_config_var("CC") or "cc").split()[0]
+    if shutil.which(compiler) is None:
+        return f"no C compiler ({compiler}) on PATH"
+    if not Path(sysconfig.get_paths()["include"], "Python.h").is_file():
+        return "the Python headers (Python.h) are missing"
+    return None
+
+
+def target() -> str:
+    """The interpreter and platform the extensions load on (their file suffix)."""
+    return f"CPython {sys.version_info.major}.{sys.version_info.minor}, {importlib.machinery.EXTENSION_SUFFIXES[0]}"
+
+
+def describe(fmu: Path) -> str:
+    """What a built FMU runs its cores as: the extensions it carries and their target, or Python only."""
+    import zipfile
+
+    with zipfile.ZipFile(fmu) as z:
+        exts = sorted({n.rsplit("/", 1)[-1].split(".", 1)[1] for n in z.namelist()
+                       if n.startswith("resources/") and n.endswith((".so", ".pyd"))})
+        count = sum(n.startswith("resources/") and n.endswith((".so", ".pyd")) for n in z.namelist())
+    return (f"{count} core{'s' if count > 1 else ''} compiled (.{', .'.join(exts)}), Python elsewhere" if count
+            else "Python only")
+
+
+def compile_bundle(resources: Path, lib: str) -> list[str]:
+    """Compile the ``HOT`` modules present under ``resources/lib`` in place (the extension beside its
+    ``.py``, no C file left); return their paths under ``lib``."""
+    present = [rel for rel in HOT if (resources / lib / rel).is_file()]
+    if not present:
+        return []
+    with tempfile.TemporaryDirectory(prefix="sotc_cython_") as tmp:
+        cmd = [sys.executable, "-c", _SCRIPT, tmp, *(f"{lib}/{rel}" for rel in present)]
+        try:
+            proc = subprocess.run(cmd, cwd=resources, capture_output=True, text=True, timeout=TIME_LIMIT,
+                                  env={**os.environ, "CFLAGS": CFLAGS})
+        except subprocess.TimeoutExpired:
+            raise CompileError(f"compiling the cores took over {TIME_LIMIT:g} s") from None
+    for rel in present:
+        (resources / lib / rel).with_suffix(".c").unlink(missing_ok=True)
+    if proc.returncode != 0:
+        last = next((ln for ln in reversed(proc.stderr.splitlines()) if ln.strip()), "no message")
+        raise CompileError(f"compiling the cores failed: {last.strip()}")
+    suffix = importlib.machinery.EXTENSION_SUFFIXES[0]
+    missing = [rel for rel in present if not (resources / lib / rel).with_suffix(suffix).is_file()]
+    if missing:
+        raise CompileError(f"compiling the cores left no extension for {', '.join(missing)}")
+    return present

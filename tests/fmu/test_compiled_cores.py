@@ -1,0 +1,68 @@
+"""Compiled cores (``SOTC_COSIM_COMPILE=1`` at build time): the FMU carries Cython extensions of its hot
+modules beside their ``.py`` under its per-build names, loads them in a matching interpreter, and gives
+the pure-Python FMU's outputs bit for bit, both builds side by side in one process."""
+from __future__ import annotations
+
+import importlib.machinery
+import sys
+import zipfile
+
+import numpy as np
+import pytest
+
+from orchestration.fmu_build import compiled
+from orchestration.fmu_build.build import ensure_built
+from orchestration.run.master import run
+from orchestration.run.scenario import load_scenario
+
+pytestmark = pytest.mark.skipif(compiled.unavailable() is not None, reason=f"cannot compile here: {compiled.unavailable()}")
+MODELS = ["SotcController", "ArmPlant", "ReferenceTrajectory"]  # the `paper` loop's FMUs with hot cores
+SUFFIX = importlib.machinery.EXTENSION_SUFFIXES[0]
+
+
+@pytest.fixture(scope="module")
+def compiled_paths(tmp_path_factory) -> dict[str, object]:
+    out = tmp_path_factory.mktemp("compiled_fmus")
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv(compiled.SWITCH, "1")
+        return ensure_built(MODELS, out)
+
+
+def _stem(fmu) -> str:
+    with zipfile.ZipFile(fmu) as z:
+        return z.read("resources/slavemodule.txt").decode().strip()
+
+
+def test_the_fmu_carries_an_extension_beside_each_hot_module(compiled_paths):
+    fmu = compiled_paths["SotcController"]
+    stem = _stem(fmu)
+    with zipfile.ZipFile(fmu) as z:
+        names = set(z.namelist())
+        page = z.read("documentation/index.html").decode()
+    controller = [rel for rel in compiled.HOT if f"resources/{stem}_lib/{rel}" in names]
+    assert {"fmu_controller/sotc.py", "fmu_controller/sotc_math.py", "fmu_plant/dynamics.py"} <= set(controller)
+    for rel in controller:
+        assert f"resources/{stem}_lib/{rel[:-3]}{SUFFIX}" in names, rel  # under the final stem
+    assert not [n for n in names if n.endswith(".c") or "000000000000" in n]
+    assert "Compiled cores" in page and compiled.target() in page
+
+
+def test_compiled_and_python_builds_run_side_by_side_with_the_same_outputs(compiled_paths, fmu_paths):
+    scenario = load_scenario("paper").with_stop_time(5.0)
+    pure = run(scenario, fmu_paths)
+    fast = run(scenario, {**fmu_paths, **compiled_paths})
+    assert not pure.failed and not fast.failed, (pure.error, fast.error)
+    for inst, outputs in pure.outputs.items():
+        for var, values in outputs.items():
+            assert np.array_equal(values, fast.outputs[inst][var], equal_nan=True), f"{inst}.{var}"
+    # both builds of the SotcController are loaded in this process, each from its own files
+    fast_core = sys.modules[f"{_stem(compiled_paths['SotcController'])}_lib.fmu_controller.sotc"]
+    pure_core = sys.modules[f"{_stem(fmu_paths['SotcController'])}_lib.fmu_controller.sotc"]
+    assert fast_core.__file__.endswith(SUFFIX) and pure_core.__file__.endswith(".py")
+
+
+def test_switching_compiling_on_or_off_rebuilds(compiled_paths, fmu_paths):
+    """The build stamp names the compiled target: a Python-only FMU is not reused as a compiled one."""
+    assert _stem(compiled_paths["SotcController"]) != _stem(fmu_paths["SotcController"])
+    assert (compiled_paths["SotcController"].parent / "SotcController.sources.sha256").read_text() != \
+        (fmu_paths["SotcController"].parent / "SotcController.sources.sha256").read_text()
