@@ -66,3 +66,12 @@ def test_switching_compiling_on_or_off_rebuilds(compiled_paths, fmu_paths):
     assert _stem(compiled_paths["SotcController"]) != _stem(fmu_paths["SotcController"])
     assert (compiled_paths["SotcController"].parent / "SotcController.sources.sha256").read_text() != \
         (fmu_paths["SotcController"].parent / "SotcController.sources.sha256").read_text()
+
+
+def test_validate_passes_the_compiled_fmus(compiled_paths, monkeypatch, capsys):
+    from orchestration.cli import main
+
+    monkeypatch.setenv(compiled.SWITCH, "1")  # else validate would rebuild them as Python
+    folder = compiled_paths["SotcController"].parent
+    assert main(["validate", "--fmu-dir", str(folder), *MODELS]) == 0, capsys.readouterr().out
+    assert compiled.describe(compiled_paths["SotcController"]).startswith("7 cores compiled")
