@@ -164,9 +164,14 @@ COLUMNS: list[tuple[str, str, Callable[[dict[str, Any]], str]]] = [
 ]
 
 
-def table_rows(summaries: list[dict[str, Any]], full: bool = False) -> tuple[list[str], list[list[str]]]:
+CHAOTIC_CELLS = slice(1, 7)  # of COLUMNS: MSE, MSE for t >= 5 s and after the last limit sample
+
+
+def table_rows(summaries: list[dict[str, Any]], full: bool = False,
+               chaotic: frozenset[str] = frozenset()) -> tuple[list[str], list[list[str]]]:
     """Header and rows: the paper's rows first (MSE only), then one row per run of ours; ``full``:
-    every number at full precision (``repr``, for table1.csv) instead of the column's format."""
+    every number at full precision (``repr``, for table1.csv) instead of the column's format; the
+    MSE cells of the ``chaotic`` runs say so instead of printing a number that is not reproducible."""
     header = ["source", "scenario", "controller", "status"] + [
         f"{title} [{unit}]" if unit else title for title, unit, _ in COLUMNS
     ]
@@ -174,8 +179,10 @@ def table_rows(summaries: list[dict[str, Any]], full: bool = False) -> tuple[lis
     for name, (m1, m2) in PAPER_TABLE1.items():
         rows.append(["paper Table 1", "", name, ""] + ["", f"{m1:.5f}", f"{m2:.5f}"] + [""] * (len(COLUMNS) - 3))
     for s in summaries:
-        rows.append(["this run", s["scenario"], str(s["controller"]), s["status"]]
-                    + [get(s, full) for _, _, get in COLUMNS])
+        cells = [get(s, full) for _, _, get in COLUMNS]
+        if s["scenario"] in chaotic:
+            cells[CHAOTIC_CELLS] = ["chaotic (see below)"] * (CHAOTIC_CELLS.stop - CHAOTIC_CELLS.start)
+        rows.append(["this run", s["scenario"], str(s["controller"]), s["status"]] + cells)
     return header, rows
 
 
@@ -222,7 +229,7 @@ def sections(summaries: list[dict[str, Any]], notes: dict[str, str]) -> str:
 
 
 def write_table(summaries: list[dict[str, Any]], out_dir: Path, notes: dict[str, str]) -> tuple[Path, Path, str]:
-    header, rows = table_rows(summaries)
+    header, rows = table_rows(summaries, chaotic=frozenset(notes))
     out_dir = Path(out_dir)
     md, cs = out_dir / "table1.md", out_dir / "table1.csv"
     text = markdown_table(header, rows) + "\n"

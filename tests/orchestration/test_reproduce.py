@@ -16,6 +16,7 @@ from orchestration.study.reproduce import (
     PAPER_TABLE1,
     REPRODUCE_RUNS,
     compact_table,
+    table_rows,
     chaos_notes,
     learning_pairs,
     REPRODUCE_SCENARIOS,
@@ -120,6 +121,11 @@ def test_paper_literal_is_reported_as_not_tracking_with_its_sensitivity():
     table = compact_table([{"scenario": "paper-literal", "controller": "SotcController", "limit_handling": "radial",
                             "mse": [1.7, 6.6], "tracking_cost": 1885.0, "max_norm_tau": 4.0, "samples_over_limit": 0}], notes)
     assert "1.7" not in table.splitlines()[3] and "chaotic: see below" in table and notes["paper-literal"] in table
+    summary = {"scenario": "paper-literal", "controller": "SotcController", "status": "ok", "mse": [1.7, 6.6]}
+    _, rows = table_rows([summary], chaotic=frozenset(notes))
+    assert rows[-1][4 + 1:4 + 7] == ["chaotic (see below)"] * 6 and "1.7" not in rows[-1]
+    _, full = table_rows([summary], full=True)  # table1.csv keeps the measured numbers
+    assert full[-1][5] == repr(1.7)
 
 
 def test_readme_counts_the_runs_reproduce_makes():
