@@ -48,9 +48,12 @@ def test_the_fmu_carries_an_extension_beside_each_hot_module(compiled_paths):
 
 
 def test_compiled_and_python_builds_run_side_by_side_with_the_same_outputs(compiled_paths, fmu_paths):
-    scenario = load_scenario("paper").with_stop_time(5.0)
+    """The whole 100 s `paper` run (whose Python build equals the stored reference run,
+    tests/orchestration/test_reference_runs.py): every output of every sample, bit for bit."""
+    scenario = load_scenario("paper")
     pure = run(scenario, fmu_paths)
     fast = run(scenario, {**fmu_paths, **compiled_paths})
+    assert len(fast.time) == 10_001
     assert not pure.failed and not fast.failed, (pure.error, fast.error)
     for inst, outputs in pure.outputs.items():
         for var, values in outputs.items():
