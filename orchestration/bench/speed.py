@@ -28,6 +28,7 @@ import time
 from datetime import datetime, timezone
 from pathlib import Path
 
+from orchestration.fmu_build import compiled
 from orchestration.markdown import table
 
 SCENARIO = "paper"
@@ -72,8 +73,9 @@ def _stats(samples: list[float]) -> dict:
     return {"median": statistics.median(samples), "min": min(samples), "max": max(samples), "runs": samples}
 
 
-def side_by_side(scenario, paths, repeats: int) -> dict:
-    """Floor, co-simulation and recorded co-simulation, alternated ``repeats`` times."""
+def side_by_side(scenario, paths, repeats: int, compiled_paths=None) -> dict:
+    """Floor, co-simulation and recorded co-simulation, alternated ``repeats`` times; with
+    ``compiled_paths`` (the same FMUs with compiled cores) also their recorded co-simulation."""
     from orchestration.recording.writer import BLOCK_SIZE, RunRecorder
     from orchestration.run.master import run
     from orchestration.run.summary import SummaryObserver
@@ -81,9 +83,14 @@ def side_by_side(scenario, paths, repeats: int) -> dict:
 
     make_core, start = floor_core(scenario)
     walls: dict[str, list[float]] = {"floor": [], "cosim": [], "cosim_recorded": []}
+    variants = {"cosim_recorded": paths}
+    if compiled_paths:
+        walls["cosim_recorded_compiled"] = []
+        variants["cosim_recorded_compiled"] = compiled_paths
     with tempfile.TemporaryDirectory(prefix="sotc_bench_") as tmp:
-        with RunRecorder(Path(tmp) / "warm.rrd") as rec:  # imports, first blueprint, FMU extraction
-            run(scenario.with_stop_time(1.0), paths, observer=rec, keep_samples=False)
+        for some in variants.values():
+            with RunRecorder(Path(tmp) / "warm.rrd") as rec:  # imports, first blueprint, FMU extraction
+                run(scenario.with_stop_time(1.0), some, observer=rec, keep_samples=False)
         for _ in range(repeats):
             t0 = time.perf_counter()
             simulate(make_core(), scenario.stop_time, scenario.step_size, **start)
@@ -92,12 +99,13 @@ def side_by_side(scenario, paths, repeats: int) -> dict:
             result = run(scenario, paths, observer=SummaryObserver(), keep_samples=False)
             walls["cosim"].append(time.perf_counter() - t0)
             _check(result)
-            t0 = time.perf_counter()
-            with RunRecorder(Path(tmp) / "run.rrd") as rec:
-                result = run(scenario, paths, observer=[SummaryObserver(), rec], block_size=BLOCK_SIZE,
-                             keep_samples=False)
-            walls["cosim_recorded"].append(time.perf_counter() - t0)
-            _check(result)
+            for key, some in variants.items():
+                t0 = time.perf_counter()
+                with RunRecorder(Path(tmp) / "run.rrd") as rec:
+                    result = run(scenario, some, observer=[SummaryObserver(), rec], block_size=BLOCK_SIZE,
+                                 keep_samples=False)
+                walls[key].append(time.perf_counter() - t0)
+                _check(result)
         rrd_bytes = (Path(tmp) / "run.rrd").stat().st_size
     runs = {k: _stats(v) for k, v in walls.items()}
     med = {k: v["median"] for k, v in runs.items()}
@@ -266,7 +274,9 @@ def bench_speed(fmu_dir: Path, repeats: int = 3, long: tuple[float, ...] = LONG_
     scenario = load_scenario(SCENARIO)
     if stop_time is not None:
         scenario = scenario.with_stop_time(stop_time)
-    paths = ensure_built(sorted({i.fmu for i in scenario.instances.values()}), fmu_dir)
+    models = sorted({i.fmu for i in scenario.instances.values()})
+    paths = ensure_built(models, fmu_dir)
+    fast = compiled_fmus(models, fmu_dir)
     data = {
         "benchmark": "speed", "date": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
         "machine": machine(),
@@ -274,11 +284,33 @@ def bench_speed(fmu_dir: Path, repeats: int = 3, long: tuple[float, ...] = LONG_
                    "repeats": repeats, "statistic": "median (min-max) of alternated runs in one process",
                    "long_runs": "one run each in a fresh child process, with recording"},
     }
-    data.update(side_by_side(scenario, paths, repeats))
+    data["compiled"] = compiled.target() if isinstance(fast, dict) else f"not measured: {fast}"
+    data.update(side_by_side(scenario, paths, repeats, fast if isinstance(fast, dict) else None))
     data["split"] = cost_split(scenario, paths)
+    if isinstance(fast, dict):
+        data["split_compiled"] = cost_split(scenario, fast)
     data["long"] = long_runs(fmu_dir, long, record_every) if long else []
     data["targets"] = check_targets(data)
     return data
+
+
+def compiled_fmus(models: list[str], fmu_dir: Path) -> dict[str, Path] | str:
+    """The same FMUs with compiled cores (``orchestration.fmu_build.compiled``), built into
+    ``fmu_dir/compiled``; or why they cannot be built here."""
+    from orchestration.fmu_build.build import ensure_built
+
+    reason = compiled.unavailable()
+    if reason:
+        return reason
+    old = os.environ.get(compiled.SWITCH)
+    os.environ[compiled.SWITCH] = "1"
+    try:
+        return ensure_built(models, Path(fmu_dir) / "compiled")
+    finally:
+        if old is None:
+            del os.environ[compiled.SWITCH]
+        else:
+            os.environ[compiled.SWITCH] = old
 
 
 def check_targets(data: dict) -> dict:
@@ -306,7 +338,8 @@ def check_targets(data: dict) -> dict:
 def _runs_rows(data: dict) -> list[tuple[str, str, str]]:
     labels = {"floor": "floor: pure cores in-process (no FMI, no recording)",
               "cosim": "through the FMUs (fmpy master), no recording",
-              "cosim_recorded": "through the FMUs, recorded (`sotc-cosim run paper`)"}
+              "cosim_recorded": "through the FMUs, recorded (`sotc-cosim run paper`)",
+              "cosim_recorded_compiled": "the same, cores compiled (`SOTC_COSIM_COMPILE=1`)"}
     ref = data["runs"]["floor"]["median"]
     return [(labels[k], f"{v['median']:.3f} s ({v['min']:.3f}-{v['max']:.3f})", f"{v['median'] / ref:.2f}x")
             for k, v in data["runs"].items()]
@@ -319,11 +352,14 @@ def _best(data: dict, run: str, base: str) -> float:
 def _split_rows(data: dict) -> list[list[str]]:
     split, total = data["split"]["us_per_step"], data["split"]["total_us_per_step"]
     floor = data["split"].get("floor_us_per_step", {})
+    fast = data.get("split_compiled")
     rows = []
     for k, v in split.items():
         same = floor.get(k.replace(" (core, inside the FMU)", ""))
-        rows.append([k, f"{v:.1f}", f"{v / total:.0%}", "" if same is None else f"{same:.1f}"])
-    return rows + [["total", f"{total:.1f}", "100%", f"{sum(floor.values()):.1f}" if floor else ""]]
+        rows.append([k, f"{v:.1f}", f"{v / total:.0%}", "" if same is None else f"{same:.1f}"]
+                    + ([f"{fast['us_per_step'][k]:.1f}"] if fast else []))
+    return rows + [["total", f"{total:.1f}", "100%", f"{sum(floor.values()):.1f}" if floor else ""]
+                   + ([f"{fast['total_us_per_step']:.1f}"] if fast else [])]
 
 
 def _long_rows(data: dict) -> list[list[str]]:
@@ -353,8 +389,10 @@ def format_markdown(data: dict) -> str:
         f"{_best(data, 'cosim_recorded', 'floor'):.2f}x recorded against the floor, recording overhead "
         f"{_best(data, 'cosim_recorded', 'cosim'):.2f}x.",
         "",
-        table(["per step (one recorded run, instrumented)", "us", "share", "the same core in the floor's loop, us"],
-              _split_rows(data)),
+        table(["per step (one recorded run, instrumented)", "us", "share", "the same core in the floor's loop, us"]
+              + (["cores compiled, us"] if data.get("split_compiled") else []), _split_rows(data)),
+        "",
+        f"Compiled cores: {data.get('compiled', 'not measured (this measurement predates them)')}.",
     ]
     if data["long"]:
         lines += ["", table(["single run, recorded (child process)", "wall time", "ms per simulated s",

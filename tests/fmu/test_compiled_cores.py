@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from orchestration.fmu_build import compiled
-from orchestration.fmu_build.build import ensure_built
+from orchestration.bench.speed import compiled_fmus
 from orchestration.run.master import run
 from orchestration.run.scenario import load_scenario
 
@@ -21,11 +21,9 @@ SUFFIX = importlib.machinery.EXTENSION_SUFFIXES[0]
 
 
 @pytest.fixture(scope="module")
-def compiled_paths(tmp_path_factory) -> dict[str, object]:
-    out = tmp_path_factory.mktemp("compiled_fmus")
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setenv(compiled.SWITCH, "1")
-        return ensure_built(MODELS, out)
+def compiled_paths(fmu_dir) -> dict[str, object]:
+    """Where ``sotc-cosim bench`` builds them too (``compiled_fmus``), so the suite compiles once."""
+    return compiled_fmus(MODELS, fmu_dir)
 
 
 def _stem(fmu) -> str:
