@@ -360,7 +360,9 @@ class SotcCore(ControllerCore):
         (6); F_v(z_phi, z_v) of (4)/(6) is the drift -D^-1 (H v + G) of (2) at the error coordinates."""
         zp1, zp2, zv1, zv2 = z
         (lam11, lam12), (lam21, lam22), (i11, i12, i22) = self.lam1, self.lam2, dinv
-        fe1, fe2 = forward_dynamics(zp2, zv1, zv2, 0.0, 0.0, self.model) if self.fv_drift else (0.0, 0.0)
+        fe1 = fe2 = 0.0
+        if self.fv_drift:
+            fe1, fe2 = forward_dynamics(zp2, zv1, zv2, 0.0, 0.0, self.model)
         if self.backstepping:
             zd1 = -lam11 * zp1 + cs[0] + zv1
             zd2 = -lam12 * zp2 + cs[1] + zv2

@@ -34,6 +34,7 @@ from fmi_slave.parameters import (
 from fmu_plant.paper_setting import STEP_SIZE as STEP_SIZE
 from fmu_plant.paper_setting import TORQUE_LIMIT as TORQUE_LIMIT
 
+Coefficients = tuple[float, float, float, float, float, float, float]  # (p1, p2, p3, f1, f2, b1, b2)
 MAX_SUBSTEPS = 1000  # RK4 substeps per communication step, at most (a bound independent of the input)
 SUBSTEP_STIFFNESS = 1.0  # h L kept at or below this per substep (RK4's real stability limit is 2.785)
 MAX_INVERSE_INERTIA = 1e6  # 1/(kg m^2): lambda_min(D(phi)) >= 1e-6 kg m^2 for every phi
@@ -83,6 +84,7 @@ class ArmParameters:
         # ||D(phi)^-1|| <= tr D / det D <= (p1 + p2 + 2 p3) / margin for every phi (lambda_min >= det / tr)
         inv = (self.p1 + self.p2 + 2.0 * self.p3) / margin
         object.__setattr__(self, "inv_inertia", inv)
+        object.__setattr__(self, "coefficients", (self.p1, self.p2, self.p3, self.f1, self.f2, self.b1, self.b2))
         if not inv <= MAX_INVERSE_INERTIA:
             raise ParameterError(
                 "p2", f"D(phi) is nearly singular: its smallest eigenvalue can be {1.0 / inv:.3g} kg.m2, below "
@@ -107,41 +109,68 @@ class ArmParameters:
 
 def inertia_entries(phi2: float, p: ArmParameters) -> tuple[float, float, float]:
     """(d11, d12, d22) of the symmetric inertia matrix D(phi), eq. (46)."""
-    c2 = math.cos(phi2)
-    return p.p1 + 2.0 * p.p3 * c2, p.p2 + p.p3 * c2, p.p2
+    return _inertia(phi2, p.coefficients)
 
 
 def coriolis_entries(phi2: float, dphi1: float, dphi2: float, p: ArmParameters) -> tuple[float, float, float]:
     """(h11, h12, h21) of H(phi, dphi), eq. (46); h22 = 0. H is the Christoffel form: dD/dt - 2H is skew."""
-    k = p.p3 * math.sin(phi2)
-    return -k * dphi2, -k * (dphi1 + dphi2), k * dphi1
+    return _coriolis(phi2, dphi1, dphi2, p.coefficients)
 
 
 def friction_torque(dphi1: float, dphi2: float, p: ArmParameters) -> tuple[float, float]:
     """G(dphi) of eq. (46), plus the optional viscous terms b_i dphi_i."""
-    return (p.f1 * math.tanh(dphi1) + p.b1 * dphi1, p.f2 * math.tanh(dphi2) + p.b2 * dphi2)
+    return _friction(dphi1, dphi2, p.coefficients)
 
 
 def bias_torque(phi2: float, dphi1: float, dphi2: float, p: ArmParameters) -> tuple[float, float]:
     """H(phi, dphi) dphi + G(dphi): every torque term of eq. (1) that is not inertial."""
-    h11, h12, h21 = coriolis_entries(phi2, dphi1, dphi2, p)
-    g1, g2 = friction_torque(dphi1, dphi2, p)
-    return h11 * dphi1 + h12 * dphi2 + g1, h21 * dphi1 + g2
+    return _bias(phi2, dphi1, dphi2, p.coefficients)
 
 
 def solve_inertia(phi2: float, r1: float, r2: float, p: ArmParameters) -> tuple[float, float]:
     """D(phi)^-1 [r1, r2] by the closed-form 2x2 inverse."""
-    d11, d12, d22 = inertia_entries(phi2, p)
-    det = d11 * d22 - d12 * d12
-    return (d22 * r1 - d12 * r2) / det, (d11 * r2 - d12 * r1) / det
+    return _solve_inertia(phi2, r1, r2, p.coefficients)
 
 
 def forward_dynamics(
     phi2: float, dphi1: float, dphi2: float, tau1: float, tau2: float, p: ArmParameters
 ) -> tuple[float, float]:
     """ddphi from eq. (1): ddphi = D^-1 (tau - H dphi - G). (phi1 does not enter the dynamics.)"""
-    c1, c2 = bias_torque(phi2, dphi1, dphi2, p)
-    return solve_inertia(phi2, tau1 - c1, tau2 - c2, p)
+    return _accel(phi2, dphi1, dphi2, tau1, tau2, p.coefficients)
+
+
+# The formulas, on k = ArmParameters.coefficients = (p1, p2, p3, f1, f2, b1, b2): read once per step by
+# the integrator instead of once per term (dynamics.pxd types them when the cores are compiled).
+
+def _inertia(phi2: float, k: Coefficients) -> tuple[float, float, float]:
+    c2 = math.cos(phi2)
+    return k[0] + 2.0 * k[2] * c2, k[1] + k[2] * c2, k[1]  # eq. (46)
+
+
+def _coriolis(phi2: float, dphi1: float, dphi2: float, k: Coefficients) -> tuple[float, float, float]:
+    s = k[2] * math.sin(phi2)
+    return -s * dphi2, -s * (dphi1 + dphi2), s * dphi1  # eq. (46)
+
+
+def _friction(dphi1: float, dphi2: float, k: Coefficients) -> tuple[float, float]:
+    return k[3] * math.tanh(dphi1) + k[5] * dphi1, k[4] * math.tanh(dphi2) + k[6] * dphi2  # eq. (46)
+
+
+def _bias(phi2: float, dphi1: float, dphi2: float, k: Coefficients) -> tuple[float, float]:
+    h11, h12, h21 = _coriolis(phi2, dphi1, dphi2, k)
+    g1, g2 = _friction(dphi1, dphi2, k)
+    return h11 * dphi1 + h12 * dphi2 + g1, h21 * dphi1 + g2
+
+
+def _solve_inertia(phi2: float, r1: float, r2: float, k: Coefficients) -> tuple[float, float]:
+    d11, d12, d22 = _inertia(phi2, k)
+    det = d11 * d22 - d12 * d12
+    return (d22 * r1 - d12 * r2) / det, (d11 * r2 - d12 * r1) / det
+
+
+def _accel(phi2: float, dphi1: float, dphi2: float, tau1: float, tau2: float, k: Coefficients) -> tuple[float, float]:
+    c1, c2 = _bias(phi2, dphi1, dphi2, k)
+    return _solve_inertia(phi2, tau1 - c1, tau2 - c2, k)
 
 
 def inverse_dynamics(
@@ -201,7 +230,7 @@ def integrate(
             f"the arm at dphi = ({w1:.6g}, {w2:.6g}) rad/s with |tau| = {tau_norm:.6g} N.m is too stiff for a "
             f"{dt:g} s step: it needs more than {MAX_SUBSTEPS} RK4 substeps (shorten the communication step)")
     new = rk4_step(state, tau1, tau2, dt, n, p)
-    if not all(math.isfinite(x) for x in new):
+    if not all(map(math.isfinite, new)):
         raise IntegrationError("the integration gave a non-finite state")
     speed_before = math.sqrt(2.0 * kinetic_energy(q2, w1, w2, p))
     speed_after = math.sqrt(2.0 * kinetic_energy(new[1], new[2], new[3], p))
@@ -230,14 +259,15 @@ def rk4_step(
     h = dt / substeps
     half = 0.5 * h
     sixth = h / 6.0
+    k = p.coefficients
     for _ in range(substeps):
-        a1, a2 = forward_dynamics(q2, w1, w2, tau1, tau2, p)
+        a1, a2 = _accel(q2, w1, w2, tau1, tau2, k)
         k2q2, k2w1, k2w2 = q2 + half * w2, w1 + half * a1, w2 + half * a2
-        b1, b2 = forward_dynamics(k2q2, k2w1, k2w2, tau1, tau2, p)
+        b1, b2 = _accel(k2q2, k2w1, k2w2, tau1, tau2, k)
         k3q2, k3w1, k3w2 = q2 + half * k2w2, w1 + half * b1, w2 + half * b2
-        c1, c2 = forward_dynamics(k3q2, k3w1, k3w2, tau1, tau2, p)
+        c1, c2 = _accel(k3q2, k3w1, k3w2, tau1, tau2, k)
         k4q2, k4w1, k4w2 = q2 + h * k3w2, w1 + h * c1, w2 + h * c2
-        e1, e2 = forward_dynamics(k4q2, k4w1, k4w2, tau1, tau2, p)
+        e1, e2 = _accel(k4q2, k4w1, k4w2, tau1, tau2, k)
         q1 += sixth * (w1 + 2.0 * k2w1 + 2.0 * k3w1 + k4w1)
         q2 += sixth * (w2 + 2.0 * k2w2 + 2.0 * k3w2 + k4w2)
         w1 += sixth * (a1 + 2.0 * b1 + 2.0 * c1 + e1)

@@ -30,9 +30,9 @@ MAX_BLOCK = 20_000  # samples per block handed to the recorder at most (about 12
 
 def _cmd_build(args: argparse.Namespace) -> int:
     check_output_folder(args.out, "--out")
-    from orchestration.fmu_build.compiled import SWITCH, describe, requested, unavailable
+    from orchestration.fmu_build.compiled import SWITCH, describe, insisted, unavailable
 
-    if requested() and unavailable():
+    if insisted() and unavailable():
         print(f"{SWITCH}=1, but the cores stay Python: {unavailable()}")
     for path in build_fmus(args.models or None, args.out):
         print(f"{path}: {describe(path)}")

@@ -18,7 +18,16 @@ def fmu_dir(tmp_path_factory) -> Path:
 
 @pytest.fixture(scope="session")
 def fmu_paths(fmu_dir) -> dict[str, Path]:
+    """The FMUs as a default build makes them: cores compiled where Cython and a C compiler are found."""
     return {m: fmu_dir / f"{m}.fmu" for m in FMU_SOURCES}
+
+
+@pytest.fixture(scope="session")
+def python_fmu_paths(fmu_dir) -> dict[str, Path]:
+    """The same FMUs built with ``SOTC_COSIM_COMPILE=0`` (cores in Python)."""
+    from orchestration.bench.speed import python_fmus
+
+    return python_fmus(list(FMU_SOURCES), fmu_dir)
 
 
 @pytest.fixture(scope="session")

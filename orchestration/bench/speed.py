@@ -268,14 +268,13 @@ def long_runs(fmu_dir: Path, stop_times, record_every: int) -> list[dict]:
 def bench_speed(fmu_dir: Path, repeats: int = 3, long: tuple[float, ...] = LONG_RUNS, record_every: int = 1,
                 stop_time: float | None = None) -> dict:
     """Every measurement of the module doc; ``stop_time`` shortens the side-by-side runs (smoke tests)."""
-    from orchestration.fmu_build.build import ensure_built
     from orchestration.run.scenario import load_scenario
 
     scenario = load_scenario(SCENARIO)
     if stop_time is not None:
         scenario = scenario.with_stop_time(stop_time)
     models = sorted({i.fmu for i in scenario.instances.values()})
-    paths = ensure_built(models, fmu_dir)
+    paths = python_fmus(models, fmu_dir)
     fast = compiled_fmus(models, fmu_dir)
     data = {
         "benchmark": "speed", "date": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
@@ -294,23 +293,26 @@ def bench_speed(fmu_dir: Path, repeats: int = 3, long: tuple[float, ...] = LONG_
     return data
 
 
+def python_fmus(models: list[str], fmu_dir: Path) -> dict[str, Path]:
+    """The FMUs with their cores in Python (``SOTC_COSIM_COMPILE=0``), built into ``fmu_dir/python``."""
+    from orchestration.fmu_build.build import ensure_built
+
+    with compiled.switched(False):
+        return ensure_built(models, Path(fmu_dir) / "python")
+
+
 def compiled_fmus(models: list[str], fmu_dir: Path) -> dict[str, Path] | str:
-    """The same FMUs with compiled cores (``orchestration.fmu_build.compiled``), built into
-    ``fmu_dir/compiled``; or why they cannot be built here."""
+    """The same FMUs with compiled cores (``orchestration.fmu_build.compiled``): ``fmu_dir``'s own, the
+    default build, unless compiling is switched off (then built into ``fmu_dir/compiled``); or why they
+    cannot be built here."""
     from orchestration.fmu_build.build import ensure_built
 
     reason = compiled.unavailable()
     if reason:
         return reason
-    old = os.environ.get(compiled.SWITCH)
-    os.environ[compiled.SWITCH] = "1"
-    try:
-        return ensure_built(models, Path(fmu_dir) / "compiled")
-    finally:
-        if old is None:
-            del os.environ[compiled.SWITCH]
-        else:
-            os.environ[compiled.SWITCH] = old
+    where = Path(fmu_dir) if compiled.requested() else Path(fmu_dir) / "compiled"
+    with compiled.switched(True):
+        return ensure_built(models, where)
 
 
 def check_targets(data: dict) -> dict:
@@ -337,9 +339,9 @@ def check_targets(data: dict) -> dict:
 
 def _runs_rows(data: dict) -> list[tuple[str, str, str]]:
     labels = {"floor": "floor: pure cores in-process (no FMI, no recording)",
-              "cosim": "through the FMUs (fmpy master), no recording",
-              "cosim_recorded": "through the FMUs, recorded (`sotc-cosim run paper`)",
-              "cosim_recorded_compiled": "the same, cores compiled (`SOTC_COSIM_COMPILE=1`)"}
+              "cosim": "through the FMUs (fmpy master), no recording, cores in Python",
+              "cosim_recorded": "through the FMUs, recorded (`sotc-cosim run paper`), cores in Python",
+              "cosim_recorded_compiled": "the same, cores compiled (Cython)"}
     ref = data["runs"]["floor"]["median"]
     return [(labels[k], f"{v['median']:.3f} s ({v['min']:.3f}-{v['max']:.3f})", f"{v['median'] / ref:.2f}x")
             for k, v in data["runs"].items()]

@@ -24,7 +24,9 @@ Per FMU:
 - ``standalone``: every pythonfmu FMU in a process shares one interpreter and one ``sys.modules``,
   so the FMU's Python lives under names of its own: the script ``resources/<stem>.py`` named in
   ``slavemodule.txt`` and the package ``resources/<stem>_lib/``, no other Python file, and every
-  import is of the standard library, of ``<stem>_lib`` or of a package in ``resources/requirements.txt``.
+  import is of the standard library, of ``<stem>_lib`` or of a package in ``resources/requirements.txt``;
+- ``cores``: an FMU that carries compiled cores gives the same outputs, bit for bit, with them and with
+  its ``.py`` (``core_paths``: two fresh interpreters, 500 steps of the same input experiment).
 
 Across the set: two FMUs whose script modules have the same name must bundle the same code (a copy
 of one build); otherwise the second would run the first one's modules.
@@ -42,6 +44,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from fmu_plant.dynamics import STEP_SIZE  # the paper's sampling period T
+from orchestration.compliance import core_paths
+from orchestration.compliance.core_paths import drive
 
 # parameters that may take any real value (no physical bound): name pattern -> why
 FREE_PARAMETERS: dict[str, str] = {
@@ -57,7 +61,7 @@ PERTURBATIONS = (0.05, -0.7, 3.0, -30.0)
 MAX_EXPANDED_BYTES = 256 * 1024 * 1024  # an FMU of ours expands to about 3 MB
 MAX_ENTRIES = 10_000
 CHECKS = ("archive", "fmpy", "fmutool", "units", "starts", "descriptions", "step", "ranges", "state", "standalone",
-          "dependencies")
+          "dependencies", "cores")
 
 
 @dataclass
@@ -260,11 +264,6 @@ def _same(a: float, b: float) -> bool:
     return a == b or (math.isnan(a) and math.isnan(b))
 
 
-def _drive(start: float, index: int, t: float) -> float:
-    """Input values of the dependency experiment: away from the start value, varying in time."""
-    return start + 0.3 * math.cos(2.0 * t + index)
-
-
 def _start_problems(fmu, md) -> list[str]:
     """The start values in the XML must be exactly what a fresh instance holds (bitwise): an importer
     that applies XML starts (libcosim does) must not end up with a different model."""
@@ -304,7 +303,7 @@ def _dependency_problems(path: Path, md, start_problems: list[str]) -> list[str]
         k = 0
         for probe in PROBE_STEPS:
             while True:
-                base = {v.name: _drive(s, i, k * step) if k else s for i, (v, s) in enumerate(zip(inputs, start))}
+                base = {v.name: drive(s, i, k * step) if k else s for i, (v, s) in enumerate(zip(inputs, start))}
                 instance.set(**base)
                 if k == probe:
                     break
@@ -365,6 +364,7 @@ def validate_fmu_file(path: Path) -> FmuReport:
     _metadata_problems(md, report)
     report.problems["standalone"] = _standalone_problems(path)
     report.problems["dependencies"] = _dependency_problems(path, md, report.problems["starts"])
+    report.problems["cores"] = core_paths.problems(path)
     return report
 
 

@@ -59,7 +59,7 @@ def _source_files(source: FmuSource) -> list[Path]:
     files = [PACKAGE_ROOT / source.script, Path(__file__).resolve(), Path(packaging.__file__).resolve(),
              Path(compiled.__file__).resolve()]
     for pkg in source.packages:
-        files += sorted((PACKAGE_ROOT / pkg).glob("*.py"))
+        files += sorted((PACKAGE_ROOT / pkg).glob("*.py")) + sorted((PACKAGE_ROOT / pkg).glob("*.pxd"))
     return sorted(set(files)) + packaging.pythonfmu_sources()
 
 

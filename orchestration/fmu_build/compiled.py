@@ -1,5 +1,7 @@
-"""Compiled cores, opt-in (``SOTC_COSIM_COMPILE=1`` at build time): Cython compiles a staged bundle's
-hot modules in place, from the same ``.py`` files, so every formula still lives once.
+"""Compiled cores: wherever Cython, setuptools, a C compiler and the Python headers are found
+(``pip install ".[compiled]"``), building an FMU compiles its hot modules in place with Cython, from
+the same ``.py`` files typed by the ``.pxd`` beside each, so every formula still lives once
+(``SOTC_COSIM_COMPILE=0`` keeps them Python).
 
 Each extension sits beside its ``.py`` under the bundle's module name. CPython's import system tries
 extension modules before sources, and only an extension whose suffix matches the running interpreter
@@ -12,11 +14,12 @@ with ``-fvisibility=hidden``: the one exported symbol is then ``PyInit_<module>`
 stem, while a renamed exported symbol would no longer match the ELF hash table and fail to load;
 and with ``CYTHON_COMPRESS_STRINGS=0``, else Cython stores the module names compressed. The
 fully qualified module name the extension registers is renamed with the rest, so two builds of one FMU
-in one process each run their own code (tests/fmu/test_compiled_cores.py). Plain Cython on the
-unchanged modules gives the pure-Python outputs bit for bit (same test).
+in one process each run their own code (tests/fmu/test_compiled_cores.py). The compiled cores give the
+pure-Python outputs bit for bit (same test; ``-ffp-contract=off``, and C's libm is what ``math`` calls).
 """
 from __future__ import annotations
 
+import contextlib
 import importlib.machinery
 import importlib.util
 import os
@@ -27,19 +30,20 @@ import sysconfig
 import tempfile
 from pathlib import Path
 
-SWITCH = "SOTC_COSIM_COMPILE"  # "1": compile the hot cores when the FMUs are built
+SWITCH = "SOTC_COSIM_COMPILE"  # "0": never compile the cores; unset or "1": compile them where possible
 # the hot path of a step (controller evaluate/learn, the plant's RK4, the reference, the limiters)
 HOT = ("fmu_controller/sotc.py", "fmu_controller/sotc_math.py", "fmu_controller/sotc_zv.py",
        "fmu_controller/sotc_stack.py", "fmu_controller/saturation.py", "fmu_controller/small_linalg.py",
        "fmu_plant/dynamics.py", "fmu_plant/trajectory.py")
-CFLAGS = "-O2 -g0 -fvisibility=hidden -DCYTHON_COMPRESS_STRINGS=0"  # names stay plain bytes (renamed)
+# names stay plain bytes (renamed); no fused multiply-add, so the compiled cores round as the .py does
+CFLAGS = "-O2 -g0 -fvisibility=hidden -DCYTHON_COMPRESS_STRINGS=0 -ffp-contract=off"
 TIME_LIMIT = 900.0  # s for compiling one bundle
 _SCRIPT = """import sys
 from setuptools import setup
 from Cython.Build import cythonize
-setup(ext_modules=cythonize(sys.argv[2:], quiet=True,
+setup(ext_modules=cythonize(sys.argv[2:], quiet=True, nthreads=2,
                             compiler_directives={"language_level": 3, "annotation_typing": False}),
-      script_args=["build_ext", "--inplace", "--build-temp", sys.argv[1], "--build-lib", sys.argv[1]])
+      script_args=["build_ext", "--inplace", "--parallel", "2", "--build-temp", sys.argv[1], "--build-lib", sys.argv[1]])
 """
 
 
@@ -48,6 +52,26 @@ class CompileError(RuntimeError):
 
 
 def requested() -> bool:
+    """Whether builds compile where they can (the default; ``SOTC_COSIM_COMPILE=0`` switches it off)."""
+    return os.environ.get(SWITCH, "") != "0"
+
+
+@contextlib.contextmanager
+def switched(on: bool):
+    """Builds inside compile the cores (``on``, where possible) or keep them Python."""
+    old = os.environ.get(SWITCH)
+    os.environ[SWITCH] = "1" if on else "0"
+    try:
+        yield
+    finally:
+        if old is None:
+            del os.environ[SWITCH]
+        else:
+            os.environ[SWITCH] = old
+
+
+def insisted() -> bool:
+    """``SOTC_COSIM_COMPILE=1``: compiling was asked for explicitly (say so when it cannot happen)."""
     return os.environ.get(SWITCH, "") == "1"
 
 
@@ -80,12 +104,22 @@ def describe(fmu: Path) -> str:
             else "Python only")
 
 
-def compile_bundle(resources: Path, lib: str) -> list[str]:
+def declarations(rel: str) -> str:
+    """The ``.pxd`` beside a hot module (its path under the package root): the C types Cython compiles it
+    with (the module itself is unchanged)."""
+    return rel[:-3] + ".pxd"
+
+
+def compile_bundle(resources: Path, lib: str, pxd: dict[str, str]) -> list[str]:
     """Compile the ``HOT`` modules present under ``resources/lib`` in place (the extension beside its
-    ``.py``, no C file left); return their paths under ``lib``."""
+    ``.py``, no C file left), typed by ``pxd`` (path under ``lib`` -> text, renamed into ``lib``), which
+    are staged for the compiler only; return the compiled modules' paths under ``lib``."""
     present = [rel for rel in HOT if (resources / lib / rel).is_file()]
     if not present:
         return []
+    staged = [resources / lib / rel for rel in pxd]
+    for path, text in zip(staged, pxd.values()):
+        path.write_text(text)
     with tempfile.TemporaryDirectory(prefix="sotc_cython_") as tmp:
         cmd = [sys.executable, "-c", _SCRIPT, tmp, *(f"{lib}/{rel}" for rel in present)]
         try:
@@ -95,6 +129,8 @@ def compile_bundle(resources: Path, lib: str) -> list[str]:
             raise CompileError(f"compiling the cores took over {TIME_LIMIT:g} s") from None
     for rel in present:
         (resources / lib / rel).with_suffix(".c").unlink(missing_ok=True)
+    for path in staged:
+        path.unlink()
     if proc.returncode != 0:
         last = next((ln for ln in reversed(proc.stderr.splitlines()) if ln.strip()), "no message")
         raise CompileError(f"compiling the cores failed: {last.strip()}")

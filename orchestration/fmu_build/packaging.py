@@ -308,6 +308,17 @@ def write_fmu(dest_file: Path, model: str, resources: Path, xml: Element, docume
         z.writestr("documentation/index.html", documentation)
 
 
+def _declarations(packages: dict[str, Path], lib: str) -> dict[str, str]:
+    """The hot modules' ``.pxd`` files, renamed into ``lib`` (``compiled.compile_bundle``)."""
+    out = {}
+    for rel in compiled.HOT:
+        top, _, rest = compiled.declarations(rel).partition("/")
+        source = Path(packages[top], rest) if top in packages else None
+        if source is not None and source.is_file():
+            out[f"{top}/{rest}"] = rename_imports(source.read_text(), lib)
+    return out
+
+
 def package_fmu(model: str, script: Path, packages: dict[str, Path], equations: list[Path],
                 dest_file: Path, workdir: Path, compile_cores: bool = False) -> tuple[Path, list[str]]:
     """Stage, describe and zip one FMU into ``dest_file``; return it and the cores compiled into it
@@ -316,7 +327,8 @@ def package_fmu(model: str, script: Path, packages: dict[str, Path], equations: 
     resources = workdir / "resources"
     placeholder = bundle_stem(model, PLACEHOLDER_DIGEST)
     requirements = stage(model, script, packages, placeholder, resources)
-    cores = compiled.compile_bundle(resources, f"{placeholder}_lib") if compile_cores else []
+    lib = f"{placeholder}_lib"
+    cores = compiled.compile_bundle(resources, lib, _declarations(packages, lib)) if compile_cores else []
     stem = bundle_stem(model, bundle_digest(bundled_files(resources), placeholder, model))
     _rename_bundle(resources, placeholder, stem)
     xml = model_description(resources, stem, model)

@@ -1,4 +1,4 @@
-"""Compiled cores (``SOTC_COSIM_COMPILE=1`` at build time): the FMU carries Cython extensions of its hot
+"""Compiled cores (the default build where Cython and a C compiler are found): the FMU carries Cython extensions of its hot
 modules beside their ``.py`` under its per-build names, loads them in a matching interpreter, and gives
 the pure-Python FMU's outputs bit for bit, both builds side by side in one process."""
 from __future__ import annotations
@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from orchestration.fmu_build import compiled
-from orchestration.bench.speed import compiled_fmus
+from orchestration.bench.speed import compiled_fmus, python_fmus
 from orchestration.run.master import run
 from orchestration.run.scenario import load_scenario
 
@@ -22,8 +22,14 @@ SUFFIX = importlib.machinery.EXTENSION_SUFFIXES[0]
 
 @pytest.fixture(scope="module")
 def compiled_paths(fmu_dir) -> dict[str, object]:
-    """Where ``sotc-cosim bench`` builds them too (``compiled_fmus``), so the suite compiles once."""
+    """The suite's own build (``fmu_dir``: compiled by default here), as ``sotc-cosim bench`` finds it."""
     return compiled_fmus(MODELS, fmu_dir)
+
+
+@pytest.fixture(scope="module")
+def python_paths(fmu_dir) -> dict[str, object]:
+    """The same FMUs built with ``SOTC_COSIM_COMPILE=0``."""
+    return python_fmus(MODELS, fmu_dir)
 
 
 def _stem(fmu) -> str:
@@ -45,12 +51,12 @@ def test_the_fmu_carries_an_extension_beside_each_hot_module(compiled_paths):
     assert "Compiled cores" in page and compiled.target() in page
 
 
-def test_compiled_and_python_builds_run_side_by_side_with_the_same_outputs(compiled_paths, fmu_paths):
+def test_compiled_and_python_builds_run_side_by_side_with_the_same_outputs(compiled_paths, python_paths):
     """The whole 100 s `paper` run (whose Python build equals the stored reference run,
     tests/orchestration/test_reference_runs.py): every output of every sample, bit for bit."""
     scenario = load_scenario("paper")
-    pure = run(scenario, fmu_paths)
-    fast = run(scenario, {**fmu_paths, **compiled_paths})
+    pure = run(scenario, python_paths)
+    fast = run(scenario, compiled_paths)
     assert len(fast.time) == 10_001
     assert not pure.failed and not fast.failed, (pure.error, fast.error)
     for inst, outputs in pure.outputs.items():
@@ -58,21 +64,22 @@ def test_compiled_and_python_builds_run_side_by_side_with_the_same_outputs(compi
             assert np.array_equal(values, fast.outputs[inst][var], equal_nan=True), f"{inst}.{var}"
     # both builds of the SotcController are loaded in this process, each from its own files
     fast_core = sys.modules[f"{_stem(compiled_paths['SotcController'])}_lib.fmu_controller.sotc"]
-    pure_core = sys.modules[f"{_stem(fmu_paths['SotcController'])}_lib.fmu_controller.sotc"]
+    pure_core = sys.modules[f"{_stem(python_paths['SotcController'])}_lib.fmu_controller.sotc"]
     assert fast_core.__file__.endswith(SUFFIX) and pure_core.__file__.endswith(".py")
 
 
-def test_switching_compiling_on_or_off_rebuilds(compiled_paths, fmu_paths):
-    """The build stamp names the compiled target: a Python-only FMU is not reused as a compiled one."""
-    assert _stem(compiled_paths["SotcController"]) != _stem(fmu_paths["SotcController"])
+def test_switching_compiling_on_or_off_rebuilds(compiled_paths, python_paths, fmu_dir):
+    """The build stamp names the compiled target: a Python-only FMU is not reused as a compiled one;
+    the default build is the compiled one (where compiling is possible)."""
+    assert compiled_paths["SotcController"] == fmu_dir / "SotcController.fmu"
+    assert _stem(compiled_paths["SotcController"]) != _stem(python_paths["SotcController"])
     assert (compiled_paths["SotcController"].parent / "SotcController.sources.sha256").read_text() != \
-        (fmu_paths["SotcController"].parent / "SotcController.sources.sha256").read_text()
+        (python_paths["SotcController"].parent / "SotcController.sources.sha256").read_text()
 
 
-def test_validate_passes_the_compiled_fmus(compiled_paths, monkeypatch, capsys):
+def test_validate_passes_the_compiled_fmus(compiled_paths, capsys):
     from orchestration.cli import main
 
-    monkeypatch.setenv(compiled.SWITCH, "1")  # else validate would rebuild them as Python
     folder = compiled_paths["SotcController"].parent
     assert main(["validate", "--fmu-dir", str(folder), *MODELS]) == 0, capsys.readouterr().out
     assert compiled.describe(compiled_paths["SotcController"]).startswith("7 cores compiled")

@@ -2,7 +2,9 @@
 the ``paper`` run at 401 stored samples, equal the stored reference run (generated before the speed
 work by ``python tests/support/reference_runs.py``) to 1e-12 relative, or to ten times the number's own
 sensitivity to a one-ulp change of the initial state where that is larger (rounding-amplifying
-scenarios on another CPU's BLAS kernels: see ``support/reference_runs.py``)."""
+scenarios on another CPU's BLAS kernels: see ``support/reference_runs.py``). Both ways the cores
+run: as a default build makes them (compiled where Cython and a C compiler are found, as here in CI)
+and built with ``SOTC_COSIM_COMPILE=0``."""
 from __future__ import annotations
 
 import json
@@ -12,6 +14,7 @@ import numpy as np
 import pytest
 from support.reference_runs import DATA, comparable_summary, reference_indices
 
+from orchestration.fmu_build.build import compiles
 from orchestration.run.master import run
 from orchestration.run.scenario import available_scenarios, load_scenario
 from orchestration.run.summary import summarize
@@ -51,10 +54,19 @@ def test_every_shipped_scenario_has_a_reference():
     assert sorted(REFERENCE) == sorted(available_scenarios())
 
 
+@pytest.fixture(params=["default build", "cores in Python"])
+def cores_paths(request, fmu_paths):
+    if request.param == "default build":
+        return fmu_paths
+    if not compiles():
+        pytest.skip("the default build runs its cores in Python here already")
+    return request.getfixturevalue("python_fmu_paths")
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(REFERENCE))
-def test_summary_equals_the_reference_run(name, fmu_paths):
-    result = run(load_scenario(name), fmu_paths)
+def test_summary_equals_the_reference_run(name, cores_paths):
+    result = run(load_scenario(name), cores_paths)
     assert not result.failed, result.error
     assert_same(comparable_summary(summarize(result)), REFERENCE[name], name, SENSITIVITY[name])
     if name != "paper":

@@ -1,0 +1,12 @@
+# Declarations for the compiled cores (orchestration/fmu_build/compiled.py): C types for saturation.py, which
+# stays the one source of the formulas and runs as it is wherever the cores are not compiled.
+cimport cython
+
+@cython.locals(c1=double, c2=double)
+cpdef (double, double, bint) clip_box(double v1, double v2, double bound)
+@cython.locals(norm=double, k=double, s1=double, s2=double)
+cpdef (double, double, double, bint) saturate_norm(double v1, double v2, double bound)
+@cython.locals(c1=double, c2=double, changed=bint)
+cpdef (double, double, bint) limit_without_metric(double v1, double v2, double bound, int code)
+@cython.locals(c1=double, c2=double, changed=bint, b1=double, b2=double, boxed=bint, capped=bint)
+cpdef tuple limit_torque(int code, double t1, double t2, double bound, double d11, double d12, double d22)

@@ -1,0 +1,18 @@
+# Declarations for the compiled cores (orchestration/fmu_build/compiled.py): C types for sotc_math.py, which
+# stays the one source of the formulas and runs as it is wherever the cores are not compiled.
+cimport cython
+
+@cython.locals(a=double, h=double)
+cpdef double log_cosh(double x)
+@cython.locals(a=double, e=double)
+cpdef double _x_tanh_minus_log_cosh(double x)
+cpdef double omega_term_of_arg(double x, double s, double r)
+@cython.locals(a=double, b=double, c=double, d=double)
+cpdef list basis(object z)
+@cython.locals(a=double, b=double, c=double, d=double, p=double, q=double, u=double, w=double)
+cpdef list basis_directional(object z, object v)
+@cython.locals(a=double, b=double, c=double, d=double, w1=double, w2=double, w3=double, w4=double, w5=double,
+               w6=double, w7=double, w8=double, w9=double, w10=double)
+cpdef (double, double, double, double) value_gradient(object z, object W)
+@cython.locals(s1=double, s2=double, s12=double, s112=double, s24=double)
+cpdef double probing_signal(double t, double amplitude=*)

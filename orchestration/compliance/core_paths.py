@@ -1,0 +1,114 @@
+"""The ``cores`` check of ``validate``: an FMU that carries compiled cores gives the same outputs, bit for
+bit, when its ``.py`` run instead (what any host whose Python or platform cannot load the extension
+runs).
+
+Both runs drive the FMU through the same input experiment for ``STEPS`` communication steps, each in a
+fresh interpreter (the two share module names, so they cannot share a process): once as built, once
+from a copy without its extension files. Run as ``python -m orchestration.compliance.core_paths FMU``,
+this module is that child: it prints the outputs of every step as JSON.
+"""
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+import tempfile
+import zipfile
+from pathlib import Path
+
+from fmu_plant.dynamics import STEP_SIZE  # the paper's sampling period T
+
+STEPS = 500  # 5 s at T: the probing phase, the CL stack filling and replayed
+TIME_LIMIT = 600.0  # s for one child run
+EXTENSIONS = (".so", ".pyd")
+
+
+def drive(start: float, index: int, t: float) -> float:
+    """Input values of validate's experiments: away from the start value, varying in time."""
+    return start + 0.3 * math.cos(2.0 * t + index)
+
+
+def compiled_files(path: Path) -> list[str]:
+    with zipfile.ZipFile(path) as z:
+        return [n for n in z.namelist() if n.startswith("resources/") and n.endswith(EXTENSIONS)]
+
+
+def python_copy(path: Path, dest: Path) -> Path:
+    """The FMU without its extension files: its cores run from their ``.py``."""
+    with zipfile.ZipFile(path) as src, zipfile.ZipFile(dest, "w", zipfile.ZIP_DEFLATED) as out:
+        for item in src.infolist():
+            if not (item.filename.startswith("resources/") and item.filename.endswith(EXTENSIONS)):
+                out.writestr(item, src.read(item))
+    return dest
+
+
+def outputs_of(path: Path, steps: int = STEPS) -> tuple[list[str], list[list[float]]]:
+    """(output names, their values at every step) of the FMU driven by ``drive``."""
+    from fmpy import read_model_description
+
+    from orchestration.run.fmi_direct import FmuInstance
+
+    md = read_model_description(str(path), validate=False)
+    inputs = [v for v in md.modelVariables if v.causality == "input" and v.type == "Real"]
+    outputs = [u.variable for u in md.outputs if u.variable.type == "Real"]
+    step = float(md.defaultExperiment.stepSize) if md.defaultExperiment and md.defaultExperiment.stepSize \
+        else STEP_SIZE
+    start = [float(v.start if v.start is not None else 0.0) for v in inputs]
+    vrs = [v.valueReference for v in outputs]
+    instance = FmuInstance(path, "cores")
+    try:
+        instance.initialize()
+        rows = []
+        for k in range(steps):
+            instance.set(**{v.name: drive(s, i, k * step) for i, (v, s) in enumerate(zip(inputs, start))})
+            rows.append(list(instance.fmu.getReal(vrs)))
+            instance.fmu.doStep(currentCommunicationPoint=k * step, communicationStepSize=step)
+        instance.fmu.terminate()
+    finally:
+        instance.free()
+    return [v.name for v in outputs], rows
+
+
+def _child(path: Path, workdir: Path) -> tuple[list[str], list[list[float]]] | str:
+    cmd = [sys.executable, "-I", "-m", "orchestration.compliance.core_paths", str(path)]
+    try:
+        proc = subprocess.run(cmd, cwd=workdir, capture_output=True, text=True, timeout=TIME_LIMIT)
+    except subprocess.TimeoutExpired:
+        return f"took over {TIME_LIMIT:g} s"
+    if proc.returncode != 0:
+        return next((ln.strip() for ln in reversed(proc.stderr.splitlines()) if ln.strip()), f"exit {proc.returncode}")
+    names, rows = json.loads(proc.stdout)
+    return names, rows
+
+
+def _same(a: float, b: float) -> bool:
+    return a == b or (math.isnan(a) and math.isnan(b))
+
+
+def problems(path: Path) -> list[str]:
+    """Where the compiled and the Python cores of the FMU at ``path`` differ (nothing to check: [])."""
+    if not compiled_files(path):
+        return []
+    with tempfile.TemporaryDirectory(prefix="sotc_cores_") as tmp:
+        fast = _child(Path(path).resolve(), Path(tmp))
+        pure = _child(python_copy(path, Path(tmp) / Path(path).name), Path(tmp))
+    for label, got in (("compiled", fast), ("Python", pure)):
+        if isinstance(got, str):
+            return [f"the run with the {label} cores failed: {got}"]
+    names, fast_rows = fast
+    for k, (a_row, b_row) in enumerate(zip(fast_rows, pure[1])):
+        for name, a, b in zip(names, a_row, b_row):
+            if not _same(a, b):
+                return [f"'{name}' at step {k}: {a!r} with the compiled cores, {b!r} with their .py"]
+    return []
+
+
+def main(argv: list[str] | None = None) -> int:
+    names, rows = outputs_of(Path((argv or sys.argv[1:])[0]))
+    print(json.dumps([names, rows]))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
