@@ -38,6 +38,7 @@ TARGETS = {  # the speed targets the project set itself (docs/performance.md)
     "recorded_over_floor": 1.5,
     "long_linearity": 0.10,  # 10,000 s run within 10 % of 100x the 100 s run
     "peak_rss_mb": 300.0,
+    "cores_us_per_step": 30.0,  # the four cores of a step inside the FMUs, compiled where measured (issue 20)
 }
 
 
@@ -316,9 +317,16 @@ def compiled_fmus(models: list[str], fmu_dir: Path) -> dict[str, Path] | str:
 
 
 def check_targets(data: dict) -> dict:
+    """Judged on the build a default install runs: the compiled one where it was measured."""
+    fast = "cosim_recorded_compiled" in data["runs"]
+    recorded = data["runs"]["cosim_recorded_compiled" if fast else "cosim_recorded"]["median"]
+    split = data["split_compiled" if fast else "split"]["us_per_step"]
+    cores = sum(v for k, v in split.items() if "(core, inside the FMU)" in k)
+    which = "compiled" if fast else "in Python"
     out = {
-        "100 s paper through the FMUs with recording < 1 s wall":
-            data["runs"]["cosim_recorded"]["median"] * 100.0 / data["method"]["stop_time"] < TARGETS["recorded_wall_s"],
+        f"100 s paper through the FMUs with recording < 1 s wall (cores {which})":
+            recorded * 100.0 / data["method"]["stop_time"] < TARGETS["recorded_wall_s"],
+        f"cores <= 30 us per step inside the FMUs (cores {which})": cores <= TARGETS["cores_us_per_step"],
         "co-simulation with recording <= 1.5x the floor": data["ratios"]["recorded_over_floor"] <= TARGETS["recorded_over_floor"],
     }
     runs = sorted(data["long"], key=lambda r: r["stop_time"])

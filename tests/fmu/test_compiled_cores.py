@@ -83,3 +83,23 @@ def test_validate_passes_the_compiled_fmus(compiled_paths, capsys):
     folder = compiled_paths["SotcController"].parent
     assert main(["validate", "--fmu-dir", str(folder), *MODELS]) == 0, capsys.readouterr().out
     assert compiled.describe(compiled_paths["SotcController"]).startswith("7 cores compiled")
+
+
+def test_validate_finds_where_the_python_cores_would_differ(compiled_paths, tmp_path):
+    """The ``cores`` check: a compiled FMU whose ``.py`` computes otherwise (here the inertia of (46)
+    altered in the bundled dynamics) is reported with the first output that differs."""
+    from orchestration.compliance import core_paths
+
+    fmu = compiled_paths["ArmPlant"]
+    stem, doctored = _stem(fmu), tmp_path / "ArmPlant.fmu"
+    target = f"resources/{stem}_lib/fmu_plant/dynamics.py"
+    with zipfile.ZipFile(fmu) as src, zipfile.ZipFile(doctored, "w") as out:
+        for item in src.infolist():
+            data = src.read(item)
+            if item.filename == target:
+                assert b"k[0] + 2.0 * k[2] * c2" in data
+                data = data.replace(b"k[0] + 2.0 * k[2] * c2", b"k[0] + 2.5 * k[2] * c2")
+            out.writestr(item, data)
+    assert core_paths.problems(fmu) == []
+    found = core_paths.problems(doctored)
+    assert len(found) == 1 and "with the compiled cores" in found[0] and "with their .py" in found[0], found
