@@ -18,10 +18,10 @@ import zipfile
 from pathlib import Path
 
 from fmu_plant.dynamics import STEP_SIZE  # the paper's sampling period T
+from orchestration.fmu_build import compiled
 
 STEPS = 500  # 5 s at T: the probing phase, the CL stack filling and replayed
 TIME_LIMIT = 600.0  # s for one child run
-EXTENSIONS = (".so", ".pyd")
 
 
 def drive(start: float, index: int, t: float) -> float:
@@ -29,16 +29,11 @@ def drive(start: float, index: int, t: float) -> float:
     return start + 0.3 * math.cos(2.0 * t + index)
 
 
-def compiled_files(path: Path) -> list[str]:
-    with zipfile.ZipFile(path) as z:
-        return [n for n in z.namelist() if n.startswith("resources/") and n.endswith(EXTENSIONS)]
-
-
 def python_copy(path: Path, dest: Path) -> Path:
     """The FMU without its extension files: its cores run from their ``.py``."""
     with zipfile.ZipFile(path) as src, zipfile.ZipFile(dest, "w", zipfile.ZIP_DEFLATED) as out:
         for item in src.infolist():
-            if not (item.filename.startswith("resources/") and item.filename.endswith(EXTENSIONS)):
+            if not compiled.is_extension(item.filename):
                 out.writestr(item, src.read(item))
     return dest
 
@@ -82,13 +77,14 @@ def _child(path: Path, workdir: Path) -> tuple[list[str], list[list[float]]] | s
     return names, rows
 
 
-def _same(a: float, b: float) -> bool:
+def same(a: float, b: float) -> bool:
+    """Equal bit for bit as values, NaN equal to NaN."""
     return a == b or (math.isnan(a) and math.isnan(b))
 
 
 def problems(path: Path) -> list[str]:
     """Where the compiled and the Python cores of the FMU at ``path`` differ (nothing to check: [])."""
-    if not compiled_files(path):
+    if not compiled.extensions(path):
         return []
     with tempfile.TemporaryDirectory(prefix="sotc_cores_") as tmp:
         fast = _child(Path(path).resolve(), Path(tmp))
@@ -99,7 +95,7 @@ def problems(path: Path) -> list[str]:
     names, fast_rows = fast
     for k, (a_row, b_row) in enumerate(zip(fast_rows, pure[1])):
         for name, a, b in zip(names, a_row, b_row):
-            if not _same(a, b):
+            if not same(a, b):
                 return [f"'{name}' at step {k}: {a!r} with the compiled cores, {b!r} with their .py"]
     return []
 

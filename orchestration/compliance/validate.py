@@ -38,14 +38,13 @@ from __future__ import annotations
 
 import fnmatch
 import logging
-import math
 import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from fmu_plant.dynamics import STEP_SIZE  # the paper's sampling period T
 from orchestration.compliance import core_paths
-from orchestration.compliance.core_paths import drive
+from orchestration.compliance.core_paths import drive, same
 
 # parameters that may take any real value (no physical bound): name pattern -> why
 FREE_PARAMETERS: dict[str, str] = {
@@ -260,10 +259,6 @@ def _standalone_problems(path: Path) -> list[str]:
 
 # --- the dependency experiment ------------------------------------------------------------------
 
-def _same(a: float, b: float) -> bool:
-    return a == b or (math.isnan(a) and math.isnan(b))
-
-
 def _start_problems(fmu, md) -> list[str]:
     """The start values in the XML must be exactly what a fresh instance holds (bitwise): an importer
     that applies XML starts (libcosim does) must not end up with a different model."""
@@ -275,7 +270,7 @@ def _start_problems(fmu, md) -> list[str]:
             actual, declared = fmu.getReal([v.valueReference])[0], float(v.start)
         else:
             actual, declared = fmu.getInteger([v.valueReference])[0], int(v.start)
-        if not _same(float(actual), float(declared)):
+        if not same(float(actual), float(declared)):
             problems.append(f"'{v.name}': start {v.start!r} in the XML, {actual!r} in a fresh instance")
     return problems
 
@@ -320,14 +315,14 @@ def _dependency_problems(path: Path, md, start_problems: list[str]) -> list[str]
                     for u, a, b, c in zip(outputs, y0, y1, y2):
                         name = u.variable.name
                         declared = any(d.name == v.name for d in u.dependencies)
-                        if not _same(a, b):
+                        if not same(a, b):
                             if declared:
                                 changed_by_declared[name] = True
                             else:
                                 problems.append(
                                     f"'{name}' changes when input '{v.name}' changes by {delta} {where}, "
                                     "but does not declare that dependency")
-                        if not _same(a, c):
+                        if not same(a, c):
                             problems.append(f"'{name}' does not return to {a!r} when input '{v.name}' is "
                                             f"restored {where} (got {c!r})")
         fmu.terminate()

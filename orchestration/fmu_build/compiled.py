@@ -92,16 +92,25 @@ def target() -> str:
     return f"CPython {sys.version_info.major}.{sys.version_info.minor}, {importlib.machinery.EXTENSION_SUFFIXES[0]}"
 
 
-def describe(fmu: Path) -> str:
-    """What a built FMU runs its cores as: the extensions it carries and their target, or Python only."""
+def is_extension(name: str) -> bool:
+    """Whether an FMU's zip entry is a compiled core."""
+    return name.startswith("resources/") and name.endswith((".so", ".pyd"))
+
+
+def extensions(fmu: Path) -> list[str]:
+    """The compiled cores a built FMU carries (zip entry names)."""
     import zipfile
 
     with zipfile.ZipFile(fmu) as z:
-        exts = sorted({n.rsplit("/", 1)[-1].split(".", 1)[1] for n in z.namelist()
-                       if n.startswith("resources/") and n.endswith((".so", ".pyd"))})
-        count = sum(n.startswith("resources/") and n.endswith((".so", ".pyd")) for n in z.namelist())
-    return (f"{count} core{'s' if count > 1 else ''} compiled (.{', .'.join(exts)}), Python elsewhere" if count
-            else "Python only")
+        return [n for n in z.namelist() if is_extension(n)]
+
+
+def describe(fmu: Path) -> str:
+    """What a built FMU runs its cores as: the extensions it carries and their target, or Python only."""
+    found = extensions(fmu)
+    suffixes = sorted({n.rsplit("/", 1)[-1].split(".", 1)[1] for n in found})
+    return (f"{len(found)} core{'s' if len(found) > 1 else ''} compiled (.{', .'.join(suffixes)}), Python elsewhere"
+            if found else "Python only")
 
 
 def declarations(rel: str) -> str:

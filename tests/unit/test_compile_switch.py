@@ -4,6 +4,7 @@ declarations beside it, and they name only functions the module defines."""
 from __future__ import annotations
 
 import ast
+import os
 import re
 from pathlib import Path
 
@@ -31,7 +32,7 @@ def test_switched_restores_the_environment(monkeypatch):
     monkeypatch.delenv(compiled.SWITCH)
     with compiled.switched(True):
         assert compiled.insisted()
-    assert compiled.SWITCH not in __import__("os").environ
+    assert compiled.SWITCH not in os.environ
 
 
 def test_each_declaration_file_types_functions_its_module_defines():
