@@ -1,0 +1,62 @@
+"""``sotc-cosim``: build the FMUs, run scenarios, and report.
+
+One module per group of subcommands (``run_commands``, ``batch_commands``, ``compliance_commands``),
+each adding its parsers; ``options`` holds the argument types they share."""
+from __future__ import annotations
+
+import argparse
+import sys
+
+from fmi_slave import VERSION
+from orchestration import exit_codes
+from orchestration.cli import batch_commands, compliance_commands, run_commands
+from orchestration.exit_codes import UsageError
+from orchestration.fmu_build.build import BuildError
+from orchestration.outputs import OutputError
+from orchestration.paths import check_output_folder
+from orchestration.run import interrupt
+
+COMMAND_GROUPS = (run_commands, batch_commands, compliance_commands)
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with its usage errors on one line (the usage itself is one ``-h`` away)."""
+
+    def error(self, message: str):
+        self.exit(exit_codes.USAGE, f"{self.prog}: error: {message} (see {self.prog} -h)\n")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="sotc-cosim", description=__doc__.split("\n")[0])
+    parser.add_argument("--version", action="version", version=f"%(prog)s {VERSION}")
+    sub = parser.add_subparsers(dest="command", required=True)
+    for group in COMMAND_GROUPS:
+        group.add_commands(sub)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    with interrupt.signals_deferred():
+        try:
+            fmu_dir = getattr(args, "fmu_dir", None)
+            if fmu_dir is not None and not fmu_dir.is_dir():  # an existing folder may be read-only: prebuilt
+                check_output_folder(fmu_dir, "--fmu-dir")
+            code = args.func(args)
+        except interrupt.Interrupted:
+            code = interrupt.exit_code()
+        except (UsageError, BuildError, OutputError, OSError) as exc:
+            if interrupt.requested():
+                code = interrupt.exit_code()
+            else:  # a request that cannot run as given (2); an output that cannot be written (1)
+                print(f"sotc-cosim: error: {exc}", file=sys.stderr)
+                return exit_codes.USAGE if isinstance(exc, (UsageError, BuildError)) else exit_codes.FAILED
+        if interrupt.requested():
+            print(f"sotc-cosim: interrupted ({interrupt.signal_name()}): stopped between two steps; finished "
+                  "results were kept", file=sys.stderr)
+            return interrupt.exit_code()
+        return code
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,144 @@
+"""``sotc-cosim sweep`` and ``bench``: batches on Dask, and the measurements."""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import os
+from pathlib import Path
+
+from orchestration import exit_codes
+from orchestration.cli.options import add_fmu_dir, add_stop_time, positive_int, stop_times
+from orchestration.outputs import PathLock
+from orchestration.paths import check_output_file, check_output_folder
+from orchestration.run import interrupt
+from orchestration.run.scenario import ScenarioError
+
+
+class _SweepListener:
+    """Prints what a sweep is about to do, then its progress."""
+
+    def __init__(self, sweep, out: Path, workers: int | None, scheduler: str | None):
+        self.sweep, self.out, self.workers, self.scheduler = sweep, out, workers, scheduler
+        self.progress = None
+
+    def started(self, outcome) -> None:
+        from orchestration.progress import Progress
+
+        where = self.scheduler or f"a local Dask cluster of {self.workers or os.cpu_count()} worker processes"
+        print(f"sweep {self.sweep.name}: {outcome.total} points, {outcome.skipped} already in {self.out}, "
+              f"{outcome.total - outcome.skipped} to run on {where}", flush=True)
+        self.progress = Progress(outcome.total, f"sweep {self.sweep.name}", self.workers or os.cpu_count() or 1,
+                                 skipped=outcome.skipped, skipped_failed=outcome.skipped_failed)
+
+    def finished(self, row) -> None:
+        note = f"point {row['index']} {row['status']}" + (f": {row['reason']}" if row["reason"] else "")
+        self.progress.update(row["status"] == "ok", note[:200])
+
+    def close(self) -> None:
+        if self.progress is not None:
+            self.progress.close()
+
+
+def _cmd_sweep(args: argparse.Namespace) -> int:
+    from orchestration.sweep.spec import grid_from_assignments, load_sweep
+
+    if args.workers is not None and args.workers < 1:
+        raise ScenarioError(f"--workers {args.workers}: give at least 1")
+    if args.scheduler is not None and not args.scheduler.strip():
+        raise ScenarioError("--scheduler '': give a Dask scheduler address such as tcp://host:8786, or leave it out")
+    sweep = grid_from_assignments(args.sweep, args.set) if args.set else load_sweep(args.sweep)
+    if args.stop_time is not None:
+        sweep = dataclasses.replace(sweep, base=sweep.base.with_stop_time(args.stop_time))
+    out = check_output_folder(args.out or Path("recordings") / sweep.name, "--out")
+    if args.doc:
+        check_output_file(args.doc, "--doc")
+    existed = out.exists()
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        with PathLock(out, "--out", folder=True):
+            return _sweep_into(args, sweep, out)
+    finally:
+        if not existed and out.is_dir() and not any(out.iterdir()):
+            out.rmdir()  # nothing was stored (the scheduler was unreachable, say): leave no empty folder
+
+
+def _sweep_into(args: argparse.Namespace, sweep, out: Path) -> int:
+    from orchestration.sweep.results import SweepStore, write_doc, write_reports
+    from orchestration.sweep.runner import execute
+
+    store = SweepStore(out)
+    listener = _SweepListener(sweep, out, args.workers, args.scheduler)
+    try:
+        outcome = execute(sweep, args.fmu_dir, store, workers=args.workers, scheduler=args.scheduler,
+                          record=args.record, retry_failed=args.retry_failed, listener=listener)
+    finally:
+        listener.close()
+    reports = write_reports(store, outcome.total)
+    print(f"{len(outcome.rows)} of {outcome.total} points stored ({outcome.skipped} from before, {outcome.ran} run now), "
+          f"{outcome.failed} failed")
+    for name, path in reports.items():
+        print(f"{name}: {path}")
+    if outcome.interrupted:
+        again = ["sotc-cosim", "sweep", args.sweep, *(f"--set={item}" for item in args.set), "--out", str(out)]
+        again += ["--workers", str(args.workers)] if args.workers else []
+        again += ["--scheduler", args.scheduler] if args.scheduler else []
+        again += ["--record"] if args.record else []
+        again += ["--stop-time", repr(args.stop_time)] if args.stop_time is not None else []
+        print(f"interrupted: the {len(outcome.rows)} finished points are kept in {out}; resume with: "
+              f"{' '.join(again)}")
+        return interrupt.exit_code()
+    if args.doc:
+        print(f"doc: {write_doc(store, outcome.total, args.doc)}")
+    return exit_codes.FAILED if outcome.failed else exit_codes.OK
+
+
+def _cmd_bench(args: argparse.Namespace) -> int:
+    from orchestration.bench.command import run_benchmarks
+    from orchestration.fmu_build.build import PACKAGE_ROOT
+    from orchestration.reports.docgen import SPEED_BLOCKS, store_speed_measurement
+
+    missing = [f for f in SPEED_BLOCKS.values() if not (PACKAGE_ROOT / f).is_file()]
+    if args.update_docs and missing:
+        raise ScenarioError(f"--update-docs writes {', '.join(SPEED_BLOCKS.values())} of a source checkout; "
+                            f"not found next to {PACKAGE_ROOT / 'orchestration'}")
+    results = run_benchmarks(args)
+    if args.update_docs:
+        for path in store_speed_measurement(results["speed"], PACKAGE_ROOT):
+            print(f"wrote {path}")
+    return exit_codes.OK
+
+
+def add_commands(sub) -> None:
+    """sweep, bench."""
+    p = sub.add_parser("sweep", help="run a sweep file on Dask (a local cluster by default), resumable")
+    p.add_argument("sweep", metavar="FILE", help="sweep name (robustness, learning, controllers) or .toml path; "
+                   "with --set: a scenario name or path")
+    p.add_argument("--set", action="append", default=[], metavar="INSTANCE.PARAM=V1,V2,...",
+                   help="sweep FILE as a scenario over these values (several --set: a grid), without a sweep file")
+    p.add_argument("--workers", type=positive_int, help="worker processes of the local cluster (default: one per core)")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="an existing dask.distributed scheduler, tcp://host:8786 (default: a local cluster)")
+    p.add_argument("--out", type=Path, help="results folder (default recordings/<sweep>); rerun into it to resume")
+    p.add_argument("--record", action="store_true", help="write each point's Rerun recording (points/<key>.rrd)")
+    p.add_argument("--retry-failed", action="store_true", help="run the stored failed points again")
+    p.add_argument("--doc", type=Path, metavar="MD",
+                   help="also write the results into this markdown file's generated block (plots beside it)")
+    add_stop_time(p, "the base scenario's stop time, s (an axis over stop_time still sets its own)")
+    add_fmu_dir(p)
+    p.set_defaults(func=_cmd_sweep)
+
+    p = sub.add_parser("bench", help="measure speed and scaling (default), or the measurements behind design choices")
+    p.add_argument("names", nargs="*", metavar="NAME",
+                   help="benchmarks to run: speed (default), integrator, recording, recording-blocks, sweep")
+    p.add_argument("--repeats", type=positive_int, default=3, help="alternated runs of each variant (default 3)")
+    p.add_argument("--long", type=stop_times, default=[1000.0, 10000.0], metavar="S[,S...]",
+                   help="stop times of the long single runs, s (default 1000,10000; 'none' skips them)")
+    p.add_argument("--record-every", type=positive_int, default=1, metavar="N",
+                   help="the long runs record every N-th sample (default 1: everything)")
+    p.add_argument("--json", type=Path, metavar="PATH", help="write the results as JSON (compare them later)")
+    p.add_argument("--compare", type=Path, metavar="OLD.json", help="print the change against an earlier --json")
+    add_stop_time(p, "shorten the side-by-side runs of speed (default: the scenario's 100 s)")
+    p.add_argument("--update-docs", action="store_true",
+                   help="write docs/performance.json and the generated tables of docs/performance.md and README.md")
+    add_fmu_dir(p)
+    p.set_defaults(func=_cmd_bench)

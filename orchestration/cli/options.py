@@ -1,0 +1,52 @@
+"""Argument types and options shared by the ``sotc-cosim`` subcommands."""
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+
+from orchestration.fmu_build.build import DEFAULT_FMU_DIR
+from orchestration.run.scenario import MAX_STEPS
+
+DEFAULT_SCENARIO = "paper"
+
+
+def positive_int(text: str) -> int:
+    """A whole number from 1 to MAX_STEPS (the most steps a run may have: no count here needs more)."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if not 1 <= value <= MAX_STEPS:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number from 1 to {MAX_STEPS}")
+    return value
+
+
+def seconds(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value > 0.0):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a finite number of seconds > 0")
+    return value
+
+
+def stop_times(text: str) -> list[float]:
+    if text.strip().lower() == "none":
+        return []
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected stop times like 1000,10000 or 'none', got {text!r}") from None
+    if not all(v > 0 for v in values):
+        raise argparse.ArgumentTypeError(f"stop times must be > 0, got {text!r}")
+    return values
+
+
+def add_fmu_dir(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--fmu-dir", type=Path, default=DEFAULT_FMU_DIR, help="where FMUs are built and found")
+
+
+def add_stop_time(p: argparse.ArgumentParser, help: str) -> None:
+    p.add_argument("--stop-time", type=seconds, help=help)

@@ -1,0 +1,209 @@
+"""``sotc-cosim build``, ``scenarios``, ``run``, ``compare`` and ``reproduce``: the scenario commands."""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from orchestration import exit_codes
+from orchestration.cli.options import DEFAULT_SCENARIO, add_fmu_dir, add_stop_time, positive_int
+from orchestration.fmu_build.build import DEFAULT_FMU_DIR, FMU_SOURCES, build_fmus, ensure_built
+from orchestration.paths import check_output_file, check_output_folder
+from orchestration.run import interrupt
+from orchestration.run.parameter_check import check_scenarios
+from orchestration.run.scenario import ScenarioError, available_scenarios, load_scenario
+
+MAX_BLOCK = 20_000  # samples per block handed to the recorder at most (about 12 MB of buffers for paper)
+
+
+def _cmd_build(args: argparse.Namespace) -> int:
+    check_output_folder(args.out, "--out")
+    from orchestration.fmu_build.compiled import SWITCH, describe, insisted, unavailable
+
+    if insisted() and unavailable():
+        print(f"{SWITCH}=1, but the cores stay Python: {unavailable()}")
+    for path in build_fmus(args.models or None, args.out):
+        print(f"{path}: {describe(path)}")
+    return exit_codes.OK
+
+
+def _cmd_scenarios(args: argparse.Namespace) -> int:
+    for name in available_scenarios():
+        print(f"{name:<16} {load_scenario(name).description}")
+    return exit_codes.OK
+
+
+def prepare(names: list, stop_time: float | None, fmu_dir: Path, check=None):
+    """Load the scenarios (names, paths or Scenario objects), apply --stop-time, call
+    ``check(scenarios)`` (output paths: it raises before anything is built or written), and build the
+    FMUs they need."""
+    scenarios = [load_scenario(name) if isinstance(name, str) else name for name in names]
+    if stop_time is not None:
+        scenarios = [s.with_stop_time(stop_time) for s in scenarios]
+    if check is not None:
+        check(scenarios)
+    paths = ensure_built(sorted({i.fmu for s in scenarios for i in s.instances.values()}), fmu_dir)
+    check_scenarios(scenarios, paths)  # a value the FMU would refuse: exit 2 before anything runs
+    return scenarios, paths
+
+
+def run_each(scenarios, paths, recording_for=None, keep_samples: bool = True, record_every: int = 1,
+              progress_label: str | None = None) -> list:
+    """Run every scenario (a failure is reported and the next one still runs); ``recording_for``
+    maps a scenario to the .rrd path its run streams to, or None for no recording;
+    ``progress_label``: show the progress under that label. Returns (result, summary) pairs;
+    ``keep_samples=False`` streams each run (bounded memory: the summary is computed on the way
+    and the result holds no samples)."""
+    from orchestration.progress import Progress
+    from orchestration.run.master import run
+    from orchestration.run.summary import SummaryObserver, summarize
+
+    progress = Progress(len(scenarios), progress_label) if progress_label else None
+    out = []
+    for scenario in scenarios:
+        if interrupt.requested():  # Ctrl-C: no further scenario starts; the finished ones are kept
+            break
+        target = recording_for(scenario) if recording_for else None
+        summary = SummaryObserver()
+        observers = [] if keep_samples else [summary]
+        if target is None:
+            result = run(scenario, paths, observer=observers or None, keep_samples=keep_samples)
+        else:
+            from orchestration.recording.writer import BLOCK_SIZE, RunRecorder
+
+            # a thinned recording gets proportionally longer blocks: chunks of the usual size, and
+            # fewer of them (the recording stream's bookkeeping grows with their number)
+            block = min(BLOCK_SIZE * record_every, MAX_BLOCK)
+            with RunRecorder(target, every=record_every) as recorder:
+                result = run(scenario, paths, observer=[*observers, recorder], block_size=block,
+                             keep_samples=keep_samples)
+            if recorder.output_error is not None:  # the disk took no more: stop, the finished runs are kept
+                raise recorder.output_error
+        if result.failed and not result.interrupted:
+            print(f"{scenario.name}: FAILED: {result.error}", file=sys.stderr)
+        out.append((result, summarize(result) if keep_samples else summary.summary))
+        if progress is not None:
+            progress.update(not result.failed, f"{scenario.name} {'FAILED' if result.failed else 'ok'}")
+    if progress is not None:
+        progress.close()
+    return out
+
+
+def exit_code(summaries: list[dict]) -> int:
+    if interrupt.requested():
+        return interrupt.exit_code()
+    return exit_codes.FAILED if any(s["status"] != "ok" for s in summaries) else exit_codes.OK
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    from orchestration.run.summary import format_table, write_summary
+
+    if args.summary and len(args.scenarios) > 1:
+        raise ScenarioError("--summary takes one scenario; run them one by one")
+    if args.recording and len(args.scenarios) > 1:
+        raise ScenarioError("--recording takes one scenario; without it each run writes recordings/<scenario>.rrd")
+    def check(scenarios) -> None:
+        if args.summary:
+            check_output_file(args.summary, "--summary")
+        if args.recording:
+            check_output_file(args.recording, "--recording")
+        elif not args.no_recording:
+            from orchestration.recording.writer import default_recording_path
+
+            for scenario in scenarios:
+                check_output_file(default_recording_path(scenario.name), "recording")
+
+    scenarios, paths = prepare(args.scenarios or [DEFAULT_SCENARIO], args.stop_time, args.fmu_dir, check)
+    written: list[Path] = []
+
+    def recording_for(scenario):
+        if args.no_recording:
+            return None
+        from orchestration.recording.writer import default_recording_path
+
+        target = args.recording or default_recording_path(scenario.name)
+        if target in written:  # the same scenario twice: keep both
+            target = target.with_name(f"{target.stem}-{len(written) + 1}{target.suffix}")
+        written.append(target)
+        return target
+
+    summaries = [s for _, s in run_each(scenarios, paths, recording_for, keep_samples=False,
+                                          record_every=args.record_every)]
+    if args.summary:
+        write_summary(summaries[0], args.summary)
+    print(format_table(summaries))
+    for target in written:
+        print(f"recording: {target}")
+    return exit_code(summaries)
+
+
+def _cmd_compare(args: argparse.Namespace) -> int:
+    from orchestration.recording.overlays import record_comparison
+    from orchestration.run.summary import format_table
+
+    results, summaries = zip(*run_each(*prepare(args.scenarios, args.stop_time, args.fmu_dir,
+                                                  lambda _: check_output_file(args.recording, "--recording"))))
+    print(format_table(summaries))
+    print(f"recording: {record_comparison(results, args.recording)}")
+    return exit_code(summaries)
+
+
+def _cmd_reproduce(args: argparse.Namespace) -> int:
+    from orchestration.recording.overlays import record_comparison
+    from orchestration.study.reproduce import chaos_notes, compact_table, reproduce_scenarios, write_table
+
+    def check(_) -> None:
+        check_output_folder(args.out, "--out")
+        check_output_file(args.recording, "--recording")
+
+    results, summaries = zip(*run_each(*prepare(reproduce_scenarios(), args.stop_time, args.fmu_dir, check),
+                                        progress_label="reproduce"))
+    notes = chaos_notes(summaries)
+    md, cs, text = write_table(summaries, args.out, notes)
+    print(text)
+    print(compact_table(summaries, notes))
+    print(f"wrote {md} and {cs}")
+    print(f"recording: {record_comparison(results, args.recording)} (paper Figs 10-12: every run overlaid)")
+    return exit_code(summaries)
+
+
+def add_commands(sub) -> None:
+    """build, run, compare, reproduce, scenarios."""
+    p = sub.add_parser("build", help="build the FMUs (in a child process)")
+    p.add_argument("--out", type=Path, default=DEFAULT_FMU_DIR, help=f"output folder (default {DEFAULT_FMU_DIR})")
+    p.add_argument("models", nargs="*", metavar="MODEL",
+                   help=f"FMUs to build (default all: {', '.join(FMU_SOURCES)})")
+    p.set_defaults(func=_cmd_build)
+
+    p = sub.add_parser("run", help="run scenarios through the FMUs, print their metrics, record them for Rerun")
+    p.add_argument("scenarios", nargs="*", metavar="SCENARIO",
+                   help=f"scenario names or .toml paths (default {DEFAULT_SCENARIO})")
+    add_stop_time(p, "override the scenario's stop time, s")
+    p.add_argument("--summary", type=Path, help="write the run's summary as JSON to this path")
+    add_fmu_dir(p)
+    rec = p.add_mutually_exclusive_group()
+    rec.add_argument("--recording", type=Path, metavar="PATH",
+                     help="write the Rerun recording here (one scenario; default recordings/<scenario>.rrd)")
+    rec.add_argument("--no-recording", action="store_true", help="do not write a Rerun recording")
+    p.add_argument("--record-every", type=positive_int, default=1, metavar="N",
+                   help="record every N-th sample only (long runs: a 10,000 s run is about 960 MB at N = 1)")
+    p.set_defaults(func=_cmd_run)
+
+    p = sub.add_parser("compare", help="run scenarios and overlay them in one Rerun recording (paper Figs 10-12)")
+    p.add_argument("scenarios", nargs="+", metavar="SCENARIO", help="scenario names or .toml paths")
+    p.add_argument("--recording", type=Path, metavar="PATH", default=Path("recordings") / "compare.rrd",
+                   help="where to write the recording (default recordings/compare.rrd)")
+    add_stop_time(p, "override every scenario's stop time, s")
+    add_fmu_dir(p)
+    p.set_defaults(func=_cmd_compare)
+
+    p = sub.add_parser("reproduce", help="run the paper's section 4 experiment and write Table 1 extended")
+    p.add_argument("--out", type=Path, default=Path("recordings"), help="where table1.md/.csv go (default recordings/)")
+    p.add_argument("--recording", type=Path, metavar="PATH", default=Path("recordings") / "reproduce.rrd",
+                   help="the comparison recording of all runs (default recordings/reproduce.rrd)")
+    add_stop_time(p, "override every scenario's stop time, s (default: the paper's 100 s)")
+    add_fmu_dir(p)
+    p.set_defaults(func=_cmd_reproduce)
+
+    p = sub.add_parser("scenarios", help="list the scenarios that ship with the package")
+    p.set_defaults(func=_cmd_scenarios)
