@@ -28,7 +28,7 @@ from orchestration.bench.speed import DOC_BLOCKS as SPEED_BLOCKS
 from orchestration.bench.speed import MEASUREMENT as SPEED_MEASUREMENT
 from orchestration.bench.speed import stored_block
 from orchestration.markdown import block_pattern, number, replace_block, stable, stable_pair, table
-from orchestration.reports import fair_tables
+from orchestration.reports import fair_tables, numerics_tables
 from orchestration.study.comparison import (
     COMPARED,
     NUDGE,
@@ -326,6 +326,8 @@ BLOCKS: dict[str, Block] = {
     "readings": Block("docs/paper-notes.md", readings_table, True),
     "value": Block("docs/paper-notes.md", value_table, True),
     "learned-w": Block("docs/paper-notes.md", learned_w_table, True),
+    "cl-rule": Block("docs/paper-notes.md", numerics_tables.cl_rule_table, True),
+    "chi-a-bounded": Block("docs/paper-notes.md", numerics_tables.chi_a_bounded_table, True),
     # the results of a shipped sweep, from its stored rows (rerun: sotc-cosim sweep NAME --doc docs/robustness.md)
     "sweep-robustness": Block("docs/robustness.md", lambda: stored_sweep_block("robustness", ROOT / "docs"), False),
     "sweep-controllers": Block("docs/robustness.md", lambda: stored_sweep_block("controllers", ROOT / "docs"), False),
