@@ -152,13 +152,15 @@ def theta() -> np.ndarray:
     return np.asarray(SotcCore().theta, dtype=float)
 
 
-def trajectory_cost(problem: Problem, run: LoopResult) -> float:
+def trajectory_cost(problem: Problem, run: LoopResult, until: float | None = None) -> float:
     """The objective of ``problem`` evaluated on a recorded run from its initial state (a controller's,
     or the optimal torques replayed): trapezoid of z^T Theta z in the shared z, plus the held input
-    cost for objective B. inf where Omega is not defined (|tau_i - tau_d,i| >= its level)."""
-    cost = float(_trapezoid(shared_z(run) ** 2 @ theta(), run.t))
+    cost for objective B; over [0, ``until``] only if given. inf where Omega is not defined
+    (|tau_i - tau_d,i| >= its level)."""
+    k = problem.steps if until is None else min(problem.steps, round(until / STEP_SIZE))
+    cost = float(_trapezoid((shared_z(run) ** 2 @ theta())[:k + 1], run.t[:k + 1]))
     if problem.objective == "B":
-        mu = run.tau[:problem.steps] - problem.baseline()
+        mu = run.tau[:k] - problem.baseline()[:k]
         cost += STEP_SIZE * sum(omega_of_mu(m, INPUT_LEVEL, INPUT_WEIGHTS) for m in mu)
     return cost
 
