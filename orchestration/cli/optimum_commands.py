@@ -90,7 +90,7 @@ def _cmd_optimum(args: argparse.Namespace) -> int:
         print(f"state {index}: the solver failed: {reason}")
     if args.json:
         data["failures"] = [{"index": i, "reason": r} for i, r in sorted(failures)]
-        print(f"json: {atomic_write(args.json, json.dumps(data, indent=1) + chr(10))}")
+        print(f"json: {atomic_write(args.json, json.dumps(data, separators=(',', ':')) + chr(10))}")  # compact: 2000 torques a state
     if interrupted:
         return interrupt.exit_code()
     return exit_codes.FAILED if failures else exit_codes.OK

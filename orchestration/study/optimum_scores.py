@@ -26,7 +26,7 @@ import numpy as np
 
 from fmu_controller.catalog import CORES
 from fmu_controller.saturation import ACCEL, in_disc
-from fmu_plant.dynamics import STEP_SIZE, TORQUE_LIMIT
+from fmu_plant.dynamics import TORQUE_LIMIT
 from orchestration.study.fair import configurations
 from orchestration.study.optimum import Optimum, Problem, Nlp, solve, trajectory_cost
 from orchestration.study.pure_loop import LoopResult, simulate
@@ -37,7 +37,6 @@ PAPER_STATE = ((0.5, -0.5), (0.0, 0.0))  # section 4
 HANDLING = ACCEL
 FROZEN_LABELS = {"learned W": "SOTC, learned W frozen", "W = 0": "SOTC, W = 0 (feedforward only)",
                  "the paper's W": "SOTC, the paper's W frozen", "LQR": "SOTC, LQR weights of (6) frozen"}
-TRANSIENT = 5.0  # s: the cost and the torque used over [0, TRANSIENT] are kept apart (where the gap arises)
 
 
 def all_states() -> list[tuple[tuple[float, float], tuple[float, float]]]:
@@ -52,11 +51,15 @@ def learned_weights() -> list[float]:
     return [float(w) for w in run("paper")[0].W]
 
 
+def fair_core(label: str):
+    """A zero-argument factory of one of the fair comparison's configurations under ``HANDLING``."""
+    fmu, params = configurations(HANDLING)[label]
+    return lambda: CORES[fmu](**params)
+
+
 def controller_cores(learned: list[float]) -> dict[str, Any]:
     """label -> a zero-argument factory of a fresh controller core."""
-    out: dict[str, Any] = {}
-    for label, (fmu, params) in configurations(HANDLING).items():
-        out[label] = lambda fmu=fmu, params=params: CORES[fmu](**params)
+    out: dict[str, Any] = {label: fair_core(label) for label in configurations(HANDLING)}
     for name, W in candidates(np.asarray(learned, dtype=float)):
         out[FROZEN_LABELS[name]] = lambda W=W: _core(W)
     return out
@@ -72,12 +75,6 @@ def run_controller(problem: Problem, factory) -> LoopResult:
     return run
 
 
-def transient(problem: Problem, run: LoopResult) -> dict[str, float]:
-    """The cost over [0, ``TRANSIENT``] and the mean ||tau|| over the samples held in it."""
-    k = round(TRANSIENT / STEP_SIZE)
-    return {"J": trajectory_cost(problem, run, TRANSIENT), "mean_torque": float(np.mean(np.hypot(*run.tau[:k].T)))}
-
-
 def _solver_record(o: Optimum) -> dict[str, Any]:
     return {"J": o.cost, "solver_objective": o.solver_objective, "status": o.status, "iterations": o.iterations,
             "seconds": o.seconds}
@@ -90,13 +87,12 @@ def solve_state(index: int, horizon: float, objective: str, learned: list[float]
     phi0, dphi0 = all_states()[index]
     problem = Problem(phi0, dphi0, horizon, objective)
     costs: dict[str, float | None] = {}
-    early: dict[str, dict[str, float]] = {}
     failures: dict[str, str] = {}
     best: tuple[float, LoopResult, str] | None = None
     for label, factory in controller_cores(learned).items():
         try:
             run = run_controller(problem, factory)
-            costs[label], early[label] = trajectory_cost(problem, run), transient(problem, run)
+            costs[label] = trajectory_cost(problem, run)
         except (ArithmeticError, ValueError) as exc:  # IntegrationError, a refused state, the disc left
             costs[label], failures[label] = None, f"{type(exc).__name__}: {exc}"
             continue
@@ -106,7 +102,7 @@ def solve_state(index: int, horizon: float, objective: str, learned: list[float]
     warm = solve(problem, best[1] if best else None, nlp)
     record: dict[str, Any] = {"index": index, "phi0": list(phi0), "dphi0": list(dphi0), "J_star": warm.cost,
                               "warm_start": best[2] if best else "zero torque", "solver": _solver_record(warm),
-                              "J": costs, "failures": failures, "transient": {"optimum": transient(problem, warm.run), **early},
+                              "J": costs, "failures": failures,
                               "torques": warm.torques.tolist()}
     if cold:
         c = solve(problem, None, nlp)
