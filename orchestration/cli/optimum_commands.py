@@ -28,7 +28,8 @@ def _solve_on_dask(args: argparse.Namespace, indices: list[int], learned: list[f
 
     workers = args.workers or os.cpu_count() or 1
     where = args.scheduler or f"a local Dask cluster of {workers} worker processes"
-    print(f"optimum: {len(indices)} initial states, objective {args.objective}, {args.horizon:g} s, on {where}", flush=True)
+    print(f"optimum: {len(indices)} initial states, objective {args.objective}, {args.horizon:g} s, on {where}",
+          flush=True)
     scratch = f"optimum-{os.getpid()}-{time.time_ns()}"
     client = cluster = None
     futures, records, failures, interrupted = [], [], [], False
@@ -47,8 +48,9 @@ def _solve_on_dask(args: argparse.Namespace, indices: list[int], learned: list[f
                 if future.status == "finished":
                     rec = future.result()
                     records.append(rec)
-                    progress.update(True, f"state {rec['index']}: J* = {rec['J_star']:.6g} "
-                                          f"({rec['solver']['seconds']:.1f} s, {rec['solver']['iterations']} iterations)")
+                    solver = rec["solver"]
+                    progress.update(True, f"state {rec['index']}: J* = {rec['J_star']:.6g} ({solver['seconds']:.1f} s, "
+                                          f"{solver['iterations']} iterations)")
                 else:
                     exc = future.exception()
                     failures.append((index_of[future.key], f"{type(exc).__name__}: {exc}"))
@@ -90,7 +92,8 @@ def _cmd_optimum(args: argparse.Namespace) -> int:
         print(f"state {index}: the solver failed: {reason}")
     if args.json:
         data["failures"] = [{"index": i, "reason": r} for i, r in sorted(failures)]
-        print(f"json: {atomic_write(args.json, json.dumps(data, separators=(',', ':')) + chr(10))}")  # compact: 2000 torques a state
+        text = json.dumps(data, separators=(",", ":")) + "\n"  # compact: 2000 torques a state
+        print(f"json: {atomic_write(args.json, text)}")
     if interrupted:
         return interrupt.exit_code()
     return exit_codes.FAILED if failures else exit_codes.OK
@@ -100,7 +103,8 @@ def add_commands(sub) -> None:
     """optimum."""
     p = sub.add_parser("optimum", help="solve the optimal tracking problem under the bound (CasADi) and score "
                                        "every controller against it, J / J*")
-    p.add_argument("--horizon", type=seconds, default=20.0, metavar="S", help="horizon, s (default 20, a multiple of T)")
+    p.add_argument("--horizon", type=seconds, default=20.0, metavar="S",
+                   help="horizon, s (default 20, a multiple of T)")
     p.add_argument("--states", type=positive_int, default=17, metavar="N",
                    help="the first N initial states: the paper's, then the value study's 16 (default 17)")
     p.add_argument("--objective", choices=("A", "B"), default="A",

@@ -40,7 +40,8 @@ def summary_table(data: dict[str, Any]) -> str:
     """Per controller: J / J* at the paper's state and over all states (geometric mean [95 % interval],
     range), lowest geometric mean first."""
     n = len(data["states"])
-    rows = [[label, number(s["paper"], ".3f"), _cell(_interval(s)), f"{number(s['min'], '.3f')} - {number(s['max'], '.3f')}"]
+    rows = [[label, number(s["paper"], ".3f"), _cell(_interval(s)),
+             f"{number(s['min'], '.3f')} - {number(s['max'], '.3f')}"]
             for label, s in sorted(data["summary"].items(), key=lambda kv: kv[1]["gmean"])]
     return table(["controller", "J / J*, paper's state", f"J / J*, {n} states: geometric mean [95 %]", "range"],
                  rows, "lrrr")

@@ -26,6 +26,7 @@ import numpy as np
 
 from fmu_controller.catalog import CORES
 from fmu_controller.saturation import ACCEL, in_disc
+from fmu_plant.arm_plant_fmu import INITIAL_STATE_SPECS
 from fmu_plant.dynamics import TORQUE_LIMIT
 from orchestration.study.fair import configurations
 from orchestration.study.optimum import Optimum, Problem, Nlp, solve, trajectory_cost
@@ -33,7 +34,9 @@ from orchestration.study.pure_loop import LoopResult, simulate
 from orchestration.study.statistics import geometric_interval
 from orchestration.study.value_function import _core, candidates, initial_states
 
-PAPER_STATE = ((0.5, -0.5), (0.0, 0.0))  # section 4
+_START = {spec.name: spec.default for spec in INITIAL_STATE_SPECS}
+# section 4's, as the plant FMU's defaults give it
+PAPER_STATE = ((_START["phi1_0"], _START["phi2_0"]), (_START["dphi1_0"], _START["dphi2_0"]))
 HANDLING = ACCEL
 FROZEN_LABELS = {"learned W": "SOTC, learned W frozen", "W = 0": "SOTC, W = 0 (feedforward only)",
                  "the paper's W": "SOTC, the paper's W frozen", "LQR": "SOTC, LQR weights of (6) frozen"}
@@ -119,13 +122,13 @@ def summary(states: list[dict[str, Any]]) -> dict[str, dict[str, Any]]:
     """Per controller: J / J* at the paper's state, and the geometric mean over all states with its 95 %
     bootstrap interval (``statistics.geometric_interval``)."""
     labels = list(states[0]["J"]) if states else []
-    paper = next((s for s in states if s["index"] == 0), None)
+    at_paper = [s["index"] == 0 for s in states]
     out = {}
     for label in labels:
         r = ratios(states, label)
         iv = geometric_interval(r)
         usable = [v for v in r if v is not None]
-        out[label] = {"paper": None if paper is None or paper["J"].get(label) is None else paper["J"][label] / paper["J_star"],
+        out[label] = {"paper": next((v for v, p in zip(r, at_paper) if p), None),
                       "gmean": iv.value, "low": iv.low, "high": iv.high, "n": iv.n, "failed": iv.failed,
                       "min": min(usable) if usable else None, "max": max(usable) if usable else None}
     return out
