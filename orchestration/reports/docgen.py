@@ -310,6 +310,8 @@ BLOCKS: dict[str, Block] = {
     # the stored optimum (rerun: sotc-cosim optimum --cold all --json docs/optimum/optimum.json)
     "optimum": Block("docs/optimum.md", lambda: optimum_tables.report(optimum_tables.stored(ROOT)), False),
     "optimum-verdict": Block("README.md", lambda: optimum_tables.verdict(optimum_tables.stored(ROOT)), False),
+    "optimum-b": Block("docs/optimum.md",
+                       lambda: optimum_tables.report(optimum_tables.stored(ROOT, optimum_tables.STORE_B)), False),
     "otc-variants": Block("docs/baselines.md", otc_table, True),
     "settings": Block("docs/paper-notes.md", settings_table, False),
     "readings": Block("docs/paper-notes.md", readings_table, True),

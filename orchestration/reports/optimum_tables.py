@@ -22,14 +22,15 @@ from orchestration.study.optimum_scores import fair_core, ratios, run_controller
 from orchestration.study.statistics import Interval
 
 STORE = Path("docs") / "optimum" / "optimum.json"
+STORE_B = STORE.with_name("optimum-b.json")  # objective B (``--objective B --cold paper``)
 FIGURE = STORE.with_name("paper_state.png")
 FIGURE_SPAN = 6.0  # s shown
 AT_BOUND = 1e-6  # relative: a torque norm this close to rho is at the bound
 LEARNED = "SOTC nominal"  # the paper's SOTC, learning as it runs: the figure's "learned" controller
 
 
-def stored(root: Path) -> dict[str, Any]:
-    return json.loads((root / STORE).read_text())
+def stored(root: Path, store: Path = STORE) -> dict[str, Any]:
+    return json.loads((root / store).read_text())
 
 
 def _interval(s: dict[str, Any]) -> Interval:

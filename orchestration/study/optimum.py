@@ -208,7 +208,8 @@ class Nlp:
         g = ca.vertcat(ca.vec(defects), ca.sum1(U ** 2).T)
         self.lbg = np.concatenate([np.zeros(4 * n), np.full(n, -np.inf)])
         self.ubg = np.concatenate([np.zeros(4 * n), np.full(n, TORQUE_LIMIT ** 2)])
-        options = {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes",
+        # an interior-point trial step outside Omega's domain (objective B) is a NaN IPOPT backtracks from: not news
+        options = {"print_time": False, "show_eval_warnings": False, "ipopt.print_level": 0, "ipopt.sb": "yes",
                    "ipopt.tol": TOLERANCE, "ipopt.max_iter": MAX_ITERATIONS}
         self.solver = ca.nlpsol("optimum", "ipopt", {"x": ca.vertcat(ca.vec(X), ca.vec(U)), "f": f, "g": g}, options)
 
