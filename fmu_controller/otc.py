@@ -80,6 +80,7 @@ from fmu_controller.sotc_math import (
     N_BASIS,
     basis,
     basis_directional,
+    dot_sequence,
     matrix_to_weights,
     probing_signal,
     value_gradient,
@@ -194,7 +195,7 @@ class OtcCore(ControllerCore):
         omega = basis_directional(z, z_dot)  # grad(sigma) z_dot
         wc = self.wc.tolist()
         cost_rate = q * (z[0] * z[0] + z[1] * z[1] + z[2] * z[2] + z[3] * z[3]) + (u1 * (r1 * u1) + u2 * (r2 * u2))
-        delta = _dot(omega, wc) + cost_rate  # (OTC-8)
+        delta = dot_sequence(omega, wc) + cost_rate  # (OTC-8)
 
         probe = 0.0
         if t < self.params["probe_duration"]:
@@ -214,7 +215,7 @@ class OtcCore(ControllerCore):
             tau_norm, 1.0 if over else 0.0,
             ta1, ta2, u1, u2,
             z[2], z[3],
-            _dot(basis(z), wc), delta, cost_rate,
+            dot_sequence(basis(z), wc), delta, cost_rate,
             math.hypot(*wc), math.hypot(*self.wa.tolist()),
         ]
 
@@ -228,11 +229,11 @@ class OtcCore(ControllerCore):
             return
         pr = self.params
         omega = last["omega"]
-        ww = _dot(omega, omega)
+        ww = dot_sequence(omega, omega)
         if ww > 0.0 and pr["alpha_c"] > 0.0:
             # exact solution of (OTC-8) for a held regressor: the residual omega'Wc + cost decays
             # as exp(-alpha_c ww/(ww+1)^2 t); only the component of Wc along omega moves.
-            s0 = _dot(omega, self.wc.tolist()) + last["cost_rate"]
+            s0 = dot_sequence(omega, self.wc.tolist()) + last["cost_rate"]
             decay = math.exp(-pr["alpha_c"] * ww / (ww + 1.0) ** 2 * dt)
             self.wc = self.wc - np.array(omega) * (s0 * (1.0 - decay) / ww)
         decay_a = math.exp(-pr["alpha_a"] * dt)
@@ -257,10 +258,3 @@ class OtcCore(ControllerCore):
         self.wa = np.asarray(state["wa"], dtype=float).copy()
         self._last = None
 
-
-def _dot(a: Sequence[float], b: Sequence[float]) -> float:
-    """sum_k a_k b_k, left to right (``sum`` rounds differently from Python 3.12 on)."""
-    acc = 0.0
-    for x, y in zip(a, b):
-        acc += x * y
-    return acc
