@@ -58,6 +58,12 @@ class BuildError(RuntimeError):
     pass
 
 
+def fmu_folder(folder: Path, fmi: int, given: bool = False) -> Path:
+    """Where the FMUs of an FMI version live: ``folder`` if the user gave it, else the default folder
+    (FMI 3 in its ``fmi3`` subfolder, so that the two versions never rebuild each other's FMUs)."""
+    return Path(folder) if given or fmi == 2 else Path(folder) / "fmi3"
+
+
 def packages_of(source: FmuSource, fmi: int) -> tuple[str, ...]:
     """The packages an FMU of this FMI version bundles: FMI 3 adds the FMI 3 face of the framework."""
     return source.packages + ((fmi3.FMI3_PACKAGE,) if fmi == 3 else ())
