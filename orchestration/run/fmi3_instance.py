@@ -40,8 +40,8 @@ class Instance3:
     def __init__(self, name: str, fmu_file: Path, workdir: Path, sink):
         self.name = name
         self.md = model_description(fmu_file)
-        if self.md.coSimulation is None:
-            raise ScenarioError(f"{fmu_file} does not support co-simulation")
+        if getattr(self.md, self.INTERFACE) is None:
+            raise ScenarioError(f"{fmu_file} does not support {self.INTERFACE}")
         self.unzipdir = extract(str(fmu_file), unzipdir=str(workdir / name))
         floats = [v for v in self.md.modelVariables if v.type == "Float64" and v.causality in ("input", "output")]
         outputs = [v for v in floats if v.causality == "output"]
@@ -58,19 +58,25 @@ class Instance3:
         self._by_name = {v.name: v for v in self.md.modelVariables}
         self.feedthrough = any(u.dependencies for u in self.md.outputs)
         self._plans: dict[int, tuple] = {}
-        self.fmu = FMU3Slave(guid=self.md.guid, unzipDirectory=self.unzipdir,
-                             modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=name)
         # FMI 3 hands each instance its own logger (fmpy keeps it): FMI 2's routing (fmi_direct) is not needed
         self.callbacks = SimpleNamespace(componentEnvironment=None)
-        self.fmu.instantiate(loggingOn=True, logMessage=lambda env, status, category, message: sink.append(
+        self.fmu = self._open(name, lambda env, status, category, message: sink.append(
             (int(status), (message or b"").decode(errors="replace"))))
         self.instantiated = True
         self.initialized = False
         self._get = self.fmu._functions["fmi3GetFloat64"]
         self._set = self.fmu._functions["fmi3SetFloat64"]
-        self._step = self.fmu._functions["fmi3DoStep"]
+
+    INTERFACE = "coSimulation"  # the modelDescription element this instance uses
+
+    def _open(self, name: str, log):
+        fmu = FMU3Slave(guid=self.md.guid, unzipDirectory=self.unzipdir,
+                        modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=name)
+        fmu.instantiate(loggingOn=True, logMessage=log)
+        self._step = fmu._functions["fmi3DoStep"]
         self._flags = [fmi3Boolean() for _ in range(3)]
         self._reached = fmi3Float64()
+        return fmu
 
     def initialize(self, stop_time: float) -> None:
         self.fmu.enterInitializationMode(startTime=0.0, stopTime=stop_time)

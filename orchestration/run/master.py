@@ -172,13 +172,22 @@ class _Loaded:
                 self.fmu.setInteger([var.valueReference], [int(value)])
 
 
-def _instance(name: str, fmu_file: Path, workdir: Path, logs: list[LogRecord], clock: _Clock):
-    """The instance of an FMI 2.0 FMU, or of an FMI 3.0 one (``fmi3_instance``: the same interface)."""
-    if model_description(fmu_file).fmiVersion.startswith("3"):
+def _instance(inst, fmu_file: Path, workdir: Path, logs: list[LogRecord], clock: _Clock):
+    """The instance of an FMI 2.0 FMU, or of an FMI 3.0 one (``fmi3_instance``: the same interface;
+    ``fmi3_exchange`` for its Model Exchange interface)."""
+    fmi3 = model_description(fmu_file).fmiVersion.startswith("3")
+    if inst.interface == "ModelExchange":
+        if not fmi3:
+            raise ScenarioError(f"instance '{inst.name}': interface = \"ModelExchange\" needs an FMI 3.0 FMU; "
+                                f"{fmu_file} is FMI 2.0 (run with --fmi 3)")
+        from orchestration.run.fmi3_exchange import ExchangeInstance
+
+        return ExchangeInstance(inst.name, fmu_file, workdir, _LogSink(inst.name, logs, clock))
+    if fmi3:
         from orchestration.run.fmi3_instance import Instance3
 
-        return Instance3(name, fmu_file, workdir, _LogSink(name, logs, clock))
-    return _Loaded(name, fmu_file, workdir, logs, clock)
+        return Instance3(inst.name, fmu_file, workdir, _LogSink(inst.name, logs, clock))
+    return _Loaded(inst.name, fmu_file, workdir, logs, clock)
 
 
 def _checked(status: int, function: str) -> None:
@@ -316,7 +325,7 @@ class _Session:
         for inst in scenario.instances.values():
             if inst.fmu not in fmu_paths:
                 raise ScenarioError(f"instance '{inst.name}': no built FMU for model '{inst.fmu}'")
-            ld = self.loaded[inst.name] = _instance(inst.name, fmu_paths[inst.fmu], self.workdir, self.logs, self.clock)
+            ld = self.loaded[inst.name] = _instance(inst, fmu_paths[inst.fmu], self.workdir, self.logs, self.clock)
             self.fmus[inst.name] = {"guid": ld.md.guid or "", "version": ld.md.version or "",
                                     "generation_tool": ld.md.generationTool or ""}
         links = _resolve_links(scenario, self.loaded)
