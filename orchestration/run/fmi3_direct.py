@@ -22,11 +22,13 @@ from fmi3_slave.arrays import element_names
 _TYPES = {"Float64": "Real", "Int32": "Integer"}
 
 
-def _size(variable) -> int:
+def element_count(variable) -> int:
+    """How many elements an FMI 3 variable of fmpy's modelDescription has (a scalar: 1)."""
     return int(np.prod(variable.shape)) if variable.shape else 1
 
 
-def _starts(variable, size: int) -> list:
+def element_starts(variable, size: int) -> list:
+    """The start value of each element, as the XML gives it (None where it gives none)."""
     if variable.start is None:
         return [None] * size
     text = variable.start if isinstance(variable.start, str) else " ".join(map(str, np.ravel(variable.start)))
@@ -41,9 +43,9 @@ def flat_view(md) -> tuple[SimpleNamespace, list[tuple]]:
     for v in md.modelVariables:
         if v.type not in _TYPES or v.causality not in ("parameter", "input", "output"):
             continue
-        size = _size(v)
+        size = element_count(v)
         of[v.name] = []
-        for index, (name, start) in enumerate(zip(element_names(v.name, size), _starts(v, size))):
+        for index, (name, start) in enumerate(zip(element_names(v.name, size), element_starts(v, size))):
             flat = SimpleNamespace(name=name, type=_TYPES[v.type], causality=v.causality, valueReference=len(slots),
                                    start=start, unit=v.unit, min=v.min, max=v.max, description=v.description)
             variables.append(flat)
@@ -68,13 +70,13 @@ class _ScalarCalls:
 
     def _read(self, slots, get) -> list:
         arrays = self._arrays(slots)
-        values = get([a.valueReference for a in arrays], nValues=sum(_size(a) for a in arrays))
-        offset = dict(zip((id(a) for a in arrays), np.cumsum([0] + [_size(a) for a in arrays[:-1]]).tolist()))
+        values = get([a.valueReference for a in arrays], nValues=sum(element_count(a) for a in arrays))
+        offset = dict(zip((id(a) for a in arrays), np.cumsum([0] + [element_count(a) for a in arrays[:-1]]).tolist()))
         return [values[offset[id(self.slots[s][0])] + self.slots[s][1]] for s in slots]
 
     def _write(self, slots, values, get, set_) -> None:
         for array in self._arrays(slots):
-            current = list(get([array.valueReference], nValues=_size(array)))
+            current = list(get([array.valueReference], nValues=element_count(array)))
             for s, value in zip(slots, values):
                 if self.slots[s][0] is array:
                     current[self.slots[s][1]] = value

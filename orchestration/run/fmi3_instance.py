@@ -19,6 +19,7 @@ from fmpy.fmi1 import FMICallException
 from fmpy.fmi3 import FMU3Slave, fmi3Boolean, fmi3Float64, fmi3ValueReference
 
 from fmi3_slave.arrays import element_names
+from orchestration.run.fmi3_direct import element_count, element_starts
 from orchestration.run.parameter_check import model_description, parameter_problem
 from orchestration.run.scenario import ScenarioError
 
@@ -28,10 +29,6 @@ _WARNING = 1  # fmi3Warning: anything worse fails the call
 def _checked(status: int, function: str) -> None:
     if status > _WARNING:
         raise FMICallException(function=function, status=status)
-
-
-def _size(variable) -> int:
-    return int(np.prod(variable.shape)) if variable.shape else 1
 
 
 class Instance3:
@@ -45,14 +42,14 @@ class Instance3:
         self.unzipdir = extract(str(fmu_file), unzipdir=str(workdir / name))
         floats = [v for v in self.md.modelVariables if v.type == "Float64" and v.causality in ("input", "output")]
         outputs = [v for v in floats if v.causality == "output"]
-        self.output_names = [n for v in outputs for n in element_names(v.name, _size(v))]
+        self.output_names = [n for v in outputs for n in element_names(v.name, element_count(v))]
         self.out_vr = (fmi3ValueReference * len(outputs))(*(v.valueReference for v in outputs))
         self.n_out = len(self.output_names)
         self.out_buf = (fmi3Float64 * self.n_out)()
         self.out_view = np.ctypeslib.as_array(self.out_buf)
         # every input element: its scalar name -> (array variable, index); ``vars`` gives each a slot
         self._elements = {n: (v, i) for v in floats if v.causality == "input"
-                          for i, n in enumerate(element_names(v.name, _size(v)))}
+                          for i, n in enumerate(element_names(v.name, element_count(v)))}
         self.inputs = set(self._elements)
         self.vars = {n: SimpleNamespace(valueReference=slot) for slot, n in enumerate(self._elements)}
         self._by_name = {v.name: v for v in self.md.modelVariables}
@@ -100,9 +97,8 @@ class Instance3:
         names = list(self._elements)
         arrays = list(dict.fromkeys(self._elements[names[s]][0].name for s in slots))
         variables = [self._by_name[a] for a in arrays]
-        start = [float(x) for v in variables for x in str(v.start or "0").split()]
-        sizes = [_size(v) for v in variables]
-        start = start if len(start) == sum(sizes) else [0.0] * sum(sizes)
+        sizes = [element_count(v) for v in variables]
+        start = [float(x or 0.0) for v, n in zip(variables, sizes) for x in element_starts(v, n)]
         values = (fmi3Float64 * sum(sizes))(*start)
         offsets = dict(zip(arrays, np.cumsum([0] + sizes[:-1]).tolist()))
         where = np.array([offsets[self._elements[names[s]][0].name] + self._elements[names[s]][1] for s in slots])
