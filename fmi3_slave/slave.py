@@ -49,8 +49,8 @@ class WrappedSlave(Fmi3Slave):
     def __init__(self, **kwargs: Any):
         super().__init__(**kwargs)
         inner = self._inner = self.WRAPPED(instance_name=kwargs["instance_name"], resources=kwargs.get("resources"))
-        self.author, self.license, self.version = inner.author, inner.license, inner.version
-        self.description = inner.description or type(inner).description  # pythonfmu's is on the class
+        for attr in ("author", "license", "version", "description"):  # the model's, on its class
+            setattr(self, attr, getattr(inner, attr) or getattr(type(inner), attr, None))
         e = inner.default_experiment or type(inner).default_experiment  # pythonfmu's is on the class
         if e is not None:
             self.default_experiment = DefaultExperiment(e.start_time, e.stop_time, e.step_size, e.tolerance)

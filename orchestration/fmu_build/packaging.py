@@ -298,7 +298,7 @@ def documentation_html(model: str, xml: Element, equations: list[str], requireme
         f"<ul><li>CPython {' or '.join(MEASURED_PYTHONS)} (measured), with a shared libpython "
         "loaded into the host process</li>"
         f"{reqs}</ul><p>These are listed in <code>resources/requirements.txt</code>; "
-        f"<code>pythonfmu deploy -f {esc(model)}.fmu</code> installs them. A missing package makes "
+        f"<code>{EXPORTERS[int(xml.get('fmiVersion', '2')[0])]} deploy -f {esc(model)}.fmu</code> installs them. A missing package makes "
         "instantiation fail with a logged message that names it and its version range.</p>"
         f"{_compiled_html(list(cores))}{tables}<h2>Equations</h2>{maths}</body></html>\n")
 

@@ -43,6 +43,9 @@ def test_arrays_types_and_interfaces(fmi3_paths):
     arm = ElementTree.fromstring(zipfile.ZipFile(fmi3_paths["ArmPlant"]).read("modelDescription.xml"))
     assert arm.find("ModelExchange") is not None and arm.find("CoSimulation") is not None
     assert arm.find("ModelVariables/Float64[@name='phi']").get("unit") == "rad"
+    assert root.get("version") and root.get("description")  # the FMI 2 class's
+    page = zipfile.ZipFile(fmi3_paths["SotcController"]).read("documentation/index.html").decode()
+    assert "FMI 3.0 co-simulation FMU" in page and "<td>W</td><td>Float64[10]</td>" in page
 
 
 def test_a_parameter_is_refused_with_the_fmi2_message(fmu_paths, fmi3_paths, instances):
