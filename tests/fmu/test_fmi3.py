@@ -139,3 +139,18 @@ def test_model_exchange_needs_an_fmi3_fmu(fmu_paths, tmp_path):
     scenario.write_text('extends = "paper"\nname = "paper-me"\n[instances.plant]\ninterface = "ModelExchange"\n')
     with pytest.raises(ScenarioError, match="needs an FMI 3.0 FMU.*--fmi 3"):
         run(load_scenario(str(scenario)).with_stop_time(0.1), fmu_paths)
+
+
+def test_compare_and_reproduce_run_the_fmi3_fmus(fmi3_paths, tmp_path, capsys):
+    """The batch commands with --fmi 3 (shortened): every run ok, the outputs written."""
+    from orchestration.cli import main
+    from orchestration.fmu_build.compiled import switched
+
+    folder = str(next(iter(fmi3_paths.values())).parent)
+    with switched(False):  # the fixture's build: nothing is rebuilt
+        assert main(["compare", "paper", "paper-ct", "--fmi", "3", "--stop-time", "0.2", "--fmu-dir", folder,
+                     "--recording", str(tmp_path / "c.rrd")]) == 0
+        assert main(["reproduce", "--fmi", "3", "--stop-time", "0.1", "--fmu-dir", folder, "--out", str(tmp_path),
+                     "--recording", str(tmp_path / "r.rrd")]) == 0
+    assert (tmp_path / "c.rrd").stat().st_size > 0 and (tmp_path / "table1.csv").is_file()
+    assert "FAILED" not in capsys.readouterr().err
