@@ -16,6 +16,7 @@ named ``Fmi3Slave``, so each FMI 3 script imports this class under that name.
 """
 from __future__ import annotations
 
+import re
 from typing import Any, Callable, ClassVar
 
 from pythonfmu3 import Fmi3Causality, Fmi3Slave, Fmi3Status, Fmi3Variability, Float64, Int32
@@ -29,6 +30,11 @@ from fmi_slave.slave import DescribedSlave
 from fmi3_slave.arrays import group
 from fmi3_slave.model_description import complete_model_description
 
+# the FMI 2 calls the shared code names in its messages -> what an FMI 3 host called
+_CALLS = {"fmi2GetReal": "fmi3GetFloat64", "fmi2SetReal": "fmi3SetFloat64", "fmi2GetInteger": "fmi3GetInt32",
+          "fmi2SetInteger": "fmi3SetInt32", "fmi2GetFMUstate": "fmi3GetFMUState",
+          "fmi2SetFMUstate": "fmi3SetFMUState", "fmi2SetupExperiment": "fmi3EnterInitializationMode"}
+_CALL = re.compile(r"\bfmi2([A-Z][A-Za-z]*)")
 _CAUSALITY = {"parameter": Fmi3Causality.parameter, "input": Fmi3Causality.input,
               "output": Fmi3Causality.output, "local": Fmi3Causality.local}
 _VARIABILITY = {"fixed": Fmi3Variability.fixed, "continuous": Fmi3Variability.continuous,
@@ -94,7 +100,7 @@ class WrappedSlave(Fmi3Slave):
         finally:
             if self._inner.log_queue:
                 for message in self._inner.log_queue:
-                    self.log(message.msg, Fmi3Status(int(message.status)))
+                    self.log(fmi3_text(message.msg), Fmi3Status(int(message.status)))
                 self._inner.log_queue.clear()
 
     def _expand(self, vrs) -> tuple[int, ...]:
@@ -155,6 +161,11 @@ class WrappedSlave(Fmi3Slave):
     def to_xml(self, model_options: dict[str, str] = dict()):  # noqa: B006 (pythonfmu3's signature)
         root = super().to_xml({**self.OPTIONS, **model_options})
         return complete_model_description(root, self, self._inner)
+
+
+def fmi3_text(message: str) -> str:
+    """A message of the shared code with the FMI 3 names of the calls it names."""
+    return _CALL.sub(lambda m: _CALLS.get(m.group(0), f"fmi3{m.group(1)}"), message)
 
 
 def _array_description(members: list, meta: dict) -> str:

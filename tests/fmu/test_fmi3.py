@@ -56,7 +56,7 @@ def test_a_parameter_is_refused_with_the_fmi2_message(fmu_paths, fmi3_paths, ins
             instance.initialize(p1=-1.0)
         messages.append(next(m for _, m in instance.messages if "p1" in m))
     assert "parameter 'p1': -1 is outside the valid range (0, 1000]" in messages[0]
-    assert messages[1] == messages[0]
+    assert messages[1] == messages[0].replace("fmi2ExitInitializationMode", "fmi3ExitInitializationMode")
 
 
 def test_a_non_finite_input_is_discarded_and_the_state_kept(fmi3_paths, instances):
