@@ -27,6 +27,7 @@ from orchestration.outputs import atomic_write
 from orchestration.bench.speed import DOC_BLOCKS as SPEED_BLOCKS
 from orchestration.bench.speed import MEASUREMENT as SPEED_MEASUREMENT
 from orchestration.bench.speed import stored_block
+from orchestration.bench import exchange
 from orchestration.markdown import block_pattern, number, replace_block, stable, stable_pair, table
 from orchestration.reports import fair_tables, numerics_tables, optimum_tables
 from orchestration.study.comparison import (
@@ -341,6 +342,8 @@ BLOCKS: dict[str, Block] = {
     # the stored speed measurement (rerun: sotc-cosim bench --update-docs)
     "speed": Block("docs/performance.md", lambda: stored_block(ROOT), False),
     "speed-readme": Block("README.md", lambda: stored_block(ROOT), False),
+    # the stored Model Exchange measurement (rerun: python -m orchestration.bench.exchange)
+    "exchange": Block("docs/interop.md", lambda: exchange.stored_block(ROOT), False),
 }
 
 
