@@ -106,12 +106,12 @@ def _cmd_run(args: argparse.Namespace) -> int:
         if args.summary:
             check_output_file(args.summary, "--summary")
         if args.recording:
-            check_output_file(args.recording, "--recording")
+            check_output_file(args.recording, "--recording", locked=True)
         elif not args.no_recording:
             from orchestration.recording.writer import default_recording_path
 
             for scenario in scenarios:
-                check_output_file(default_recording_path(scenario.name), "recording")
+                check_output_file(default_recording_path(scenario.name), "recording", locked=True)
 
     scenarios, paths = prepare(args.scenarios or [DEFAULT_SCENARIO], args.stop_time, args.fmu_dir, check)
     written: list[Path] = []
@@ -142,7 +142,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     from orchestration.run.summary import format_table
 
     results, summaries = zip(*run_each(*prepare(args.scenarios, args.stop_time, args.fmu_dir,
-                                                  lambda _: check_output_file(args.recording, "--recording"))))
+                                                  lambda _: check_output_file(args.recording, "--recording", locked=True))))
     print(format_table(summaries))
     print(f"recording: {record_comparison(results, args.recording)}")
     return exit_code(summaries)
@@ -154,7 +154,7 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
 
     def check(_) -> None:
         check_output_folder(args.out, "--out")
-        check_output_file(args.recording, "--recording")
+        check_output_file(args.recording, "--recording", locked=True)
 
     results, summaries = zip(*run_each(*prepare(reproduce_scenarios(), args.stop_time, args.fmu_dir, check),
                                         progress_label="reproduce"))
