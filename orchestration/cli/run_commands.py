@@ -18,12 +18,14 @@ MAX_BLOCK = 20_000  # samples per block handed to the recorder at most (about 12
 
 def _cmd_build(args: argparse.Namespace) -> int:
     check_output_folder(args.out, "--out")
+    from orchestration.fmu_build.build import python_only_reason
     from orchestration.fmu_build.compiled import SWITCH, describe, insisted, unavailable
 
     if insisted() and unavailable():
         print(f"{SWITCH}=1, but the cores stay Python: {unavailable()}")
+    why = python_only_reason()
     for path in build_fmus(args.models or None, args.out):
-        print(f"{path}: {describe(path)}")
+        print(f"{path}: {describe(path)}" + (f" ({why})" if why else ""))
     return exit_codes.OK
 
 
