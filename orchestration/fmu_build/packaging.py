@@ -275,6 +275,15 @@ def _compiled_html(cores: list[str]) -> str:
             "with the same results.</p>")
 
 
+def _requirements_html(model: str, requirements: list[str]) -> str:
+    if not requirements:
+        return ("<p>Its code imports no package beyond Python's standard library, so "
+                "<code>resources/requirements.txt</code> is empty and there is nothing to install.</p>")
+    return (f"<p>These packages are listed in <code>resources/requirements.txt</code>; "
+            f"<code>pythonfmu deploy -f {html.escape(model)}.fmu</code> installs them. A missing package makes "
+            "fmi2Instantiate fail with a logged message that names it and its version range.</p>")
+
+
 def documentation_html(model: str, xml: Element, equations: list[str], requirements: list[str],
                        cores: list[str] = ()) -> str:
     """``documentation/index.html``: what the FMU is, its ports, and what its host needs (no links)."""
@@ -306,9 +315,7 @@ def documentation_html(model: str, xml: Element, equations: list[str], requireme
         "(pythonfmu). That interpreter needs:</p>"
         f"<ul><li>CPython {' or '.join(MEASURED_PYTHONS)} (measured), with a shared libpython "
         "loaded into the host process</li>"
-        f"{reqs}</ul><p>These are listed in <code>resources/requirements.txt</code>; "
-        f"<code>pythonfmu deploy -f {esc(model)}.fmu</code> installs them. A missing package makes "
-        "fmi2Instantiate fail with a logged message that names it and its version range.</p>"
+        f"{reqs}</ul>{_requirements_html(model, requirements)}"
         f"{_compiled_html(list(cores))}{tables}<h2>Equations</h2>{maths}</body></html>\n")
 
 
