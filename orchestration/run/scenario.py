@@ -282,7 +282,8 @@ def _validated(fields: dict[str, Any]) -> Scenario:
     steps = fields["stop_time"] / fields["step_size"]
     if steps > MAX_STEPS:
         raise ScenarioError(f"scenario '{name}': stop_time / step_size = {steps:.6g} steps; at most {MAX_STEPS:,} "
-                            "are allowed (every sample is held in memory)")
+                            "per run are allowed (a bound on how long one run may go on; run and sweep stream their samples, "
+                            "compare and reproduce keep them in memory)")
     if round(steps) < 1:
         raise ScenarioError(f"scenario '{name}': stop_time {fields['stop_time']!r} is shorter than one step of "
                             f"{fields['step_size']!r}")
