@@ -74,10 +74,15 @@ def bundle_digest(files: dict[str, bytes], stem: str, model: str) -> str:
     return h.hexdigest()
 
 
+# files under resources/ that the bundle digest leaves out: the parameter starts of a copy, and the digests
+# of the compiled cores (written after the renaming; the cores themselves are covered)
+UNDIGESTED = ("parameter_starts.json", DIGESTS)
+
+
 def bundled_files(resources: Path) -> dict[str, bytes]:
-    """What ``bundle_digest`` covers: every staged file but the parameter starts of a copy."""
+    """What ``bundle_digest`` covers: every staged file but ``UNDIGESTED``."""
     return {f.relative_to(resources).as_posix(): f.read_bytes() for f in sorted(resources.rglob("*"))
-            if f.is_file() and "__pycache__" not in f.parts and f.name not in ("parameter_starts.json", DIGESTS)}
+            if f.is_file() and "__pycache__" not in f.parts and f.name not in UNDIGESTED}
 
 
 def write_core_digests(resources: Path) -> None:
