@@ -23,9 +23,10 @@ def _cmd_build(args: argparse.Namespace) -> int:
 
     if insisted() and unavailable():
         print(f"{SWITCH}=1, but the cores stay Python: {unavailable()}")
-    why = python_only_reason()
+    why = python_only_reason() or "no hot core in it to compile"
     for path in build_fmus(args.models or None, args.out):
-        print(f"{path}: {describe(path)}" + (f" ({why})" if why else ""))
+        described = describe(path)
+        print(f"{path}: {described}" + (f" ({why})" if described == "Python only" else ""))
     return exit_codes.OK
 
 
