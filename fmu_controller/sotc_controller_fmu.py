@@ -29,5 +29,6 @@ class SotcController(Fmi2Slave):
             earliest, latest = min(0.0, self._start_time), self._time + self.cl_record_interval
             if not earliest - 1e-9 <= t_next <= latest + 1e-9:
                 raise ValueError(f"next_record_t = {t_next!r} is outside [{earliest!r}, {latest!r}] (clock start to "
-                                 "one record interval after the state's time)")
+                                 f"one record interval, parameter 'cl_record_interval' = {self.cl_record_interval!r}, "
+                                 "after the state's time)")
         super().restore_internal_state(state)

@@ -100,7 +100,8 @@ class ArmPlant(Fmi2Slave):
         l1, l2 = abs(values["l1"]), abs(values["l2"])
         for name, reach in (("ee_x", l1 + l2), ("ee_y", l1 + l2), ("elbow_x", l1), ("elbow_y", l1)):
             if not abs(values[name]) <= reach * (1.0 + 1e-9):
-                return f"'{name}' = {values[name]!r} is beyond the arm's reach ({reach:g} m)"
+                return (f"'{name}' = {values[name]!r} is beyond the arm's reach ({reach:g} m with parameter "
+                        f"'l1' = {values['l1']!r}, 'l2' = {values['l2']!r})")
         return None
 
     def restore_internal_state(self, state) -> None:
