@@ -139,9 +139,13 @@ def run_child(cmd: list[str], cwd, on_line: Callable[[str], None]) -> tuple[int,
     finally:
         for s, handler in previous.items():
             signal.signal(s, handler)
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
+        if proc.poll() is None:  # an exception here (KeyboardInterrupt outside the CLI): the child cleans up
+            proc.terminate()
+            try:
+                proc.wait(timeout=GRACE_S)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
         for reader in readers:
             reader.join(timeout=5)
     if seen:
