@@ -57,14 +57,6 @@ def test_the_hostile_states_are_32():
     assert len(HOSTILE) == 32
 
 
-@pytest.fixture
-def loops():
-    made: list[Loop] = []
-    yield made
-    for loop in made:
-        loop.free()
-
-
 @pytest.mark.parametrize("model, what, change, taken", HOSTILE, ids=[f"{m}-{w}" for m, w, _, _ in HOSTILE])
 def test_a_hostile_state_is_refused_and_the_instance_runs_on(fmu_paths, tmp_path, loops, model, what, change, taken):
     loop = Loop(fmu_paths, [model], tmp_path)
