@@ -30,9 +30,6 @@ import sysconfig
 import tempfile
 from pathlib import Path
 
-from orchestration.fmu_build.child import run_compiler
-from orchestration.scratch import owner_prefix
-
 SWITCH = "SOTC_COSIM_COMPILE"  # "0": never compile the cores; unset or "1": compile them where possible
 # the hot path of a step (controller evaluate/learn, the plant's RK4, the reference, the limiters)
 HOT = ("fmu_controller/sotc.py", "fmu_controller/sotc_math.py", "fmu_controller/sotc_zv.py",
@@ -132,6 +129,10 @@ def compile_bundle(resources: Path, lib: str, pxd: dict[str, str]) -> list[str]:
     staged = [resources / lib / rel for rel in pxd]
     for path, text in zip(staged, pxd.values()):
         path.write_text(text)
+    # imported here: setup.py loads this file alone (no package around it) for the wheel's extensions
+    from orchestration.fmu_build.child import run_compiler
+    from orchestration.scratch import owner_prefix
+
     with tempfile.TemporaryDirectory(prefix=owner_prefix("sotc_cython_")) as tmp:
         cmd = [sys.executable, "-c", _SCRIPT, tmp, *(f"{lib}/{rel}" for rel in present)]
         try:
