@@ -16,7 +16,6 @@
 from __future__ import annotations
 
 import ctypes
-import ctypes.util
 import os
 import signal
 import subprocess
@@ -40,10 +39,13 @@ class Stopped(BaseException):
         self.signum = signum
 
 
+# the C library this process runs on (it provides prctl), looked up once: a preexec_fn must not start programs
+_LIBC = ctypes.CDLL(None, use_errno=True) if sys.platform.startswith("linux") else None
+
+
 def _parent_death_signal() -> bool:
     """Linux: SIGTERM to this process when its parent dies; False elsewhere. Safe in a ``preexec_fn``."""
-    libc = ctypes.util.find_library("c") if sys.platform.startswith("linux") else None
-    return bool(libc) and ctypes.CDLL(libc, use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGTERM, 0, 0, 0) == 0
+    return _LIBC is not None and _LIBC.prctl(_PR_SET_PDEATHSIG, signal.SIGTERM, 0, 0, 0) == 0
 
 
 def die_with_parent(parent: int) -> None:
