@@ -81,3 +81,11 @@ def test_a_malformed_scheduler_is_refused_before_anything(tmp_path):
     assert "--scheduler notanaddress" in one_line(proc.stderr)
     assert proc.stdout == ""  # no "41 to run on notanaddress"
     _nothing_but(tmp_path)  # no results folder, no FMU folder, no cache folder in TMPDIR
+
+
+def test_a_run_too_long_is_refused_without_claiming_samples_are_held_in_memory(tmp_path):
+    proc = run(["run", "--stop-time", "1e9", "--fmu-dir", "fmus"], tmp_path)
+    assert proc.returncode == 2
+    line = one_line(proc.stderr)
+    assert "at most 1,000,000" in line and "run and sweep stream" in line and "held in memory" not in line
+    _nothing_but(tmp_path)
