@@ -2,14 +2,7 @@
 # stays the one source of the formulas and runs as it is wherever the cores are not compiled.
 from fmu_controller.saturation cimport clip_box, limit_torque, limit_without_metric, saturate_norm
 from fmu_controller.fixed_linalg cimport cholesky, cholesky_solve
-from fmu_controller.sotc_math cimport (basis, basis_directional, error_rate, policy_arguments, printed_rate,
-                                       probing_signal, reward, value_gradient)
+from fmu_controller.sotc_math cimport (basis, basis_directional, dot_sequence, error_rate, implicit_system,
+                                       policy_arguments, printed_rate, probing_signal, reward, value_gradient)
 from fmu_controller.sotc_zv cimport solve_zv
 from fmu_plant.dynamics cimport bias_torque, forward_dynamics, inertia_entries
-cimport cython
-
-@cython.locals(N=int, a=int, k=int, g=double, acc=double)
-cpdef void implicit_system(list W, list wdot, list xi, list eta, double[::1] M, bint with_cl, double dt, double c,
-                           double[::1] G, double[::1] rhs)
-@cython.locals(acc=double, k=int)
-cpdef double _dot(object a, object b)

@@ -39,8 +39,9 @@ from fmu_controller.saturation import (
     saturate_norm,
 )
 from fmu_controller.fixed_linalg import buffer, cholesky, cholesky_solve
-from fmu_controller.sotc_math import (N_BASIS, basis, basis_directional, error_rate, policy_arguments, printed_rate,
-                                      probing_signal, reward, value_gradient, value_hessian)
+from fmu_controller.sotc_math import (N_BASIS, basis, basis_directional, dot_sequence, error_rate, implicit_system,
+                                      policy_arguments, printed_rate, probing_signal, reward, value_gradient,
+                                      value_hessian)
 from fmu_controller.sotc_stack import REPLAYS as CL_REPLAYS
 from fmu_controller.sotc_stack import SELECTIONS as CL_SELECTIONS
 from fmu_controller.sotc_stack import CLStack
@@ -318,7 +319,7 @@ class SotcCore(ControllerCore):
             tau1, tau2, ts1, ts2, ta1, ta2, cs1, cs2, ca1, ca2, zp1, zp2, zv1, zv2, *W,
             J, e1, omega, rew, 31.0 if law31 else 30.0, float(self.stack.count), self.stack.min_eig,
             1.0 if pe_active else 0.0, pe, float(tau_a_bounded), float(chi_a_bounded), float(tau_limited),
-            math.hypot(tau1, tau2), tr1, tr2, dchi1, dchi2, math.sqrt(_dot(wdot, wdot)), zv_res,
+            math.hypot(tau1, tau2), tr1, tr2, dchi1, dchi2, math.sqrt(dot_sequence(wdot, wdot)), zv_res,
         ]
 
     def _error(self, phi1: float, phi2: float, dphi1: float, dphi2: float, ref: tuple[float, ...],
@@ -368,10 +369,10 @@ class SotcCore(ControllerCore):
         # eta_form = printed: (7)'s F_bar without the coupling terms, in eta and (29) only
         eta = basis_directional(z, zd if self.eta_coupled else printed_rate(z, zd))
         rew, omega = reward(z, x, self.theta, self.s, rr)
-        e1 = _dot(W, eta) + rew
+        e1 = dot_sequence(W, eta) + rew
         # eqs. (30)/(31): dW/dt = -alpha1 xi e1 - alpha1 sum_i xi_i (eta_i^T W + r_i) [+ alpha2/2 grad(zeta) G z],
         # xi = eta / (eta^T eta + 1)^2; the CL sum is M W + b (sotc_stack)
-        ee = _dot(eta, eta)
+        ee = dot_sequence(eta, eta)
         sc = 1.0 / ((ee + 1.0) * (ee + 1.0))
         xi = [eta[k] * sc for k in range(N)]
         wdot = [xi[k] * (-self.alpha1 * e1) for k in range(N)]
@@ -477,29 +478,3 @@ class SotcCore(ControllerCore):
         cholesky_solve(self._L, self._rhs, N, self._Wn)
         return list(self._Wn)
 
-
-def implicit_system(W: list, wdot: list, xi: list, eta: list, M: list, with_cl: bool, dt: float, c: float,
-                    G: list, rhs: list) -> None:
-    """The linear system (I + c Gamma) W+ = W + dt dW/dt + c Gamma W of ``advance``, c = dt alpha1,
-    Gamma = xi eta^T (+ M, the CL matrix, when the CL sum entered dW/dt); G (flat) and rhs receive it."""
-    N = N_BASIS
-    for a in range(N):
-        for k in range(a + 1):
-            g = xi[a] * eta[k] + M[a * N + k] if with_cl else xi[a] * eta[k]
-            G[a * N + k] = c * g
-            G[k * N + a] = c * g
-    for a in range(N):
-        acc = 0.0
-        for k in range(N):
-            acc += G[a * N + k] * W[k]
-        rhs[a] = W[a] + dt * wdot[a] + acc
-    for a in range(N):
-        G[a * N + a] += 1.0
-
-
-def _dot(a: Sequence[float], b: Sequence[float]) -> float:
-    """sum_k a_k b_k over the N_BASIS entries, left to right."""
-    acc = 0.0
-    for k in range(N_BASIS):
-        acc += a[k] * b[k]
-    return acc

@@ -7,7 +7,7 @@ import os
 from pathlib import Path
 
 from orchestration import exit_codes
-from orchestration.cli.options import add_fmu_dir, add_stop_time, positive_int, stop_times
+from orchestration.cli.options import add_fmi, add_fmu_dir, add_stop_time, fmu_dir_of, positive_int, stop_times
 from orchestration.outputs import PathLock
 from orchestration.paths import check_output_file, check_output_folder
 from orchestration.run import interrupt
@@ -72,8 +72,8 @@ def _sweep_into(args: argparse.Namespace, sweep, out: Path) -> int:
     store = SweepStore(out)
     listener = _SweepListener(sweep, out, args.workers, args.scheduler)
     try:
-        outcome = execute(sweep, args.fmu_dir, store, workers=args.workers, scheduler=args.scheduler,
-                          record=args.record, retry_failed=args.retry_failed, listener=listener)
+        outcome = execute(sweep, fmu_dir_of(args), store, workers=args.workers, scheduler=args.scheduler,
+                          record=args.record, retry_failed=args.retry_failed, listener=listener, fmi=args.fmi)
     finally:
         listener.close()
     reports = write_reports(store, outcome.total)
@@ -87,6 +87,7 @@ def _sweep_into(args: argparse.Namespace, sweep, out: Path) -> int:
         again += ["--scheduler", args.scheduler] if args.scheduler else []
         again += ["--record"] if args.record else []
         again += ["--stop-time", repr(args.stop_time)] if args.stop_time is not None else []
+        again += ["--fmi", "3"] if args.fmi == 3 else []
         print(f"interrupted: the {len(outcome.rows)} finished points are kept in {out}; resume with: "
               f"{' '.join(again)}")
         return interrupt.exit_code()
@@ -128,6 +129,7 @@ def add_commands(sub) -> None:
                    help="also write the results into this markdown file's generated block (plots beside it)")
     add_stop_time(p, "the base scenario's stop time, s (an axis over stop_time still sets its own)")
     add_fmu_dir(p)
+    add_fmi(p)
     p.set_defaults(func=_cmd_sweep)
 
     p = sub.add_parser("bench", help="measure speed and scaling (default), or the measurements behind design choices")

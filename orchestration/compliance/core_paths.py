@@ -41,18 +41,16 @@ def python_copy(path: Path, dest: Path) -> Path:
 
 def outputs_of(path: Path, steps: int = STEPS) -> tuple[list[str], list[list[float]]]:
     """(output names, their values at every step) of the FMU driven by ``drive``."""
-    from fmpy import read_model_description
+    from orchestration.run.fmi3_direct import open_instance
 
-    from orchestration.run.fmi_direct import FmuInstance
-
-    md = read_model_description(str(path), validate=False)
+    instance = open_instance(path, "cores")
+    md = instance.md  # FMI 3: in FMI 2 terms (fmi3_direct)
     inputs = [v for v in md.modelVariables if v.causality == "input" and v.type == "Real"]
     outputs = [u.variable for u in md.outputs if u.variable.type == "Real"]
     step = float(md.defaultExperiment.stepSize) if md.defaultExperiment and md.defaultExperiment.stepSize \
         else STEP_SIZE
     start = [float(v.start if v.start is not None else 0.0) for v in inputs]
     vrs = [v.valueReference for v in outputs]
-    instance = FmuInstance(path, "cores")
     try:
         instance.initialize()
         rows = []

@@ -27,8 +27,9 @@ from orchestration.outputs import atomic_write
 from orchestration.bench.speed import DOC_BLOCKS as SPEED_BLOCKS
 from orchestration.bench.speed import MEASUREMENT as SPEED_MEASUREMENT
 from orchestration.bench.speed import stored_block
+from orchestration.bench import exchange
 from orchestration.markdown import block_pattern, number, replace_block, stable, stable_pair, table
-from orchestration.reports import fair_tables, numerics_tables
+from orchestration.reports import fair_tables, numerics_tables, optimum_tables
 from orchestration.study.comparison import (
     COMPARED,
     NUDGE,
@@ -339,6 +340,11 @@ BLOCKS: dict[str, Block] = {
     "fair-perturbed": Block("docs/robustness.md", lambda: fair_tables.summary_table(ROOT, "perturbed"), False),
     "fair-paired": Block("docs/robustness.md", lambda: fair_tables.paired_table(ROOT), False),
     "fair-verdict": Block("README.md", lambda: fair_tables.verdict(ROOT), False),
+    # the stored optimum (rerun: sotc-cosim optimum --cold all --json docs/optimum/optimum.json)
+    "optimum": Block("docs/optimum.md", lambda: optimum_tables.report(optimum_tables.stored(ROOT)), False),
+    "optimum-verdict": Block("README.md", lambda: optimum_tables.verdict(optimum_tables.stored(ROOT)), False),
+    "optimum-b": Block("docs/optimum.md",
+                       lambda: optimum_tables.report(optimum_tables.stored(ROOT, optimum_tables.STORE_B)), False),
     "otc-variants": Block("docs/baselines.md", otc_table, True),
     "settings": Block("docs/paper-notes.md", settings_table, False),
     "readings": Block("docs/paper-notes.md", readings_table, True),
@@ -354,6 +360,8 @@ BLOCKS: dict[str, Block] = {
     # the stored speed measurement (rerun: sotc-cosim bench --update-docs)
     "speed": Block("docs/performance.md", lambda: stored_block(ROOT), False),
     "speed-readme": Block("README.md", lambda: stored_block(ROOT), False),
+    # the stored Model Exchange measurement (rerun: python -m orchestration.bench.exchange)
+    "exchange": Block("docs/interop.md", lambda: exchange.stored_block(ROOT), False),
 }
 
 

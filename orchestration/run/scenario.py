@@ -10,6 +10,7 @@ A scenario is TOML (``orchestration/run/scenarios/<name>.toml``, shipped as pack
     [instances.controller]
     fmu = "CtController"              # model identifier of a built FMU
     parameters = { kp = 100.0 }
+    interface = "CoSimulation"        # optional; "ModelExchange": an FMI 3.0 FMU integrated by the master
     [[connect]]                       # every output of `from` feeds the same-named input of `to`
     from = "plant"
     to = "controller"
@@ -22,7 +23,7 @@ Instances named ``plant``, ``reference`` and ``controller`` are what the summary
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -37,6 +38,7 @@ MAX_STEPS = 1_000_000
 NANOSECOND = 1e-9  # the recordings' time resolution: a step must be a whole number of nanoseconds
 
 _NAME = {"type": "string", "pattern": r"^[A-Za-z_][A-Za-z0-9_-]*$"}
+INTERFACES = ("CoSimulation", "ModelExchange")  # an instance's ``interface`` key (FMI 3.0 FMUs may offer both)
 _PORT = {"type": "string", "pattern": r"^[A-Za-z_][A-Za-z0-9_-]*\.[A-Za-z_][A-Za-z0-9_]*$"}
 _TIME = {"type": "number", "exclusiveMinimum": 0}
 # one scenario file as written (``extends`` resolved later, so nothing is required here but shapes)
@@ -59,6 +61,7 @@ SCENARIO_SCHEMA: dict[str, Any] = {
                     "fmu": _NAME,
                     "parameters": {"type": "object", "propertyNames": _NAME,
                                    "additionalProperties": {"type": "number"}},
+                    "interface": {"enum": list(INTERFACES)},
                 },
             },
         },
@@ -81,6 +84,8 @@ class Instance:
     name: str
     fmu: str
     parameters: dict[str, float] = field(default_factory=dict)
+    # "ModelExchange": an FMI 3.0 FMU's Model Exchange interface, integrated by the master over each T
+    interface: str = "CoSimulation"
 
 
 @dataclass(frozen=True)
@@ -123,7 +128,7 @@ class Scenario:
                     f"in {sorted(instances)}"
                 )
             inst = instances[inst_name]
-            instances[inst_name] = Instance(inst.name, inst.fmu, {**inst.parameters, pname: value})
+            instances[inst_name] = replace(inst, parameters={**inst.parameters, pname: value})
         return _validated({**self.__dict__, "instances": instances, "name": name or self.name})
 
     def controller_fmu(self) -> str | None:
@@ -248,7 +253,7 @@ def _from_raw(raw: dict[str, Any]) -> dict[str, Any]:
         if "fmu" not in spec:
             raise ScenarioError(f"scenario '{raw['name']}': instance '{name}' needs an 'fmu' key")
         params = spec.get("parameters", {})
-        instances[name] = Instance(name, spec["fmu"], dict(params))
+        instances[name] = Instance(name, spec["fmu"], dict(params), spec.get("interface", INTERFACES[0]))
     links = []
     for item in raw.get("connection", []):
         try:
