@@ -44,22 +44,25 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
 
     if args.workers is not None and args.workers < 1:
         raise ScenarioError(f"--workers {args.workers}: give at least 1")
-    if args.scheduler is not None and not args.scheduler.strip():
-        raise ScenarioError("--scheduler '': give a Dask scheduler address such as tcp://host:8786, or leave it out")
+    if args.scheduler is not None:
+        from orchestration.sweep.addresses import check_scheduler_address
+
+        check_scheduler_address(args.scheduler)
     sweep = grid_from_assignments(args.sweep, args.set) if args.set else load_sweep(args.sweep)
     if args.stop_time is not None:
         sweep = dataclasses.replace(sweep, base=sweep.base.with_stop_time(args.stop_time))
-    out = check_output_folder(args.out or Path("recordings") / sweep.name, "--out")
+    out = check_output_folder(args.out or Path("recordings") / sweep.name, "--out", locked=True)
     if args.doc:
         check_output_file(args.doc, "--doc")
-    existed = out.exists()
+    created = [f for f in (out, *out.parents) if not f.exists()]  # the folders this sweep makes
     try:
         out.mkdir(parents=True, exist_ok=True)
         with PathLock(out, "--out", folder=True):
             return _sweep_into(args, sweep, out)
     finally:
-        if not existed and out.is_dir() and not any(out.iterdir()):
-            out.rmdir()  # nothing was stored (the scheduler was unreachable, say): leave no empty folder
+        for folder in created:  # nothing was stored (the scheduler was unreachable, say): no empty folder
+            if folder.is_dir() and not any(folder.iterdir()):
+                folder.rmdir()
 
 
 def _sweep_into(args: argparse.Namespace, sweep, out: Path) -> int:

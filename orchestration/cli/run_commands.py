@@ -18,12 +18,15 @@ MAX_BLOCK = 20_000  # samples per block handed to the recorder at most (about 12
 
 def _cmd_build(args: argparse.Namespace) -> int:
     out = check_output_folder(fmu_folder(args.out, args.fmi, given=args.out is not DEFAULT_FMU_DIR), "--out")
+    from orchestration.fmu_build.build import python_only_reason
     from orchestration.fmu_build.compiled import SWITCH, describe, insisted, unavailable
 
     if insisted() and unavailable():
         print(f"{SWITCH}=1, but the cores stay Python: {unavailable()}")
+    why = python_only_reason() or "no hot core in it to compile"
     for path in build_fmus(args.models or None, out, args.fmi):
-        print(f"{path}: {describe(path)}")
+        described = describe(path)
+        print(f"{path}: {described}" + (f" ({why})" if described == "Python only" else ""))
     return exit_codes.OK
 
 
@@ -106,12 +109,12 @@ def _cmd_run(args: argparse.Namespace) -> int:
         if args.summary:
             check_output_file(args.summary, "--summary")
         if args.recording:
-            check_output_file(args.recording, "--recording")
+            check_output_file(args.recording, "--recording", locked=True)
         elif not args.no_recording:
             from orchestration.recording.writer import default_recording_path
 
             for scenario in scenarios:
-                check_output_file(default_recording_path(scenario.name), "recording")
+                check_output_file(default_recording_path(scenario.name), "recording", locked=True)
 
     scenarios, paths = prepare(args.scenarios or [DEFAULT_SCENARIO], args.stop_time, fmu_dir_of(args), check, args.fmi)
     written: list[Path] = []
@@ -142,7 +145,8 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     from orchestration.run.summary import format_table
 
     results, summaries = zip(*run_each(*prepare(args.scenarios, args.stop_time, fmu_dir_of(args),
-                                                  lambda _: check_output_file(args.recording, "--recording"), args.fmi)))
+                                                  lambda _: check_output_file(args.recording, "--recording",
+                                                                                locked=True), args.fmi)))
     print(format_table(summaries))
     print(f"recording: {record_comparison(results, args.recording)}")
     return exit_code(summaries)
@@ -154,7 +158,7 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
 
     def check(_) -> None:
         check_output_folder(args.out, "--out")
-        check_output_file(args.recording, "--recording")
+        check_output_file(args.recording, "--recording", locked=True)
 
     results, summaries = zip(*run_each(*prepare(reproduce_scenarios(), args.stop_time, fmu_dir_of(args), check, args.fmi),
                                         progress_label="reproduce"))

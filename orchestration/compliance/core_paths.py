@@ -17,6 +17,7 @@ import tempfile
 import zipfile
 from pathlib import Path
 
+from fmi_slave.compiled_check import DIGESTS, problems as compiled_problems
 from fmu_plant.dynamics import STEP_SIZE  # the paper's sampling period T
 from orchestration.fmu_build import compiled
 
@@ -80,10 +81,24 @@ def same(a: float, b: float) -> bool:
     return a == b or (math.isnan(a) and math.isnan(b))
 
 
+def digest_problems(path: Path) -> list[str]:
+    """The FMU's extensions that its own check (``fmi_slave.compiled_check``) would not load: their
+    bytes and the recorded digests are read from the archive (nothing of it is loaded)."""
+    with tempfile.TemporaryDirectory(prefix="sotc_cores_") as tmp, zipfile.ZipFile(path) as z:
+        wanted = [n for n in z.namelist() if compiled.is_extension(n) or n == f"resources/{DIGESTS}"]
+        for name in wanted:
+            z.extract(name, tmp)  # archive_problems has refused entries that leave the folder
+        return [f"resources/{rel}: {why}" for rel, why in compiled_problems(str(Path(tmp, "resources"))).items()]
+
+
 def problems(path: Path) -> list[str]:
-    """Where the compiled and the Python cores of the FMU at ``path`` differ (nothing to check: [])."""
+    """A compiled core that would not be loaded, or where the compiled and the Python cores of the FMU
+    at ``path`` differ (nothing to check: [])."""
     if not compiled.extensions(path):
         return []
+    damaged = digest_problems(path)
+    if damaged:
+        return damaged
     with tempfile.TemporaryDirectory(prefix="sotc_cores_") as tmp:
         fast = _child(Path(path).resolve(), Path(tmp))
         pure = _child(python_copy(path, Path(tmp) / Path(path).name), Path(tmp))

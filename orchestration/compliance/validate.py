@@ -234,12 +234,12 @@ def _python_bundle(path: Path) -> dict[str, bytes]:
 
 def _digest_problems(path: Path, stem: str) -> list[str]:
     """The module names must carry the digest of the bundled content (one name, one content)."""
-    from orchestration.fmu_build.packaging import bundle_digest
+    from orchestration.fmu_build.packaging import UNDIGESTED, bundle_digest
 
     model, _, named = stem.rpartition("_")
     with zipfile.ZipFile(path) as z:
         files = {n[len("resources/"):]: z.read(n) for n in z.namelist()
-                 if n.startswith("resources/") and not n.endswith("/") and not n.endswith("parameter_starts.json")}
+                 if n.startswith("resources/") and not n.endswith("/") and n.rsplit("/", 1)[-1] not in UNDIGESTED}
     actual = bundle_digest(files, stem, model.removeprefix("sotc_"))[:12]
     if actual != named:
         return [f"the bundled code has digest {actual}, but its module names say {named}: changed after the build"]

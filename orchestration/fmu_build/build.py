@@ -14,16 +14,20 @@ from __future__ import annotations
 
 import argparse
 import hashlib
-import subprocess
+import os
 import sys
 import tempfile
+import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Callable
 
 from fmu_controller.catalog import CONTROLLERS
 from orchestration.outputs import atomic_write
 from orchestration.paths import OutputPathError, check_output_folder
 from orchestration.fmu_build import compiled, fmi3, packaging
+from orchestration.fmu_build.child import Stopped, die_with_parent, run_child, stop_on_signals
+from orchestration.scratch import owner_prefix, remove_stale
 
 DEFAULT_FMU_DIR = Path("build") / "fmus"
 PACKAGE_ROOT = Path(__file__).resolve().parents[2]  # folder holding fmu_plant/, fmu_controller/
@@ -115,7 +119,7 @@ def compiles() -> bool:
 
 def _build_one(source: FmuSource, out_dir: Path, fmi: int = 2) -> tuple[Path, list[str]]:
     """Runs in the child process only."""
-    with tempfile.TemporaryDirectory(prefix="sotc_stage_") as tmp:
+    with tempfile.TemporaryDirectory(prefix=owner_prefix("sotc_stage_")) as tmp:
         digest = source_digest(source, fmi)
         script = PACKAGE_ROOT / source.script
         if fmi == 3:
@@ -127,8 +131,11 @@ def _build_one(source: FmuSource, out_dir: Path, fmi: int = 2) -> tuple[Path, li
     return built, cores
 
 
-def build_fmus(models: list[str] | None = None, out_dir: Path = DEFAULT_FMU_DIR, fmi: int = 2) -> list[Path]:
-    """Build the named FMUs (all by default) into ``out_dir`` in a child process, for FMI 2.0 or 3.0."""
+def build_fmus(models: list[str] | None = None, out_dir: Path = DEFAULT_FMU_DIR, fmi: int = 2,
+               report: Callable[[str], None] | None = None) -> list[Path]:
+    """Build the named FMUs (all by default) into ``out_dir`` in a child process, for FMI 2.0 or 3.0;
+    ``report`` gets a line before and one per FMU as it is built (default: stderr). A signal stops the
+    child (``child.BuildInterrupted``)."""
     models = list(FMU_SOURCES) if not models else models
     unknown = [m for m in models if m not in FMU_SOURCES]
     if unknown:
@@ -143,13 +150,33 @@ def build_fmus(models: list[str] | None = None, out_dir: Path = DEFAULT_FMU_DIR,
     if occupied:
         raise BuildError(f"{', '.join(occupied)}: not a file where the FMU goes; remove it")
     out_dir.mkdir(parents=True, exist_ok=True)
+    report = report or _to_stderr
+    report(f"building {len(models)} FMU{'s' if len(models) > 1 else ''} (FMI {fmi}.0) into {out_dir}: {cores_note()}")
     cmd = [sys.executable, "-m", "orchestration.fmu_build.build", "--out", str(out_dir.resolve()), "--fmi", str(fmi),
-           *models]
-    proc = subprocess.run(cmd, capture_output=True, text=True, cwd=str(PACKAGE_ROOT))
-    if proc.returncode != 0:  # the child's last line says why (its whole output would be a traceback)
-        last = next((line for line in reversed(proc.stderr.splitlines()) if line.strip()), "no message")
+           "--parent", str(os.getpid()), *models]
+    code, errors = run_child(cmd, str(PACKAGE_ROOT), lambda line: report(f"  {line}"))
+    if code != 0:  # the child's last line says why (its whole output would be a traceback)
+        last = next((line for line in reversed(errors) if line.strip()), "no message")
         raise BuildError(f"building {', '.join(models)} in {out_dir} failed: {last.strip()}")
     return [fmu_path(m, out_dir) for m in models]
+
+
+def _to_stderr(line: str) -> None:
+    print(line, file=sys.stderr, flush=True)
+
+
+def python_only_reason() -> str | None:
+    """Why a build here keeps the hot cores Python (None: it compiles them)."""
+    if compiles():
+        return None
+    return compiled.unavailable() if compiled.requested() else f"{compiled.SWITCH}=0 asks for Python cores"
+
+
+def cores_note() -> str:
+    """What a build here makes of the hot cores, and why they stay Python when they do."""
+    why = python_only_reason()
+    return f"hot cores stay Python: {why}" if why else \
+        f"hot cores compiled with Cython for {compiled.target()} (tens of seconds per FMU)"
 
 
 def ensure_built(models: list[str], out_dir: Path = DEFAULT_FMU_DIR, fmi: int = 2) -> dict[str, Path]:
@@ -164,11 +191,26 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description="Build sotc-cosim FMUs (child-process entry point)")
     parser.add_argument("--out", type=Path, default=DEFAULT_FMU_DIR)
     parser.add_argument("--fmi", type=int, choices=FMI_VERSIONS, default=2)
+    parser.add_argument("--parent", type=int, help="the command's pid: stop when it dies")
     parser.add_argument("models", nargs="*")
     args = parser.parse_args(argv)
-    args.out.mkdir(parents=True, exist_ok=True)
-    for model in args.models or list(FMU_SOURCES):
-        print(_build_one(FMU_SOURCES[model], args.out, args.fmi)[0])
+    models = args.models or list(FMU_SOURCES)
+    try:
+        with stop_on_signals():
+            if args.parent is not None:
+                die_with_parent(args.parent)
+            for prefix in ("sotc_stage_", "sotc_cython_"):  # left by a build that was killed
+                remove_stale(Path(tempfile.gettempdir()), prefix)
+            args.out.mkdir(parents=True, exist_ok=True)
+            for i, model in enumerate(models, 1):
+                print(f"[{i}/{len(models)}] {model} ...", flush=True)
+                started = time.monotonic()
+                built, cores = _build_one(FMU_SOURCES[model], args.out, args.fmi)
+                what = f"{len(cores)} core{'s' if len(cores) > 1 else ''} compiled" if cores else "Python"
+                print(f"[{i}/{len(models)}] {model}: {built.name} in {time.monotonic() - started:.0f} s ({what})",
+                      flush=True)
+    except Stopped as exc:
+        return 128 + exc.signum
     return 0
 
 

@@ -43,6 +43,7 @@ from pathlib import Path
 from xml.dom.minidom import parseString
 from xml.etree.ElementTree import Element, tostring
 
+from fmi_slave.compiled_check import DIGESTS, extension_files
 from fmi_slave.host_check import parse_requirement
 from orchestration.fmu_build import compiled
 from orchestration.outputs import atomic_file
@@ -79,10 +80,24 @@ def bundle_digest(files: dict[str, bytes], stem: str, model: str) -> str:
     return h.hexdigest()
 
 
+# files under resources/ that the bundle digest leaves out: the parameter starts of a copy, and the digests
+# of the compiled cores (written after the renaming; the cores themselves are covered)
+UNDIGESTED = ("parameter_starts.json", DIGESTS)
+
+
 def bundled_files(resources: Path) -> dict[str, bytes]:
-    """What ``bundle_digest`` covers: every staged file but the parameter starts of a copy."""
+    """What ``bundle_digest`` covers: every staged file but ``UNDIGESTED``."""
     return {f.relative_to(resources).as_posix(): f.read_bytes() for f in sorted(resources.rglob("*"))
-            if f.is_file() and "__pycache__" not in f.parts and f.name != "parameter_starts.json"}
+            if f.is_file() and "__pycache__" not in f.parts and f.name not in UNDIGESTED}
+
+
+def write_core_digests(resources: Path) -> None:
+    """``resources/compiled_cores.sha256``: the digest of every extension as it ships (after the
+    renaming), which the FMU checks before loading one (``fmi_slave.compiled_check``)."""
+    lines = [f"{hashlib.sha256((resources / rel).read_bytes()).hexdigest()}  {rel}\n"
+             for rel in extension_files(str(resources))]
+    if lines:
+        (resources / DIGESTS).write_text("".join(lines))
 
 
 def _rename_bundle(resources: Path, old: str, new: str) -> None:
@@ -183,6 +198,8 @@ def stage(model: str, script: Path, packages: dict[str, Path], stem: str, dest: 
     files = {dest / lib / rel: src.read_text() for rel, src in import_closure([script, host_check], packages).items()}
     files.setdefault(dest / lib / "fmi_slave" / "host_check.py", host_check.read_text())
     files.setdefault(dest / lib / "fmi_slave" / "__init__.py", Path(packages["fmi_slave"], "__init__.py").read_text())
+    files.setdefault(dest / lib / "fmi_slave" / "compiled_check.py",
+                     Path(packages["fmi_slave"], "compiled_check.py").read_text())  # the header's second import
     # pythonfmu's own modules import each other relatively: it comes whole, as its builder copies it
     for exporter in dict.fromkeys(("pythonfmu", EXPORTERS[fmi])):
         files |= {dest / lib / exporter / f.name: f.read_text() for f in pythonfmu_sources(exporter)}
@@ -197,7 +214,11 @@ def stage(model: str, script: Path, packages: dict[str, Path], stem: str, dest: 
     requirements = host_requirements(third_party)
     header = (f"# sotc-cosim build: check the host's packages before anything imports them\n"
               f"from {lib}.fmi_slave.host_check import require_host_packages\n"
-              f"require_host_packages({model!r}, {tuple(requirements)!r})\n")
+              f"require_host_packages({model!r}, {tuple(requirements)!r})\n"
+              f"# and verify the compiled cores before anything loads one\n"
+              f"from os.path import dirname as _sotc_dirname\n"
+              f"from {lib}.fmi_slave.compiled_check import verify_compiled_cores\n"
+              f"verify_compiled_cores({model!r}, _sotc_dirname(__file__))\n")
     (dest / f"{stem}.py").write_text(_insert_after_future(script_text, header))
     (dest / "requirements.txt").write_text("".join(r + "\n" for r in requirements))
     (dest / "slavemodule.txt").write_text(stem)
@@ -266,6 +287,15 @@ def _compiled_html(cores: list[str]) -> str:
             "with the same results.</p>")
 
 
+def _requirements_html(model: str, requirements: list[str], exporter: str) -> str:
+    if not requirements:
+        return ("<p>Its code imports no package beyond Python's standard library, so "
+                "<code>resources/requirements.txt</code> is empty and there is nothing to install.</p>")
+    return (f"<p>These packages are listed in <code>resources/requirements.txt</code>; "
+            f"<code>{exporter} deploy -f {html.escape(model)}.fmu</code> installs them. A missing package makes "
+            "instantiation fail with a logged message that names it and its version range.</p>")
+
+
 def documentation_html(model: str, xml: Element, equations: list[str], requirements: list[str],
                        cores: list[str] = ()) -> str:
     """``documentation/index.html``: what the FMU is, its ports, and what its host needs (no links)."""
@@ -297,9 +327,7 @@ def documentation_html(model: str, xml: Element, equations: list[str], requireme
         "(pythonfmu). That interpreter needs:</p>"
         f"<ul><li>CPython {' or '.join(MEASURED_PYTHONS)} (measured), with a shared libpython "
         "loaded into the host process</li>"
-        f"{reqs}</ul><p>These are listed in <code>resources/requirements.txt</code>; "
-        f"<code>{EXPORTERS[int(xml.get('fmiVersion', '2')[0])]} deploy -f {esc(model)}.fmu</code> installs them. A missing package makes "
-        "instantiation fail with a logged message that names it and its version range.</p>"
+        f"{reqs}</ul>{_requirements_html(model, requirements, EXPORTERS[int(xml.get('fmiVersion', '2')[0])])}"
         f"{_compiled_html(list(cores))}{tables}<h2>Equations</h2>{maths}</body></html>\n")
 
 
@@ -352,6 +380,7 @@ def package_fmu(model: str, script: Path, packages: dict[str, Path], equations: 
     cores = compiled.compile_bundle(resources, lib, _declarations(packages, lib)) if compile_cores else []
     stem = bundle_stem(model, bundle_digest(bundled_files(resources), placeholder, model))
     _rename_bundle(resources, placeholder, stem)
+    write_core_digests(resources)
     xml = model_description(resources, stem, model)
     docs = [ast.get_docstring(ast.parse(p.read_text())) or "" for p in [script, *equations]]
     write_fmu(dest_file, model, resources, xml, documentation_html(model, xml, docs, requirements, cores), fmi)

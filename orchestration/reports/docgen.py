@@ -100,8 +100,25 @@ def reading_cells(scenario: str, **overrides: float) -> list[str]:
 
 
 def results_table() -> str:
-    """README's headline: the paper's Table 1, the SOTC readings, every controller per handling, and
+    """docs/results.md: the paper's Table 1, the SOTC readings, every controller per handling, and
     every controller tuned by the one protocol (``orchestration.study.tuning``)."""
+    return table(*results_rows())
+
+
+SUMMARY_COLUMNS = (0, 2, 3, 6, 8)  # controller / reading, limit handling, MSE j1 / j2, realised cost, max |tau|
+
+
+def results_summary() -> str:
+    """README's short table: the rows of ``results_table`` under the paper's Table 1 and the accel handling
+    (the one every controller is tuned and judged under), fewer columns; the full table is docs/results.md."""
+    header, rows = results_rows()
+    keep = [r for r in rows if r[0].startswith("paper, Table 1") or (r[2] == "accel" and (
+        r[0] == "SOTC, chosen reading" or ", tuned (" in r[0]))]
+    return table([header[i] for i in SUMMARY_COLUMNS], [[r[i] for i in SUMMARY_COLUMNS] for r in keep])
+
+
+def results_rows() -> tuple[list[str], list[list[str]]]:
+    """The header and rows of ``results_table``."""
     rows = [[f"paper, Table 1: {k}", "", "(not stated)", f"{a} / {b}", "", "", "", "", ""]
             for k, (a, b) in PAPER_TABLE1.items()]
     for scenario in LITERAL_SCENARIOS:
@@ -120,7 +137,7 @@ def results_table() -> str:
             design, m = tuned_metrics(fmu, code)
             rows.append([f"{LABELS[fmu]}, tuned ({fair_tables.design_text(design)})", f"`{NOMINAL_SCENARIO[fmu]}`",
                          LIMIT_HANDLINGS[code], *metric_cells(m, tuned_metrics(fmu, code, nudge=NUDGE)[1])])
-    return table(["controller / reading", "scenario", "limit handling", *METRIC_HEADER], rows)
+    return ["controller / reading", "scenario", "limit handling", *METRIC_HEADER], rows
 
 
 _ADDED = {"accel": ", a handling of the bound (5) the paper does not give"}
@@ -313,7 +330,8 @@ def integrator_table() -> str:
 
 BLOCKS: dict[str, Block] = {
     "integrator": Block("docs/integration.md", integrator_table, False),
-    "results": Block("README.md", results_table, False),
+    "results": Block("docs/results.md", results_table, False),
+    "results-summary": Block("README.md", results_summary, False),
     "results-verdict": Block("README.md", results_verdict, False),
     "handlings": Block("docs/baselines.md", handlings_table, False),
     "tuning": Block("docs/baselines.md", fair_tables.tuning_table, False),

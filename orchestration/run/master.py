@@ -453,7 +453,9 @@ def _call_observer(method, *args) -> None:
 def _describe_failure(exc: Exception, k: int, step: float, n_steps: int, logs: list[LogRecord]) -> str:
     where = f"at t = {k * step:.2f} s (sample {k})" if 0 <= k <= n_steps else "during set-up"
     what = str(exc) if isinstance(exc, FMICallException) else f"{type(exc).__name__}: {exc}"
-    reasons = "; ".join(f"{r.instance}: {r.message}" for r in logs if r.status in ("DISCARD", "ERROR", "FATAL"))
+    # on one line: pythonfmu puts the reason of a failed instantiation on the line after "[ctor] findClass"
+    reasons = "; ".join(f"{r.instance}: {' '.join(r.message.split())}" for r in logs
+                        if r.status in ("DISCARD", "ERROR", "FATAL"))
     return f"{what} {where}" + (f" -- {reasons}" if reasons else "")
 
 

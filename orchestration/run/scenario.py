@@ -23,7 +23,6 @@ Instances named ``plant``, ``reference`` and ``controller`` are what the summary
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass, field, replace
 from importlib import resources
 from pathlib import Path
@@ -31,6 +30,7 @@ from typing import Any
 
 from fmu_plant.dynamics import STEP_SIZE, TORQUE_LIMIT
 from orchestration.exit_codes import UsageError
+from orchestration.toml_files import parse_toml, read_toml
 
 # a run holds every sample of every output in memory: 10^6 steps (10,000 s at T = 0.01 s, 100 paper
 # runs) of ~60 outputs is ~0.5 GB per instance; more is refused before anything is allocated
@@ -179,21 +179,18 @@ def available_scenarios() -> list[str]:
 
 def _read_raw(name_or_path: str, seen: tuple[str, ...] = ()) -> dict[str, Any]:
     path = Path(name_or_path)
+    resource = resources.files("orchestration.run.scenarios") / f"{name_or_path}.toml"
     if path.suffix == ".toml" and path.is_file():
-        text, label = path.read_text(), str(path)
+        label, read = str(path), lambda where: read_toml(path, where, ScenarioError)
+    elif resource.is_file():
+        label, read = name_or_path, lambda where: parse_toml(resource.read_bytes(), where, ScenarioError)
     else:
-        resource = resources.files("orchestration.run.scenarios") / f"{name_or_path}.toml"
-        if not resource.is_file():
-            raise ScenarioError(
-                f"no scenario '{name_or_path}': give a .toml path or one of {', '.join(available_scenarios())}"
-            )
-        text, label = resource.read_text(), name_or_path
+        raise ScenarioError(
+            f"no scenario '{name_or_path}': give a .toml path or one of {', '.join(available_scenarios())}"
+        )
     if label in seen:
         raise ScenarioError(f"scenario '{label}' extends itself through {' -> '.join(seen)}")
-    try:
-        raw = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ScenarioError(f"scenario '{label}' is not valid TOML: {exc}") from None
+    raw = read(f"scenario '{label}'")
     _check_schema(raw, label)
     parent = raw.pop("extends", None)
     if parent is None:
@@ -290,7 +287,8 @@ def _validated(fields: dict[str, Any]) -> Scenario:
     steps = fields["stop_time"] / fields["step_size"]
     if steps > MAX_STEPS:
         raise ScenarioError(f"scenario '{name}': stop_time / step_size = {steps:.6g} steps; at most {MAX_STEPS:,} "
-                            "are allowed (every sample is held in memory)")
+                            "per run are allowed (a bound on how long one run may go on; run and sweep stream their samples, "
+                            "compare and reproduce keep them in memory)")
     if round(steps) < 1:
         raise ScenarioError(f"scenario '{name}': stop_time {fields['stop_time']!r} is shorter than one step of "
                             f"{fields['step_size']!r}")

@@ -50,6 +50,7 @@ from orchestration.outputs import atomic_write, private_folder
 from orchestration.run import interrupt
 from orchestration.run.parameter_check import check_scenarios
 from orchestration.run.scenario import Scenario, ScenarioError
+from orchestration.scratch import remove_stale, scratch_name
 from orchestration.sweep.spec import Point, Sweep
 
 GUARD_BLOCK = 100  # samples between two checks of the time limit and the state bound
@@ -263,15 +264,17 @@ def execute(
     skipped = [stored[k] for k in keys if k in stored and k not in to_run]
     outcome = SweepOutcome(total=len(points), skipped=len(skipped), skipped_failed=sum(r["status"] != "ok" for r in skipped),
                            ran=0, failed=0)
+    client = cluster = None
+    if todo:
+        remove_stale(private_folder("scratch"))  # left by a coordinator killed before it could clean up
+        scratch = scratch_name()  # each point's temporary folders, removed at the end
+        private_folder("fmus")  # a cache folder others could write in is refused here, before any point
+        client, cluster = _client(scheduler, workers, scratch)  # unreachable: refused before the first line
     if listener is not None:
         listener.started(outcome)
     if todo:
-        client = cluster = None
         futures = []
-        scratch = f"{os.getpid()}-{time.time_ns()}"  # each point's temporary folders, removed at the end
-        private_folder("fmus")  # a cache folder others could write in is refused here, before any point
         try:
-            client, cluster = _client(scheduler, workers, scratch)
             from distributed import as_completed
 
             [shared] = client.scatter([blobs], broadcast=True, hash=False)

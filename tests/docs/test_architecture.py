@@ -32,7 +32,7 @@ ALLOWED = {
                               "orchestration/study", "orchestration/sweep", "orchestration/bench"},
 }
 BASE = {"orchestration.paths", "orchestration.progress", "orchestration.markdown", "orchestration.exit_codes",
-        "orchestration.outputs"}
+        "orchestration.outputs", "orchestration.toml_files", "orchestration.scratch"}
 ARM_MODEL = {"fmu_plant.dynamics", "fmu_plant.kinematics", "fmu_plant.trajectory"}
 CORE_FOLDERS = ("fmi_slave", "fmi3_slave", "fmu_plant", "fmu_controller")
 MAX_MODULE_LINES = 500
