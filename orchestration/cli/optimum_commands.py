@@ -64,6 +64,34 @@ def _solve_on_dask(args: argparse.Namespace, indices: list[int], learned: list[f
     return records, failures, interrupted
 
 
+def _rescore(args: argparse.Namespace) -> tuple[list, list, bool]:
+    """``--rescore``: the stored states of ``--json``, every controller's J computed again (same horizon
+    and objective), J* and the optimal torques kept."""
+    from orchestration.progress import Progress
+    from orchestration.study.optimum_scores import learned_weights, rescore_state
+
+    if not args.json or not args.json.is_file():
+        raise UsageError("--rescore needs --json PATH of an earlier result to rescore")
+    try:
+        stored = json.loads(args.json.read_text())
+    except (OSError, ValueError) as exc:
+        raise UsageError(f"--json {args.json}: not a stored optimum result ({exc})") from None
+    if (stored.get("horizon"), stored.get("objective")) != (args.horizon, args.objective):
+        raise UsageError(f"--json {args.json} holds horizon {stored.get('horizon')} s, objective "
+                         f"{stored.get('objective')}: give the same --horizon and --objective")
+    learned, records = learned_weights(), []
+    progress = Progress(len(stored["states"]), "rescore", 1)
+    try:
+        for record in stored["states"]:
+            if interrupt.requested():
+                return records, [], True
+            records.append(rescore_state(record, args.horizon, args.objective, learned))
+            progress.update(True, f"state {record['index']}")
+    finally:
+        progress.close()
+    return records, [], False
+
+
 def _cmd_optimum(args: argparse.Namespace) -> int:
     from orchestration.study import optimum
 
@@ -81,7 +109,10 @@ def _cmd_optimum(args: argparse.Namespace) -> int:
     optimum.Problem(*states[0], args.horizon, args.objective)  # a horizon or objective it refuses: exit 2 now
     if args.json:
         check_output_file(args.json, "--json")
-    records, failures, interrupted = _solve_on_dask(args, list(range(args.states)), learned_weights())
+    if args.rescore:
+        records, failures, interrupted = _rescore(args)
+    else:
+        records, failures, interrupted = _solve_on_dask(args, list(range(args.states)), learned_weights())
     data = result(records, args.horizon, args.objective)
     if records:
         paper = next((s for s in data["states"] if s["index"] == 0), None)
@@ -112,6 +143,9 @@ def add_commands(sub) -> None:
     p.add_argument("--cold", choices=COLD_CHOICES, default="paper",
                    help="where to solve again from zero torque as a check (default: the paper's state)")
     p.add_argument("--json", type=Path, metavar="PATH", help="write J*, every J and the optimal torques per state")
+    p.add_argument("--rescore", action="store_true",
+                   help="keep the optimum stored in --json and compute every controller's J again (after a new "
+                        "tuning: J* does not depend on the controllers)")
     p.add_argument("--workers", type=positive_int, help="worker processes of the local cluster (default: one per core)")
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="an existing dask.distributed scheduler, tcp://host:8786 (default: a local cluster)")

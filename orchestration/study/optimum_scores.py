@@ -83,12 +83,9 @@ def _solver_record(o: Optimum) -> dict[str, Any]:
             "seconds": o.seconds}
 
 
-def solve_state(index: int, horizon: float, objective: str, learned: list[float], cold: bool) -> dict[str, Any]:
-    """One task: the problem from ``all_states()[index]``, every controller's J, J* (warm start from the
-    best controller) and, if ``cold``, J* again from zero torque. Never raises for a controller that
-    fails (its J is None and its reason is kept); raises if the solver fails."""
-    phi0, dphi0 = all_states()[index]
-    problem = Problem(phi0, dphi0, horizon, objective)
+def controller_costs(problem: Problem, learned: list[float]) -> tuple[dict, dict, tuple | None]:
+    """(J per controller, failure reason per controller, (J, run, label) of the best) on ``problem``.
+    Never raises for a controller that fails (its J is None and its reason is kept)."""
     costs: dict[str, float | None] = {}
     failures: dict[str, str] = {}
     best: tuple[float, LoopResult, str] | None = None
@@ -101,6 +98,15 @@ def solve_state(index: int, horizon: float, objective: str, learned: list[float]
             continue
         if math.isfinite(costs[label]) and (best is None or costs[label] < best[0]):
             best = (costs[label], run, label)
+    return costs, failures, best
+
+
+def solve_state(index: int, horizon: float, objective: str, learned: list[float], cold: bool) -> dict[str, Any]:
+    """One task: the problem from ``all_states()[index]``, every controller's J, J* (warm start from the
+    best controller) and, if ``cold``, J* again from zero torque. Raises if the solver fails."""
+    phi0, dphi0 = all_states()[index]
+    problem = Problem(phi0, dphi0, horizon, objective)
+    costs, failures, best = controller_costs(problem, learned)
     nlp = Nlp(problem)
     warm = solve(problem, best[1] if best else None, nlp)
     record: dict[str, Any] = {"index": index, "phi0": list(phi0), "dphi0": list(dphi0), "J_star": warm.cost,
@@ -111,6 +117,14 @@ def solve_state(index: int, horizon: float, objective: str, learned: list[float]
         c = solve(problem, None, nlp)
         record["cold"] = {**_solver_record(c), "relative_difference": abs(c.cost - warm.cost) / warm.cost}
     return record
+
+
+def rescore_state(record: dict[str, Any], horizon: float, objective: str, learned: list[float]) -> dict[str, Any]:
+    """A stored state with every controller's J computed again (the designs changed, e.g. a new tuning),
+    its optimum kept: J* and the optimal torques do not depend on the controllers."""
+    problem = Problem(tuple(record["phi0"]), tuple(record["dphi0"]), horizon, objective)
+    costs, failures, _ = controller_costs(problem, learned)
+    return {**record, "J": costs, "failures": failures}
 
 
 def ratios(states: list[dict[str, Any]], label: str) -> list[float | None]:

@@ -27,3 +27,15 @@ def test_without_casadi_it_names_the_extra(monkeypatch, capsys):
     captured = capsys.readouterr()
     lines = captured.err.strip().splitlines()
     assert len(lines) == 1 and 'pip install "sotc-cosim[optimum]"' in lines[0], captured
+
+
+def test_rescore_refuses_a_missing_or_mismatched_store_in_one_line(tmp_path, capsys):
+    """``--rescore`` keeps a stored optimum: without one, or with another horizon, it says so (exit 2)."""
+    pytest.importorskip("casadi", reason="CasADi is missing: pip install '.[optimum]' (the test extra has it)")
+    stored = tmp_path / "o.json"
+    assert main(["optimum", "--rescore", "--json", str(stored)]) == 2
+    stored.write_text('{"horizon": 20.0, "objective": "A", "states": []}')
+    assert main(["optimum", "--rescore", "--horizon", "10", "--json", str(stored)]) == 2
+    captured = capsys.readouterr()
+    lines = captured.err.strip().splitlines()
+    assert len(lines) == 2 and "--rescore needs --json" in lines[0] and "same --horizon" in lines[1], captured
