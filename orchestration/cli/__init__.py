@@ -9,14 +9,14 @@ import sys
 
 from fmi_slave import VERSION
 from orchestration import exit_codes
-from orchestration.cli import batch_commands, compliance_commands, run_commands
+from orchestration.cli import batch_commands, compliance_commands, run_commands, tune_commands
 from orchestration.exit_codes import UsageError
 from orchestration.fmu_build.build import BuildError
 from orchestration.outputs import OutputError
 from orchestration.paths import check_output_folder
 from orchestration.run import interrupt
 
-COMMAND_GROUPS = (run_commands, batch_commands, compliance_commands)
+COMMAND_GROUPS = (run_commands, batch_commands, compliance_commands, tune_commands)
 
 
 class _Parser(argparse.ArgumentParser):
