@@ -27,6 +27,7 @@ sample of it.
 from __future__ import annotations
 
 import functools
+import itertools
 import json
 import math
 from pathlib import Path
@@ -44,7 +45,7 @@ BUDGET = 64  # trials per controller, limit handling and seed
 SEEDS = (0, 1, 2)
 HANDLINGS = (0, 1, 2)  # radial, joint, accel
 INITIAL_DESIGN = 8  # the nominal design and a Latin hypercube, before the sampler models anything
-PRUNE_AFTER = 4  # training points every trial runs before it may be pruned
+PRUNE_AFTER = 2  # training points every trial runs before it may be pruned (one of each kind)
 STOP_TIME = 20.0  # s, each training run (as long as the held-out runs)
 TRAINING_SEED = 2026
 TRAINING_NOISE_SEED = 1001  # the held-out sets use noise seeds 1..16
@@ -71,12 +72,10 @@ CONTROLLERS = tuple(SEARCH_SPACES)
 
 
 def training_points() -> list[dict[str, Any]]:
-    """The training set: ``TRAINING_POINTS`` of each kind, in a fixed order (pruning compares trials
-    point by point)."""
-    points = []
-    for which in KINDS:
-        points += draw_points(TRAINING_SEED, which, TRAINING_POINTS[which], TRAINING_NOISE_SEED)
-    return points
+    """The training set: ``TRAINING_POINTS`` of each kind, alternating (pruning compares trials point by
+    point, so an early decision sees both kinds)."""
+    drawn = [draw_points(TRAINING_SEED, which, TRAINING_POINTS[which], TRAINING_NOISE_SEED) for which in KINDS]
+    return [p for group in itertools.zip_longest(*drawn) for p in group if p is not None]
 
 
 def nominal_parameters(fmu: str) -> dict[str, float]:
