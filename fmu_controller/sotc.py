@@ -26,8 +26,6 @@ import math
 import operator
 from typing import Any, ClassVar, Sequence
 
-import numpy as np
-
 from fmi_slave.parameters import ParameterError, ParameterSpec, nonnegative, positive
 from fmu_controller.base import ControllerCore, OutputSpec
 from fmu_controller.saturation import (
@@ -40,9 +38,9 @@ from fmu_controller.saturation import (
     limit_without_metric,
     saturate_norm,
 )
-from fmu_controller.small_linalg import solve
-from fmu_controller.sotc_math import (N_BASIS, basis, basis_directional, omega_term_of_arg, probing_signal,
-                                      value_gradient, value_hessian)
+from fmu_controller.fixed_linalg import cholesky, cholesky_solve, dot
+from fmu_controller.sotc_math import (N_BASIS, basis, basis_directional, error_rate, policy_arguments, printed_rate,
+                                      probing_signal, reward, value_gradient, value_hessian)
 from fmu_controller.sotc_stack import REPLAYS as CL_REPLAYS
 from fmu_controller.sotc_stack import SELECTIONS as CL_SELECTIONS
 from fmu_controller.sotc_stack import CLStack
@@ -301,7 +299,7 @@ class SotcCore(ControllerCore):
         pe = probing_signal(t, self.pe_amplitude) if pe_active else 0.0
         tc = (ts1 + pe, ts2 + pe) if self.pe_in_critic else (ts1, ts2)
         fe, zd = self._error_rate(z, (cs1, cs2), tc, dinv)
-        eta, rew, omega, e1, Wv, xi, wdot, cl, law31 = self._critic(t, z, zd, x, dinv)
+        eta, rew, omega, e1, xi, wdot, cl, law31 = self._critic(t, z, zd, x, dinv)
         dchi1, dchi2 = self._chi_dot(t, ref, (dzp1, dzp2), zd, z, (t1, t2), wdot, hess, (ca1 + cs1, ca2 + cs2),
                                      chi_a_bounded)
         ta1, ta2, tau_a_bounded, tr1, tr2 = self._feedforward(phi2, dphi1, dphi2, z, fe, (dchi1, dchi2),
@@ -309,17 +307,16 @@ class SotcCore(ControllerCore):
         tau1, tau2, tau_limited = self._actuator_limit(ts1 + ta1 + pe, ts2 + ta2 + pe)
 
         self._pending = {
-            "t": t, "W": Wv, "wdot": wdot, "xi": xi, "eta": eta, "r": rew, "z": z,
-            "dinv": dinv, "fe": fe, "cl_M": cl[0], "cl_E": cl[1], "cl_min_eig": cl[2],
-            "chi": (ca1 + cs1, ca2 + cs2),
+            "t": t, "wdot": wdot, "xi": xi, "eta": eta, "r": rew, "z": z,
+            "dinv": dinv, "fe": fe, "cl": cl, "chi": (ca1 + cs1, ca2 + cs2),
         }
         self._last_inputs = {"t": float(t), "y": [phi1, phi2, dphi1, dphi2], "r": list(ref)}
         J = math.fsum(map(operator.mul, W, basis(z)))
         self.outputs = [
             tau1, tau2, ts1, ts2, ta1, ta2, cs1, cs2, ca1, ca2, zp1, zp2, zv1, zv2, *W,
-            J, e1, omega, rew, 31.0 if law31 else 30.0, float(self.stack.count), cl[2],
+            J, e1, omega, rew, 31.0 if law31 else 30.0, float(self.stack.count), self.stack.min_eig,
             1.0 if pe_active else 0.0, pe, float(tau_a_bounded), float(chi_a_bounded), float(tau_limited),
-            math.hypot(tau1, tau2), tr1, tr2, dchi1, dchi2, math.sqrt(float(wdot @ wdot)), zv_res,
+            math.hypot(tau1, tau2), tr1, tr2, dchi1, dchi2, math.sqrt(dot(wdot, wdot, N_BASIS)), zv_res,
         ]
 
     def _error(self, phi1: float, phi2: float, dphi1: float, dphi2: float, ref: tuple[float, ...],
@@ -340,13 +337,8 @@ class SotcCore(ControllerCore):
         return zp1, zp2, dzp1, dzp2, zv1, zv2, zv_res, ca1, ca2, chi_a_bounded
 
     def _policy_arguments(self, z: tuple[float, ...], dinv: tuple[float, float, float]) -> tuple:
-        """Step 2, eq. (28): mu_hat = -s tanh(R^-1 g^T grad(zeta)^T W / (2 s)), g = diag(I, D^-1);
-        returns the tanh arguments x and their tanh."""
-        s, rr = self.s, self.r
-        i11, i12, i22 = dinv
-        gJ1, gJ2, gJ3, gJ4 = value_gradient(z, self.W)  # grad J_hat of eq. (27)
-        x = (gJ1 / (2.0 * s * rr[0]), gJ2 / (2.0 * s * rr[1]),
-             (i11 * gJ3 + i12 * gJ4) / (2.0 * s * rr[2]), (i12 * gJ3 + i22 * gJ4) / (2.0 * s * rr[3]))
+        """Step 2, eq. (28): the tanh arguments x of mu_hat = -s tanh(x), and their tanh."""
+        x = policy_arguments(z, self.W, dinv, self.s, self.r)
         return x, (math.tanh(x[0]), math.tanh(x[1]), math.tanh(x[2]), math.tanh(x[3]))
 
     def optimal_virtual_velocity(self, z: tuple[float, ...]) -> tuple[float, float]:
@@ -356,58 +348,46 @@ class SotcCore(ControllerCore):
 
     def _error_rate(self, z: tuple[float, ...], cs: tuple[float, float], tc: tuple[float, float],
                     dinv: tuple[float, float, float]) -> tuple:
-        """Step 3, eqs. (6)/(7): zdot = F_bar(z) + g mu_hat, with the coupling terms +z_v and -z_phi of
-        (6); F_v(z_phi, z_v) of (4)/(6) is the drift -D^-1 (H v + G) of (2) at the error coordinates."""
-        zp1, zp2, zv1, zv2 = z
-        (lam11, lam12), (lam21, lam22), (i11, i12, i22) = self.lam1, self.lam2, dinv
+        """Step 3, eqs. (6)/(7): zdot = F_bar(z) + g mu_hat; F_v(z_phi, z_v) of (4)/(6) is the drift
+        -D^-1 (H v + G) of (2) at the error coordinates."""
         fe1 = fe2 = 0.0
         if self.fv_drift:
-            fe1, fe2 = forward_dynamics(zp2, zv1, zv2, 0.0, 0.0, self.model)
-        if self.backstepping:
-            zd1 = -lam11 * zp1 + cs[0] + zv1
-            zd2 = -lam12 * zp2 + cs[1] + zv2
-        else:
-            zd1 = lam11 * zv1 + cs[0] + zv1
-            zd2 = lam12 * zv2 + cs[1] + zv2
-        zd3 = fe1 - lam21 * zv1 - zp1 + i11 * tc[0] + i12 * tc[1]
-        zd4 = fe2 - lam22 * zv2 - zp2 + i12 * tc[0] + i22 * tc[1]
-        return (fe1, fe2), (zd1, zd2, zd3, zd4)
+            fe1, fe2 = forward_dynamics(z[1], z[2], z[3], 0.0, 0.0, self.model)
+        fe = (fe1, fe2)
+        return fe, error_rate(z, (cs[0], cs[1], tc[0], tc[1]), fe, dinv, self.lam1, self.lam2, self.backstepping)
 
     def _critic(self, t: float, z: tuple[float, ...], zd: tuple[float, ...], x: tuple[float, ...],
                 dinv: tuple[float, float, float]) -> tuple:
-        """Step 3, eqs. (29)-(31): eta, the reward, the Bellman residual e1 and dW/dt (with the CL sum)."""
+        """Step 3, eqs. (29)-(31): eta, the reward, the Bellman residual e1 and dW/dt (with the CL sum),
+        every sum in a fixed order."""
         zp1, zp2, zv1, zv2 = z
-        zd1, zd2, zd3, zd4 = zd
-        s, rr, th, (i11, i12, i22) = self.s, self.r, self.theta, dinv
+        N, W, rr, (i11, i12, i22) = N_BASIS, self.W, self.r, dinv
+        # eq. (29): eta = grad(zeta) zdot, e1 = W^T eta + z^T Theta z + Omega(mu_hat), Omega of eq. (17);
         # eta_form = printed: (7)'s F_bar without the coupling terms, in eta and (29) only
-        zdot_eta = zd if self.eta_coupled else (zd1 - zv1, zd2 - zv2, zd3 + zp1, zd4 + zp2)
-        # eq. (29): eta = grad(zeta) zdot, e1 = W^T eta + z^T Theta z + Omega(mu_hat), Omega of eq. (17)
-        eta = np.array(basis_directional(z, zdot_eta))
-        rew = (th[0] * zp1 * zp1 + th[1] * zp2 * zp2 + th[2] * zv1 * zv1 + th[3] * zv2 * zv2)
-        omega = (omega_term_of_arg(x[0], s, rr[0]) + omega_term_of_arg(x[1], s, rr[1])
-                 + omega_term_of_arg(x[2], s, rr[2]) + omega_term_of_arg(x[3], s, rr[3]))
-        rew += omega
-        Wv = np.array(self.W)
-        etaeta = float(eta @ eta)
-        e1 = float(Wv @ eta) + rew
+        eta = basis_directional(z, zd if self.eta_coupled else printed_rate(z, zd))
+        rew, omega = reward(z, x, self.theta, self.s, rr)
+        e1 = dot(W, eta, N) + rew
         # eqs. (30)/(31): dW/dt = -alpha1 xi e1 - alpha1 sum_i xi_i (eta_i^T W + r_i) [+ alpha2/2 grad(zeta) G z],
         # xi = eta / (eta^T eta + 1)^2; the CL sum is M W + b (sotc_stack)
-        xi = eta * (1.0 / (etaeta + 1.0) ** 2)
-        wdot = xi * (-self.alpha1 * e1)
-        cl_M = cl_E = None
-        cl_min_eig = 0.0
-        if self.cl_enabled and self.stack.count and t >= self.cl_start_time:
-            cl_M, cl_b, cl_E, cl_min_eig = self.stack.terms(Wv)
-            wdot -= self.alpha1 * (cl_M @ Wv + cl_b)
-        law31 = zp1 * zd1 + zp2 * zd2 + zv1 * zd3 + zv2 * zd4 >= 0.0  # z^T zdot >= 0: eq. (31)
+        ee = dot(eta, eta, N)
+        sc = 1.0 / ((ee + 1.0) * (ee + 1.0))
+        xi = [eta[k] * sc for k in range(N)]
+        wdot = [xi[k] * (-self.alpha1 * e1) for k in range(N)]
+        cl = self.cl_enabled and self.stack.count > 0 and t >= self.cl_start_time
+        if cl:
+            M, b = self.stack.terms(W)
+            for k in range(N):
+                wdot[k] -= self.alpha1 * (dot(M[k * N:(k + 1) * N], W, N) + b[k])
+        law31 = zp1 * zd[0] + zp2 * zd[1] + zv1 * zd[2] + zv2 * zd[3] >= 0.0  # z^T zdot >= 0: eq. (31)
         if law31:  # + alpha2/2 grad(zeta) G z with G = g R^-1 g^T = diag(R_phi^-1, D^-1 R_v^-1 D^-1)
             u1, u2 = (i11 * zv1 + i12 * zv2) / rr[2], (i12 * zv1 + i22 * zv2) / rr[3]
-            gz = (zp1 / rr[0], zp2 / rr[1], i11 * u1 + i12 * u2, i12 * u1 + i22 * u2)
-            wdot += (0.5 * self.alpha2) * np.array(basis_directional(z, gz))
-        return eta, rew, omega, e1, Wv, xi, wdot, (cl_M, cl_E, cl_min_eig), law31
+            gz = basis_directional(z, (zp1 / rr[0], zp2 / rr[1], i11 * u1 + i12 * u2, i12 * u1 + i22 * u2))
+            for k in range(N):
+                wdot[k] += (0.5 * self.alpha2) * gz[k]
+        return eta, rew, omega, e1, xi, wdot, cl, law31
 
     def _chi_dot(self, t: float, ref: tuple[float, ...], dzp: tuple[float, float], zd: tuple[float, ...],
-                 z: tuple[float, ...], tanh_phi: tuple[float, float], wdot: np.ndarray,
+                 z: tuple[float, ...], tanh_phi: tuple[float, float], wdot: list,
                  hess: tuple[tuple[float, ...], ...], chi: tuple[float, float], chi_a_bounded: bool) -> tuple:
         """dchi_vd/dt for tau^a of (4), as ``chi_dot_form`` reads it."""
         (lam11, lam12), rr = self.lam1, self.r
@@ -423,7 +403,7 @@ class SotcCore(ControllerCore):
             # chi_vd* = -s tanh(x_phi), x_phi = grad_phi J_hat / (2 s r): the chain rule gives
             # dx_phi/dt = (Hess(J_hat) zdot + grad(zeta)^T dW/dt)_phi / (2 s r), zdot from (6)
             h, (t1, t2) = hess, tanh_phi
-            gd1, gd2, _, _ = value_gradient(z, wdot.tolist())
+            gd1, gd2, _, _ = value_gradient(z, wdot)
             hz1 = h[0][0] * zd1 + h[0][1] * zd2 + h[0][2] * zd3 + h[0][3] * zd4
             hz2 = h[1][0] * zd1 + h[1][1] * zd2 + h[1][2] * zd3 + h[1][3] * zd4
             return (dca1 - (1.0 - t1 * t1) * (hz1 + gd1) / (2.0 * rr[0]),
@@ -474,21 +454,32 @@ class SotcCore(ControllerCore):
             raise RuntimeError(f"advance({t}, {dt}) needs evaluate() at t = {t} first")
         if not (dt > 0.0 and math.isfinite(dt)):
             raise ValueError(f"advance: step size {dt} must be positive and finite")
-        Wv = pend["W"]
-        if self.implicit:
-            G = pend["xi"][:, None] * pend["eta"]  # the outer product xi eta^T
-            if pend["cl_M"] is not None:
-                G += pend["cl_M"]
-            G *= dt * self.alpha1
-            rhs = Wv + dt * pend["wdot"] + G @ Wv
-            G.ravel()[::N_BASIS + 1] += 1.0  # + I (a view of the diagonal: no index arrays)
-            self.W = solve(G, rhs).tolist()
-        else:
-            self.W = (Wv + dt * pend["wdot"]).tolist()
+        self.W = self._weight_step(pend, dt)
         if self.chi_dot_form == "difference":
             self.prev_chi = [t, *pend["chi"]]
         if self.cl_enabled and t >= self.next_record_t - 1e-9:
             self.next_record_t += self.cl_record_interval
-            self.stack.record(pend["eta"], pend["r"], pend["z"], pend["dinv"], pend["fe"],
-                              pend["cl_M"], pend["cl_E"], pend["cl_min_eig"])
+            self.stack.record(pend["eta"], pend["r"], pend["z"], pend["dinv"], pend["fe"], t, pend["cl"])
         self._pending = None
+
+    def _weight_step(self, pend: dict[str, Any], dt: float) -> list:
+        """W after one step of (30)/(31); see ``advance``. (I + dt alpha1 Gamma) is symmetric positive
+        definite, so a Cholesky solve in fixed order (``fixed_linalg``) gives W+."""
+        N, W, wdot = N_BASIS, self.W, pend["wdot"]
+        if not self.implicit:
+            return [W[k] + dt * wdot[k] for k in range(N)]
+        xi, eta, c = pend["xi"], pend["eta"], dt * self.alpha1
+        M = self.stack.M if pend["cl"] else None
+        G = [0.0] * (N * N)
+        for a in range(N):
+            for k in range(a + 1):
+                g = xi[a] * eta[k] if M is None else xi[a] * eta[k] + M[a * N + k]
+                G[a * N + k] = G[k * N + a] = c * g
+        rhs = [W[a] + dt * wdot[a] + dot(G[a * N:(a + 1) * N], W, N) for a in range(N)]
+        for a in range(N):
+            G[a * N + a] += 1.0
+        L, Wn = [0.0] * (N * N), [0.0] * N
+        if not cholesky(G, N, L):  # I + (symmetric >= 0) fails only on non-finite or overflowing entries:
+            return [math.nan] * N  # non-finite weights, which the next sample's outputs report as such
+        cholesky_solve(L, rhs, N, Wn)
+        return Wn

@@ -65,8 +65,18 @@ def omega_term_of_arg(x: float, s: float, r: float) -> float:
 
 
 def omega_of_arg(x: Sequence[float], s: float, r: Sequence[float]) -> float:
-    """Omega(mu) of eq. (17) for mu = -s tanh(x) (componentwise), R = diag(r)."""
-    return sum(omega_term_of_arg(xi, s, ri) for xi, ri in zip(x, r))
+    """Omega(mu) of eq. (17) for mu = -s tanh(x) (componentwise), R = diag(r), summed in order."""
+    return (omega_term_of_arg(x[0], s, r[0]) + omega_term_of_arg(x[1], s, r[1])
+            + omega_term_of_arg(x[2], s, r[2]) + omega_term_of_arg(x[3], s, r[3]))
+
+
+def reward(z: Sequence[float], x: Sequence[float], theta: Sequence[float], s: float,
+           r: Sequence[float]) -> tuple[float, float]:
+    """(r, Omega): the cost rate r = z^T Theta z + Omega(mu_hat) of eq. (12) with Omega of (17) at the
+    pre-saturation arguments x of (28), Theta = diag(theta)."""
+    zp1, zp2, zv1, zv2 = z
+    omega = omega_of_arg(x, s, r)
+    return (theta[0] * zp1 * zp1 + theta[1] * zp2 * zp2 + theta[2] * zv1 * zv1 + theta[3] * zv2 * zv2) + omega, omega
 
 
 def omega_of_mu(mu: Sequence[float], s: float, r: Sequence[float]) -> float:
@@ -144,6 +154,43 @@ def value_gradient(z: Sequence[float], W: Sequence[float]) -> tuple[float, float
         a * w3 + b * w6 + 2.0 * c * w8 + d * w9,
         a * w4 + b * w7 + c * w9 + 2.0 * d * w10,
     )
+
+
+def policy_arguments(z: Sequence[float], W: Sequence[float], dinv: Sequence[float], s: float,
+                     r: Sequence[float]) -> tuple[float, float, float, float]:
+    """The arguments x of the saturated law (28), mu_hat = -s tanh(x) with
+    x = R^-1 g^T grad(zeta)^T W / (2 s), g = diag(I, D^-1); dinv = (D^-1_11, D^-1_12, D^-1_22)."""
+    i11, i12, i22 = dinv
+    g1, g2, g3, g4 = value_gradient(z, W)
+    return (g1 / (2.0 * s * r[0]), g2 / (2.0 * s * r[1]),
+            (i11 * g3 + i12 * g4) / (2.0 * s * r[2]), (i12 * g3 + i22 * g4) / (2.0 * s * r[3]))
+
+
+def tanh_law(x: Sequence[float], s: float) -> tuple[float, float, float, float]:
+    """The saturated law (28): mu_hat = -s tanh(x) componentwise."""
+    return -s * math.tanh(x[0]), -s * math.tanh(x[1]), -s * math.tanh(x[2]), -s * math.tanh(x[3])
+
+
+def error_rate(z: Sequence[float], mu: Sequence[float], fe: Sequence[float], dinv: Sequence[float],
+               lam1: Sequence[float], lam2: Sequence[float], backstepping: bool) -> tuple[float, float, float, float]:
+    """zdot = F_bar(z) + g mu of eqs. (6)/(7) with the coupling terms +z_v, -z_phi of (6):
+    mu = (chi_vd*_1, chi_vd*_2, tau_1, tau_2), fe = F_v(z_phi, z_v), g_v = D^-1 (dinv as above);
+    ``backstepping``: chi_vd^a = dphi_d - Lambda1 z_phi (else dphi_d + Lambda1 z_v, as printed)."""
+    zp1, zp2, zv1, zv2 = z
+    i11, i12, i22 = dinv
+    if backstepping:
+        zd1 = -lam1[0] * zp1 + mu[0] + zv1
+        zd2 = -lam1[1] * zp2 + mu[1] + zv2
+    else:
+        zd1 = lam1[0] * zv1 + mu[0] + zv1
+        zd2 = lam1[1] * zv2 + mu[1] + zv2
+    return (zd1, zd2, fe[0] - lam2[0] * zv1 - zp1 + i11 * mu[2] + i12 * mu[3],
+            fe[1] - lam2[1] * zv2 - zp2 + i12 * mu[2] + i22 * mu[3])
+
+
+def printed_rate(z: Sequence[float], zd: Sequence[float]) -> tuple[float, float, float, float]:
+    """F_bar of (7) as printed: zdot of (6) without the coupling terms +z_v and -z_phi."""
+    return zd[0] - z[2], zd[1] - z[3], zd[2] + z[0], zd[3] + z[1]
 
 
 def value_hessian(W: Sequence[float]) -> tuple[tuple[float, ...], ...]:
@@ -294,34 +341,3 @@ def probing_signal(t: float, amplitude: float = 0.5) -> float:
         + s112 * s112
         + math.cos(2.4 * t) * s24 ** 3
     )
-
-
-# --- row-wise (stacked) versions for the concurrent-learning replay ----------------------------------
-
-
-def basis_directional_rows(Z: np.ndarray, V: np.ndarray) -> np.ndarray:
-    """``basis_directional`` for each row of Z (n x 4) and V (n x 4): an n x 10 array."""
-    a, b, c, d = Z[:, 0], Z[:, 1], Z[:, 2], Z[:, 3]
-    p, q, u, w = V[:, 0], V[:, 1], V[:, 2], V[:, 3]
-    return np.stack([
-        2.0 * a * p, a * q + b * p, a * u + c * p, a * w + d * p, 2.0 * b * q,
-        b * u + c * q, b * w + d * q, 2.0 * c * u, c * w + d * u, 2.0 * d * w,
-    ], axis=1)
-
-
-def omega_of_arg_rows(X: np.ndarray, s: float, r: np.ndarray) -> np.ndarray:
-    """Omega of eq. (17) for each row of pre-saturation arguments X (n x 4), R = diag(r); the same
-    cancellation-free form of x tanh x - ln cosh x as ``omega_term_of_arg``."""
-    A = np.abs(X)
-    small = A < 1.0
-    if small.all():  # the usual case in a run: only the first form is computed (same values)
-        h = np.sinh(0.5 * A)
-        f = A * np.tanh(A) - np.log1p(2.0 * h * h)
-    else:
-        As = np.where(small, A, 0.0)
-        h = np.sinh(0.5 * As)
-        f_small = As * np.tanh(As) - np.log1p(2.0 * h * h)
-        e = np.exp(-2.0 * np.where(small, 1.0, A))
-        f_large = LN2 - np.log1p(e) - 2.0 * A * e / (1.0 + e)
-        f = np.where(small, f_small, f_large)
-    return (2.0 * s * s) * (f @ r)

@@ -3,7 +3,9 @@
 Reference: Dien, Luy, Lai & Hai (2023), J. Computer Science and Cybernetics, eqs. (30)/(31) and the
 paragraph after them: P past samples are kept and their Bellman residuals are replayed in the weight
 update, so that W keeps converging after the probing signal stops, provided
-rank(eta(t_1), ..., eta(t_P)) = 10.
+rank(eta(t_1), ..., eta(t_P)) = 10. The paper follows Chowdhary & Johnson's concurrent learning
+(its reference [19]); keeping the samples that maximise the smallest singular value of the stack is
+their data-selection rule (Chowdhary & Johnson, ACC 2011).
 
 The CL sum of (30)/(31) is
 
@@ -13,147 +15,187 @@ The CL sum of (30)/(31) is
 Two readings of what is replayed (``replay``):
 
 * ``current`` (chosen): only z(t_i), g_v(t_i) = D^-1(phi(t_i)) and F_v(z(t_i)) are kept; eta_i and
-  r_i = z_i^T Theta z_i + Omega(mu_hat_i) are re-evaluated with the current W, i.e. with the policy
-  (28) the critic now implies. The replayed residuals are then the HJB residuals (29) at the stored
-  points, and M, b change with W;
+  r_i are re-evaluated with the current W, i.e. with the policy (28) the critic now implies, by the
+  controller's own formulas (``sotc_math``). The replayed residuals are the HJB residuals (29) at
+  the stored points, and M, b change with W;
 * ``stored`` (as printed): eta(t_i) and r(t_i) exactly as recorded (under the policy of time t_i).
 
-Which samples are kept (``selection``): ``maxeig`` (chosen) fills the P rows, then swaps a new
-sample in only if that raises lambda_min(M) by more than 1 % (singular-value-maximising selection);
-``fill`` keeps the first P records; ``fifo`` the newest P.
+Which samples are kept (``selection``):
 
-Arrays are preallocated (P x ...) and every derived quantity is rebuilt from them in the same order
-of operations, so a restored state reproduces the same floating-point results.
+* ``maxeig`` (chosen): fill the P rows, then swap a new sample in only if that raises lambda_min(M)
+  by more than 1 % *and* by more than the rounding tolerance tol = n eps trace(M); a stack whose
+  numerical rank (eigenvalues above tol) is below n has lambda_min 0 and takes a swap that raises
+  its rank. Among swaps equal to within tol, the oldest row goes. Decisions never rest on rounding;
+* ``fill`` keeps the first P records; ``fifo`` the newest P;
+* ``maxeig-raw``: the earlier rule, the largest computed lambda_min of the P trial stacks and a 1 %
+  gain, with no tolerance (it decides on rounding noise while the stack is rank-deficient).
+
+Every sum runs in a fixed order over plain lists (``fixed_linalg``): the bits do not depend on the CPU.
 """
 from __future__ import annotations
 
 from typing import Any, Sequence
 
-import numpy as np
+from fmu_controller.fixed_linalg import EPS, cholesky, forward_substitute, smallest_eigenvalue, sturm_count, trace
+from fmu_controller.sotc_math import (N_BASIS, basis_directional, error_rate, policy_arguments, printed_rate,
+                                      reward, tanh_law)
 
-from fmu_controller.small_linalg import smallest_eigenvalue, smallest_eigenvalues
-from fmu_controller.sotc_math import N_BASIS, basis_jacobian, omega_of_arg_rows
-
-SELECTIONS = ("maxeig", "fill", "fifo")
+SELECTIONS = ("maxeig", "fill", "fifo", "maxeig-raw")
 REPLAYS = ("current", "stored")
-MAXEIG_GAIN = 1.01  # a swap must raise lambda_min(M) by more than 1 %
+MAXEIG_GAIN = 1.01  # a swap must raise lambda_min(M) by more than 1 % ...
+RANK_TOL = N_BASIS * EPS  # ... and by more than RANK_TOL trace(M), the rounding level of M's entries
+_WIDTHS = {"eta": N_BASIS, "z": 4, "dinv": 3, "fe": 2}
+
+
+def cl_matrix(n: int, E: list, rew: list, M: list, b: list, sc: list) -> None:
+    """M = sum_i sc_i eta_i eta_i^T and b = sum_i sc_i r_i eta_i over the first n rows of E (flat,
+    n x 10), sc_i = 1 / (1 + |eta_i|^2)^2; rows in order, M's lower triangle mirrored."""
+    N = N_BASIS
+    for k in range(N * N):
+        M[k] = 0.0
+    for k in range(N):
+        b[k] = 0.0
+    for i in range(n):
+        o = i * N
+        ee = 0.0
+        for k in range(N):
+            ee += E[o + k] * E[o + k]
+        sc[i] = 1.0 / ((1.0 + ee) * (1.0 + ee))
+        for a in range(N):
+            xa = E[o + a] * sc[i]
+            b[a] += xa * rew[i]
+            for c in range(a + 1):
+                M[a * N + c] += xa * E[o + c]
+    for a in range(N):
+        for c in range(a):
+            M[c * N + a] = M[a * N + c]
+
+
+def replay_current(n: int, W: list, z: list, dinv: list, fe: list, s: float, r: tuple, theta: tuple,
+                   lam1: tuple, lam2: tuple, backstepping: bool, coupled: bool, E: list, rew: list) -> None:
+    """eta_i and r_i of the first n rows re-evaluated at the weights W (the ``current`` replay)."""
+    for i in range(n):
+        zi = (z[4 * i], z[4 * i + 1], z[4 * i + 2], z[4 * i + 3])
+        di = (dinv[3 * i], dinv[3 * i + 1], dinv[3 * i + 2])
+        x = policy_arguments(zi, W, di, s, r)
+        zd = error_rate(zi, tanh_law(x, s), (fe[2 * i], fe[2 * i + 1]), di, lam1, lam2, backstepping)
+        eta = basis_directional(zi, zd if coupled else printed_rate(zi, zd))
+        for k in range(N_BASIS):
+            E[i * N_BASIS + k] = eta[k]
+        rew[i] = reward(zi, x, theta, s, r)[0]
+
+
+def trial_matrix(M: list, sc_j: float, E: list, j: int, c_sc: float, eta: list, out: list) -> None:
+    """out = M - sc_j eta_j eta_j^T + c_sc eta eta^T: the CL matrix with row j swapped for eta."""
+    N = N_BASIS
+    o = j * N
+    for a in range(N):
+        xa, ya = E[o + a] * sc_j, eta[a] * c_sc
+        for c in range(a + 1):
+            out[a * N + c] = M[a * N + c] - xa * E[o + c] + ya * eta[c]
+            out[c * N + a] = out[a * N + c]
 
 
 class CLStack:
     """P recorded samples and the CL sum M W + b of (30)/(31).
 
-    ``s, r, theta, lam1, lam2, backstepping`` are the controller constants the ``current`` replay
-    needs to re-evaluate eta_i and r_i (saturation level, R, Theta, Lambda_1, Lambda_2, reading of
-    chi_vd^a)."""
+    ``s, r, theta, lam1, lam2, backstepping, coupled`` are the controller constants the ``current``
+    replay needs to re-evaluate eta_i and r_i (saturation level, R, Theta, Lambda_1, Lambda_2, reading
+    of chi_vd^a, form of zdot in eta)."""
 
     def __init__(self, P: int, selection: str, replay: str, s: float, r: Sequence[float],
                  theta: Sequence[float], lam1: Sequence[float], lam2: Sequence[float], backstepping: bool,
                  coupled: bool = True):
         self.P, self.selection, self.replay_form = P, selection, replay
-        self.s = s
-        self.r = np.array(r, dtype=float)
-        self.theta = np.array(theta, dtype=float)
+        self.s, self.r, self.theta = s, tuple(r), tuple(theta)
         self.lam1, self.lam2, self.backstepping = tuple(lam1), tuple(lam2), backstepping
         self.coupled = coupled  # eta_i with the coupling terms +z_v, -z_phi of (6) (else (7) as printed)
+        N = N_BASIS
+        self.M, self.b, self.sc = [0.0] * (N * N), [0.0] * N, [0.0] * P  # the CL sum at the last terms()
+        self.E, self.rew_now = [0.0] * (P * N), [0.0] * P  # eta_i, r_i at the last terms()
+        self._d, self._e, self._work, self._L, self._y = [0.0] * N, [0.0] * N, [0.0] * (N * N), [0.0] * (N * N), [0.0] * N
         self.clear()
 
     # --- contents --------------------------------------------------------------------------------
 
     def clear(self) -> None:
         P = self.P
-        self.eta = np.zeros((P, N_BASIS))  # eta(t_i) as recorded
-        self.rew = np.zeros(P)  # r(t_i) = z^T Theta z + Omega(mu_hat) as recorded
-        self.z = np.zeros((P, 4))  # z(t_i)
-        self.dinv = np.zeros((P, 3))  # (D^-1_11, D^-1_12, D^-1_22) at t_i
-        self.fe = np.zeros((P, 2))  # F_v(z_phi, z_v) at t_i
+        self.rows = {key: [0.0] * (P * w) for key, w in _WIDTHS.items()}  # eta, z, dinv, fe as recorded
+        self.rew = [0.0] * P  # r(t_i) = z^T Theta z + Omega(mu_hat) as recorded
+        self.t = [0.0] * P  # record time t_i (the oldest row goes among equal swaps)
         self.count = 0  # filled rows
         self.next_row = 0  # row the FIFO overwrites next
+        self.min_eig = 0.0  # lambda_min(M) at the last offer (0 while numerically rank-deficient)
         self.refresh()
 
     def to_state(self) -> dict[str, Any]:
-        return {
-            "eta": self.eta.tolist(), "rew": self.rew.tolist(), "z": self.z.tolist(),
-            "dinv": self.dinv.tolist(), "fe": self.fe.tolist(),
-            "count": self.count, "next_row": self.next_row,
-        }
+        state: dict[str, Any] = {key: [a[i * _WIDTHS[key]:(i + 1) * _WIDTHS[key]] for i in range(self.P)]
+                                 for key, a in self.rows.items()}
+        state.update(rew=list(self.rew), t=list(self.t), count=self.count, next_row=self.next_row,
+                     min_eig=self.min_eig)
+        return state
 
     def from_state(self, state: dict[str, Any]) -> None:
-        shapes = {"eta": (self.P, N_BASIS), "rew": (self.P,), "z": (self.P, 4), "dinv": (self.P, 3), "fe": (self.P, 2)}
-        arrays = {}
-        for key, shape in shapes.items():
-            a = np.array(state[key], dtype=float)
-            if a.shape != shape:
-                raise ValueError(
-                    f"CL stack state '{key}' has shape {a.shape}, this controller needs {shape} (P = {self.P})")
-            arrays[key] = a
+        rows = {}
+        for key, w in _WIDTHS.items():
+            flat = [float(v) for row in state[key] for v in row]
+            if len(state[key]) != self.P or len(flat) != self.P * w:
+                raise ValueError(f"CL stack state '{key}' must be {self.P} rows of {w} (P = {self.P})")
+            rows[key] = flat
+        rew, t = [float(v) for v in state["rew"]], [float(v) for v in state["t"]]
+        if len(rew) != self.P or len(t) != self.P:
+            raise ValueError(f"CL stack state 'rew' and 't' must have {self.P} entries (P = {self.P})")
         count, next_row = int(state["count"]), int(state["next_row"])
         if not (0 <= count <= self.P and 0 <= next_row < self.P):
             raise ValueError(f"CL stack state: count {count} / next_row {next_row} out of range for P = {self.P}")
-        self.eta, self.rew, self.z, self.dinv, self.fe = (arrays[k] for k in shapes)
-        self.count, self.next_row = count, next_row
+        self.rows, self.rew, self.t = rows, rew, t
+        self.count, self.next_row, self.min_eig = count, next_row, float(state["min_eig"])
         self.refresh()
 
-    # --- derived quantities ----------------------------------------------------------------------
+    # --- the CL sum ----------------------------------------------------------------------------------
 
     def refresh(self) -> None:
-        """Rebuild everything derived from the rows: the recorded M, b, lambda_min(M), and the
-        per-row tensors that make ``replay`` a handful of array operations (the arguments of (28)
-        are linear in W, eta_i is affine in mu_hat_i)."""
-        E = self.eta
-        scale = 1.0 / (1.0 + np.einsum("ij,ij->i", E, E)) ** 2
-        Xi = E * scale[:, None]
-        self.M_rec = Xi.T @ E
-        self.b_rec = Xi.T @ self.rew
-        self.min_eig_rec = smallest_eigenvalue(self.M_rec) if self.count else 0.0
-        n = self.count
-        Z, Di, Fe = self.z[:n], self.dinv[:n], self.fe[:n]
-        s, r = self.s, self.r
-        jac = np.array([basis_jacobian(z) for z in Z]).reshape(n, N_BASIS, 4)  # d zeta / dz at z_i
-        # eq. (28): x_i = K_i grad(zeta(z_i))^T W, K_i = diag(1/(2 s r1), 1/(2 s r2), R_v^-1 D_i^-1 / (2 s))
-        K = np.zeros((n, 4, 4))
-        K[:, 0, 0] = 1.0 / (2.0 * s * r[0])
-        K[:, 1, 1] = 1.0 / (2.0 * s * r[1])
-        K[:, 2, 2], K[:, 2, 3] = Di[:, 0] / (2.0 * s * r[2]), Di[:, 1] / (2.0 * s * r[2])
-        K[:, 3, 2], K[:, 3, 3] = Di[:, 1] / (2.0 * s * r[3]), Di[:, 2] / (2.0 * s * r[3])
-        self._AX = np.einsum("nij,nkj->nik", K, jac)  # (n, 4, 10)
-        # eqs. (6)/(7): zdot_i = F_bar(z_i) (with the coupling terms of (6)) + g_i mu_hat_i
-        F = np.empty((n, 4))
-        if self.backstepping:
-            F[:, 0] = -self.lam1[0] * Z[:, 0] + Z[:, 2]
-            F[:, 1] = -self.lam1[1] * Z[:, 1] + Z[:, 3]
-        else:
-            F[:, 0] = (1.0 + self.lam1[0]) * Z[:, 2]
-            F[:, 1] = (1.0 + self.lam1[1]) * Z[:, 3]
-        F[:, 2] = Fe[:, 0] - self.lam2[0] * Z[:, 2] - Z[:, 0]
-        F[:, 3] = Fe[:, 1] - self.lam2[1] * Z[:, 3] - Z[:, 1]
-        if not self.coupled:
-            F[:, :2] -= Z[:, 2:]
-            F[:, 2:] += Z[:, :2]
-        g = np.zeros((n, 4, 4))
-        g[:, 0, 0] = g[:, 1, 1] = 1.0
-        g[:, 2, 2], g[:, 2, 3], g[:, 3, 2], g[:, 3, 3] = Di[:, 0], Di[:, 1], Di[:, 1], Di[:, 2]
-        self._eta0 = np.einsum("nkj,nj->nk", jac, F)  # eta_i at mu = 0
-        self._JG = np.einsum("nkj,nji->nki", jac, g)  # eta_i = eta0_i + JG_i mu_i
-        self._q = (Z * Z) @ self.theta  # z_i^T Theta z_i
-
-    def terms(self, W: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
-        """(M, b, eta rows, lambda_min(M)) for weights W: the CL sum of (30)/(31) is M W + b."""
+        """Rebuild what the ``stored`` replay derives from the rows (M, b do not depend on W there)."""
         if self.replay_form == "stored":
-            return self.M_rec, self.b_rec, self.eta, self.min_eig_rec
-        X = self._AX @ W  # (n, 4): arguments of (28) at the stored z_i
-        E = self._eta0 + np.einsum("nki,ni->nk", self._JG, np.tanh(X) * -self.s)
-        rew = self._q + omega_of_arg_rows(X, self.s, self.r)  # r_i with Omega of eq. (17)
-        scale = 1.0 / (1.0 + np.einsum("ij,ij->i", E, E)) ** 2
-        Xi = E * scale[:, None]
-        M = Xi.T @ E
-        return M, Xi.T @ rew, E, smallest_eigenvalue(M)
+            self.E[:] = self.rows["eta"]
+            self.rew_now[:] = self.rew
+            cl_matrix(self.count, self.E, self.rew_now, self.M, self.b, self.sc)
+
+    def terms(self, W: list) -> tuple[list, list]:
+        """(M, b) at the weights W: the CL sum of (30)/(31) is M W + b (also kept as ``self.M``,
+        ``self.b``, with the rows ``self.E`` and their scales ``self.sc``)."""
+        if self.replay_form == "current":
+            rows = self.rows
+            replay_current(self.count, W, rows["z"], rows["dinv"], rows["fe"], self.s, self.r, self.theta,
+                           self.lam1, self.lam2, self.backstepping, self.coupled, self.E, self.rew_now)
+            cl_matrix(self.count, self.E, self.rew_now, self.M, self.b, self.sc)
+        return self.M, self.b
+
+    def spectrum(self) -> tuple[float, int, float]:
+        """(lambda_min, numerical rank, tol) of the CL matrix of the last ``terms``; lambda_min is 0
+        below full rank (eigenvalues at or below tol = n eps trace(M) are rounding)."""
+        n = N_BASIS
+        tol = RANK_TOL * trace(self.M, n)
+        lam = smallest_eigenvalue(self.M, n, self._d, self._e)
+        rank = n - sturm_count(self._d, self._e, n, tol) if tol > 0.0 else 0
+        return (lam if rank == n else 0.0), rank, tol
+
+    def min_eig_at(self, W: list) -> float:
+        """lambda_min of the CL matrix at the weights W (0 when empty or rank-deficient)."""
+        if not self.count:
+            return 0.0
+        self.terms(W)
+        return self.spectrum()[0]
 
     # --- recording -------------------------------------------------------------------------------
 
-    def record(self, eta: np.ndarray, rew: float, z: Sequence[float], dinv: Sequence[float], fe: Sequence[float],
-               M: np.ndarray | None, E: np.ndarray | None, min_eig: float) -> bool:
-        """Offer one sample; ``M, E, min_eig`` are the CL terms at the weights the sample was
-        evaluated with (used by ``maxeig``). Returns whether the stack changed."""
+    def record(self, eta: list, rew: float, z: Sequence[float], dinv: Sequence[float], fe: Sequence[float],
+               t: float, terms_ready: bool) -> bool:
+        """Offer the sample of time t; ``terms_ready``: ``terms`` ran at the weights the sample was
+        evaluated with (``maxeig`` swaps only then). Returns whether the stack changed."""
+        spectrum = self.spectrum() if terms_ready and self.count else None
+        if spectrum is not None:
+            self.min_eig = spectrum[0]
         if self.count < self.P:
             row = self.count
             self.count += 1
@@ -163,23 +205,84 @@ class CLStack:
             row = self.next_row
             self.next_row = (self.next_row + 1) % self.P
         else:
-            # maxeig: by Weyl's inequality a swap raises lambda_min(M) by at most
-            # lambda_max(xi eta^T) = |eta|^2 / (1 + |eta|^2)^2, so small samples are skipped at once
-            etaeta = float(eta @ eta)
-            cand_eig = etaeta / (1.0 + etaeta) ** 2
-            if cand_eig <= (MAXEIG_GAIN - 1.0) * min_eig or M is None or E is None:
+            row = self._swap_row(eta, spectrum) if spectrum is not None else -1
+            if row < 0:
                 return False
-            sc = 1.0 / (1.0 + np.einsum("ij,ij->i", E, E)) ** 2
-            cand = np.outer(eta, eta) * (1.0 / (1.0 + etaeta) ** 2)
-            trial = M[None, :, :] - np.einsum("i,ij,ik->ijk", sc, E, E) + cand[None, :, :]
-            eigs = smallest_eigenvalues(trial)
-            row = int(np.argmax(eigs))
-            if not eigs[row] > MAXEIG_GAIN * min_eig:
-                return False
-        self.eta[row] = eta
-        self.rew[row] = rew
-        self.z[row] = z
-        self.dinv[row] = dinv
-        self.fe[row] = fe
-        self.refresh()
+        self._put(row, eta, rew, z, dinv, fe, t)
         return True
+
+    def _put(self, row: int, eta: list, rew: float, z: Sequence[float], dinv: Sequence[float],
+             fe: Sequence[float], t: float) -> None:
+        for key, values in (("eta", eta), ("z", z), ("dinv", dinv), ("fe", fe)):
+            w = _WIDTHS[key]
+            self.rows[key][row * w:(row + 1) * w] = [float(v) for v in values]
+        self.rew[row], self.t[row] = float(rew), float(t)
+        self.refresh()
+
+    def _swap_row(self, eta: list, spectrum: tuple[float, int, float]) -> int:
+        """The row a new sample eta replaces under ``maxeig``/``maxeig-raw``, or -1 (no swap). By
+        Weyl's inequality a swap raises lambda_min(M) by at most |eta|^2 / (1 + |eta|^2)^2, so small
+        samples are refused at once."""
+        ee = 0.0
+        for k in range(N_BASIS):
+            ee += eta[k] * eta[k]
+        c_sc = 1.0 / ((1.0 + ee) * (1.0 + ee))
+        lam, rank, tol = spectrum
+        if self.selection == "maxeig-raw":
+            lam = smallest_eigenvalue(self.M, N_BASIS, self._d, self._e)
+            return -1 if ee * c_sc <= (MAXEIG_GAIN - 1.0) * lam else self._swap_raw(eta, c_sc, lam)
+        if ee * c_sc <= (MAXEIG_GAIN - 1.0) * lam + tol:
+            return -1
+        if rank == N_BASIS:
+            return self._swap_full(eta, c_sc, MAXEIG_GAIN * lam + tol, tol)
+        return self._swap_deficient(eta, c_sc, rank, tol)
+
+    def _swap_full(self, eta: list, c_sc: float, thr: float, tol: float) -> int:
+        """Full rank: only trials with lambda_min > thr count. B = M + c c^T - thr I must be positive
+        definite (else no trial is), and then trial j is iff sc_j |L^-1 eta_j|^2 < 1 (B = L L^T)."""
+        N, B, L, y = N_BASIS, self._work, self._L, self._y
+        trial_matrix(self.M, 0.0, self.E, 0, c_sc, eta, B)  # M + c c^T (row 0 taken with weight 0)
+        for a in range(N):
+            B[a * N + a] -= thr
+        if not cholesky(B, N, L):
+            return -1
+        passing = []
+        for j in range(self.P):
+            forward_substitute(L, self.E[j * N:(j + 1) * N], N, y)
+            yy = 0.0
+            for k in range(N):
+                yy += y[k] * y[k]
+            if self.sc[j] * yy < 1.0:
+                trial_matrix(self.M, self.sc[j], self.E, j, c_sc, eta, B)
+                passing.append((j, N, smallest_eigenvalue(B, N, self._d, self._e)))
+        return self._oldest_best(passing, tol)
+
+    def _swap_deficient(self, eta: list, c_sc: float, rank: int, tol: float) -> int:
+        """Below full rank: a swap must raise the numerical rank; among those the largest lambda_min."""
+        N, B, found = N_BASIS, self._work, []
+        for j in range(self.P):
+            trial_matrix(self.M, self.sc[j], self.E, j, c_sc, eta, B)
+            lam = smallest_eigenvalue(B, N, self._d, self._e)
+            rank_j = N - sturm_count(self._d, self._e, N, tol)
+            if rank_j > rank:
+                found.append((j, rank_j, lam if rank_j == N else 0.0))
+        return self._oldest_best(found, tol)
+
+    def _oldest_best(self, found: list, tol: float) -> int:
+        """Of (row, rank, lambda_min) candidates, the highest rank, then the largest lambda_min to
+        within tol, then the oldest row (then the lowest index); -1 if there is none."""
+        if not found:
+            return -1
+        top = max(rank for _, rank, _ in found)
+        best = max(lam for _, rank, lam in found if rank == top)
+        ties = [j for j, rank, lam in found if rank == top and lam >= best - tol]
+        return min(ties, key=lambda j: (self.t[j], j))
+
+    def _swap_raw(self, eta: list, c_sc: float, lam: float) -> int:
+        B, row, best = self._work, -1, 0.0
+        for j in range(self.P):
+            trial_matrix(self.M, self.sc[j], self.E, j, c_sc, eta, B)
+            trial = smallest_eigenvalue(B, N_BASIS, self._d, self._e)
+            if row < 0 or trial > best:
+                row, best = j, trial
+        return row if best > MAXEIG_GAIN * lam else -1

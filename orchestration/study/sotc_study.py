@@ -56,7 +56,7 @@ def run(setting: str = "paper", stop_time: float = 100.0, **overrides: float) ->
 
 def stack_min_eig(ctrl: SotcCore) -> float:
     """lambda_min of the CL matrix M at the controller's current weights (0 for an empty stack)."""
-    return ctrl.stack.terms(np.array(ctrl.W))[3] if ctrl.stack.count else 0.0
+    return ctrl.stack.min_eig_at(list(ctrl.W))
 
 
 def weights(res: LoopResult) -> np.ndarray:
@@ -154,14 +154,15 @@ def cmd_stack(args: argparse.Namespace) -> None:
                       ("newest P (FIFO)", {"cl_selection": 2})]:
         ctrl, res = run(args.setting, stop_time=args.stop, **ov)
         st = ctrl.stack
-        E = st.eta[:st.count]
+        E = np.array(st.rows["eta"]).reshape(st.P, -1)[:st.count]
         sv = np.linalg.svd(E, compute_uv=False)
-        M = st.terms(np.array(ctrl.W))[0] if st.replay_form == "current" else st.M_rec
+        M = np.array(st.terms(list(ctrl.W))[0]).reshape(len(ctrl.W), -1)
+        Xi = E / (1.0 + np.einsum("ij,ij->i", E, E))[:, None] ** 2
         print(f"{label} at t={args.stop:g}s: P={st.count}, rank(eta_1..eta_P)={np.linalg.matrix_rank(E)}"
               f" (numpy default tol), singular values {np.array2string(sv, precision=2)}")
-        print(f"   eig of sum xi_i eta_i^T (recorded)  {np.array2string(np.linalg.eigvalsh(st.M_rec), precision=2)}")
+        print(f"   eig of sum xi_i eta_i^T (recorded)  {np.array2string(np.linalg.eigvalsh(Xi.T @ E), precision=2)}")
         print(f"   eig of sum xi_i eta_i^T (replayed)  {np.array2string(np.linalg.eigvalsh(M), precision=2)}")
-        print(f"   ||z_i|| {np.array2string(np.linalg.norm(st.z[:st.count], axis=1), precision=2)}")
+        print(f"   ||z_i|| {np.array2string(np.linalg.norm(np.array(st.rows['z']).reshape(st.P, 4)[:st.count], axis=1), precision=2)}")
 
 
 def cmd_lqr(args: argparse.Namespace) -> None:

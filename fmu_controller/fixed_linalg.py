@@ -1,0 +1,170 @@
+"""Fixed-order linear algebra for the small symmetric problems of the SOTC critic (n = 10).
+
+Every sum here runs in one written order over plain Python lists (matrices row-major, flat, n * n),
+so a result does not depend on the CPU: no BLAS or LAPACK kernel, no SIMD reduction of numpy, whose
+blocking and instruction choice change the last bits from one processor to the next (issue N,
+``docs/paper-notes.md``). The ``.pxd`` beside this file compiles the same loops to C
+(``-ffp-contract=off``), so the compiled and the Python cores give the same bits.
+
+- ``cholesky`` / ``cholesky_solve``: the weight update (I + dt alpha1 Gamma) W+ = rhs of (30)/(31)
+  (symmetric positive definite) and the positive-definiteness test of the CL stack's swap rule;
+- ``tridiagonalize`` + ``sturm_count`` + ``smallest_eigenvalue``: lambda_min and the numerical rank of
+  a symmetric matrix by Householder reduction and bisection on the Sturm sequence (both textbook:
+  Golub & Van Loan, Matrix Computations, 4th ed., 8.3.1 and 8.4.1), with a bounded number of halvings.
+"""
+from __future__ import annotations
+
+import math
+
+EPS = 2.220446049250313e-16  # the unit roundoff of float64, 2^-52
+MAX_HALVINGS = 200  # bisection stops when the interval stops shrinking, or after this many halvings
+
+
+def dot(a: list, b: list, n: int) -> float:
+    """sum_k a_k b_k, left to right."""
+    acc = 0.0
+    for k in range(n):
+        acc += a[k] * b[k]
+    return acc
+
+
+def trace(A: list, n: int) -> float:
+    acc = 0.0
+    for k in range(n):
+        acc += A[k * n + k]
+    return acc
+
+
+def cholesky(A: list, n: int, L: list) -> bool:
+    """L (flat, lower triangle filled, upper left as it was) with A = L L^T, reading A's lower
+    triangle. False, with L unfinished, if a pivot is not positive (A not positive definite)."""
+    for j in range(n):
+        acc = A[j * n + j]
+        for k in range(j):
+            acc -= L[j * n + k] * L[j * n + k]
+        if not acc > 0.0:
+            return False
+        djj = math.sqrt(acc)
+        L[j * n + j] = djj
+        for i in range(j + 1, n):
+            acc = A[i * n + j]
+            for k in range(j):
+                acc -= L[i * n + k] * L[j * n + k]
+            L[i * n + j] = acc / djj
+    return True
+
+
+def forward_substitute(L: list, b: list, n: int, y: list) -> None:
+    """y with L y = b (L lower triangular, from ``cholesky``)."""
+    for i in range(n):
+        acc = b[i]
+        for k in range(i):
+            acc -= L[i * n + k] * y[k]
+        y[i] = acc / L[i * n + i]
+
+
+def cholesky_solve(L: list, b: list, n: int, x: list) -> None:
+    """x with L L^T x = b."""
+    forward_substitute(L, b, n, x)
+    for i in range(n - 1, -1, -1):
+        acc = x[i]
+        for k in range(i + 1, n):
+            acc -= L[k * n + i] * x[k]
+        x[i] = acc / L[i * n + i]
+
+
+def _reflect(A: list, n: int, k: int, v: list, p: list) -> float:
+    """One Householder step on the work copy A: zero column k below its subdiagonal and return the
+    new subdiagonal entry; v, p are scratch of length n."""
+    m0 = k + 1
+    scale = 0.0
+    for i in range(m0, n):
+        scale += A[i * n + k] * A[i * n + k]
+    if scale == 0.0:
+        return 0.0
+    x0 = A[m0 * n + k]
+    alpha = -math.sqrt(scale) if x0 >= 0.0 else math.sqrt(scale)
+    for i in range(m0, n):
+        v[i] = A[i * n + k]
+    v[m0] = x0 - alpha
+    vv = 0.0  # |v|^2
+    for i in range(m0, n):
+        vv += v[i] * v[i]
+    for i in range(m0, n):  # p = 2 A22 v / |v|^2
+        acc = 0.0
+        for j in range(m0, n):
+            acc += A[i * n + j] * v[j]
+        p[i] = 2.0 * acc / vv
+    kk = 0.0
+    for i in range(m0, n):
+        kk += v[i] * p[i]
+    kk /= vv
+    for i in range(m0, n):  # q = p - (v^T p / |v|^2) v, kept in p
+        p[i] -= kk * v[i]
+    for i in range(m0, n):  # A22 -= v q^T + q v^T
+        for j in range(m0, n):
+            A[i * n + j] -= v[i] * p[j] + p[i] * v[j]
+    return alpha
+
+
+def tridiagonalize(M: list, n: int, d: list, e: list) -> None:
+    """Diagonal d (n) and subdiagonal e (n - 1) of a tridiagonal matrix similar to the symmetric M
+    (Householder reflections; M is read, not changed)."""
+    A = list(M[:n * n])
+    v = [0.0] * n
+    p = [0.0] * n
+    for k in range(n - 2):
+        e[k] = _reflect(A, n, k, v, p)
+        d[k] = A[k * n + k]
+    if n >= 2:
+        d[n - 2] = A[(n - 2) * n + n - 2]
+        e[n - 2] = A[(n - 1) * n + n - 2]
+    d[n - 1] = A[n * n - 1]
+
+
+def sturm_count(d: list, e: list, n: int, x: float) -> int:
+    """How many eigenvalues of the tridiagonal (d, e) are smaller than x (the negative terms of the
+    Sturm sequence; an exact zero is replaced by a tiny negative number, so the count is defined)."""
+    count = 0
+    q = d[0] - x
+    for i in range(n):
+        if i:
+            q = d[i] - x - e[i - 1] * e[i - 1] / q
+        if q == 0.0:
+            q = -EPS * (abs(x) + 1e-300)
+        if q < 0.0:
+            count += 1
+    return count
+
+
+def gershgorin(d: list, e: list, n: int) -> tuple[float, float]:
+    """An interval [lo, hi] holding every eigenvalue of the tridiagonal (d, e)."""
+    lo, hi = d[0], d[0]
+    for i in range(n):
+        r = (abs(e[i - 1]) if i else 0.0) + (abs(e[i]) if i < n - 1 else 0.0)
+        lo = min(lo, d[i] - r)
+        hi = max(hi, d[i] + r)
+    return lo, hi
+
+
+def smallest_of_tridiagonal(d: list, e: list, n: int, resolution: float) -> float:
+    """lambda_min of the tridiagonal (d, e) by bisection, to within ``resolution`` (or one ulp)."""
+    lo, hi = gershgorin(d, e, n)
+    for _ in range(MAX_HALVINGS):
+        if hi - lo <= resolution:
+            break
+        mid = 0.5 * (lo + hi)
+        if mid <= lo or mid >= hi:
+            break
+        if sturm_count(d, e, n, mid) >= 1:
+            hi = mid
+        else:
+            lo = mid
+    return 0.5 * (lo + hi)
+
+
+def smallest_eigenvalue(M: list, n: int, d: list, e: list) -> float:
+    """lambda_min of the symmetric M, to within n eps trace(M) (the rounding level of its entries);
+    d (n) and e (n - 1) receive M's tridiagonal form, for ``sturm_count``."""
+    tridiagonalize(M, n, d, e)
+    return smallest_of_tridiagonal(d, e, n, EPS * abs(trace(M, n)))
