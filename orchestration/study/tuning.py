@@ -15,14 +15,13 @@ The protocol (docs/baselines.md, "Tuning protocol"):
 * **Search** (``orchestration.study.optimize``, Optuna): per controller, limit handling and seed,
   ``BUDGET`` trials: the nominal design, then ``INITIAL_DESIGN - 1`` points of a scrambled Latin
   hypercube (``scipy.stats.qmc``, seeded with the tuning seed), then Optuna's TPE sampler, seeded per
-  trial; a trial whose running criterion is worse than the median of the finished trials at the same
-  training point is pruned there (after ``PRUNE_AFTER`` points).
+  trial; a trial whose running criterion is not among the best ``PRUNE_PERCENTILE`` % of the complete
+  trials at the same training point is pruned there (from the ``PRUNE_AFTER``-th point on).
 * **Seeds** (``SEEDS``): independent searches; each seed's best design is judged on the held-out sets.
 
-``sotc-cosim tune`` runs the search and writes the store; the shipped store (``TUNED_FILE``, so that
-an installed `sotc-cosim` and a sweep's ``tuning = "best"`` read the same result) is the output of
-``sotc-cosim tune --out orchestration/study/tuned.json``; tests/docs/test_fair_store.py re-runs a
-sample of it.
+``sotc-cosim tune`` runs the search and writes the store (recordings/tuning/tuned.json); the shipped
+store (``TUNED_FILE``, so that an installed `sotc-cosim` and a sweep's ``tuning = "best"`` read the same
+result) is a copy of that output; tests/docs/test_fair_store.py re-runs a sample of it.
 """
 from __future__ import annotations
 
@@ -46,6 +45,7 @@ SEEDS = (0, 1, 2)
 HANDLINGS = (0, 1, 2)  # radial, joint, accel
 INITIAL_DESIGN = 8  # the nominal design and a Latin hypercube, before the sampler models anything
 PRUNE_AFTER = 2  # training points every trial runs before it may be pruned (one of each kind)
+PRUNE_PERCENTILE = 25.0  # a trial continues while its running criterion is among this best % of complete trials
 STOP_TIME = 20.0  # s, each training run (as long as the held-out runs)
 TRAINING_SEED = 2026
 TRAINING_NOISE_SEED = 1001  # the held-out sets use noise seeds 1..16
