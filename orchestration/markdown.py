@@ -46,3 +46,26 @@ def replace_block(text: str, name: str, content: str) -> str:
     if block_pattern(name).search(text) is None:
         return text.rstrip("\n") + f"\n\n<!-- BEGIN generated:{name} -->\n{content}<!-- END generated:{name} -->\n"
     return block_pattern(name).sub(lambda m: m.group(1) + content + m.group(3), text)
+
+
+def stable(value: Any, other: Any, spec: str = ".4g") -> str:
+    """``value`` to at most ``spec``'s significant digits, and to no more than it shares with ``other``,
+    the same figure after a tiny change of the initial state (``comparison.NUDGE``): only the digits
+    that reproduce. A figure whose first digit already moves is printed as '~' and that digit."""
+    if other is None or value is None or isinstance(value, (bool, int)) or type(value).__name__.startswith(("int", "uint")):
+        return number(value, spec) if value == other else f"{number(value, spec)} (or {number(other, spec)})"
+    a, b = float(value), float(other)
+    if not (math.isfinite(a) and math.isfinite(b)):
+        return number(a, spec)
+    digits = int(spec.strip(".g"))
+    for d in range(digits, 0, -1):
+        if format(a, f".{d}g") == format(b, f".{d}g"):
+            return format(a, f".{d}g")
+    return "~" + format(a, ".1g")
+
+
+def stable_pair(values: Sequence[Any] | None, others: Sequence[Any] | None, spec: str = ".4g") -> str:
+    """Two joints' values as 'a / b', each to its reproducible digits (``stable``)."""
+    if values is None or others is None:
+        return pair(values, spec)
+    return f"{stable(values[0], others[0], spec)} / {stable(values[1], others[1], spec)}"

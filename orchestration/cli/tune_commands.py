@@ -58,8 +58,15 @@ class _Listener:
     def started(self, outcome, total: int) -> None:
         from orchestration.progress import Progress
 
+        import importlib.machinery
+
+        import fmu_controller.sotc
+
+        compiled = fmu_controller.sotc.__file__.endswith(tuple(importlib.machinery.EXTENSION_SUFFIXES))
+        cores = ("compiled" if compiled else
+                 "Python (an editable install, or SOTC_COSIM_COMPILE=0 at install: about half as fast)")
         print(f"tune: {outcome.searches} searches, {total} trials, {outcome.trials_before} already in "
-              f"{self.out.with_suffix('.journal')}, the rest on {self.where}", flush=True)
+              f"{self.out.with_suffix('.journal')}, the rest on {self.where}; cores {cores}", flush=True)
         self.progress = Progress(total, "tune", 1, skipped=outcome.trials_before)
 
     def trial(self, search: str) -> None:

@@ -27,17 +27,18 @@ from orchestration.outputs import atomic_write
 from orchestration.bench.speed import DOC_BLOCKS as SPEED_BLOCKS
 from orchestration.bench.speed import MEASUREMENT as SPEED_MEASUREMENT
 from orchestration.bench.speed import stored_block
-from orchestration.markdown import block_pattern, number, pair, replace_block, table
+from orchestration.markdown import block_pattern, number, replace_block, stable, stable_pair, table
 from orchestration.reports import fair_tables
 from orchestration.study.comparison import (
     COMPARED,
+    NUDGE,
     OTC_VARIANTS,
     PAPER_TABLE1,
     chaos_text,
     controller_of,
     handling_name,
     mse_sum,
-    run_metrics,
+    run_pair,
     tuned_metrics,
 )
 from orchestration.study import tuning
@@ -58,11 +59,15 @@ METRIC_HEADER = ["MSE j1 / j2", "MSE t >= 5 s", "MSE after last limit sample (t)
                  "samples over 4 N.m", "max ‖tau‖"]
 
 
-def metric_cells(m: dict[str, Any]) -> list[str]:
+def metric_cells(m: dict[str, Any], n: dict[str, Any]) -> list[str]:
+    """Table cells of the metrics m of a run, each figure to the digits it shares with the metrics n of
+    the same run from initial angles changed by ``comparison.NUDGE`` (``run_pair``)."""
     last = m["last_limit_time"]
-    after = f"{pair(m['mse_after_limit'], '.3g')} ({'limit never acts' if last is None else number(last, '.3g') + ' s'})"
-    return [pair(m["mse"]), pair(m["mse_after_5s"], ".3g"), after, number(m["tracking_cost"], ".4g"),
-            number(m["samples_over_limit"]), number(m["max_tau_norm"], ".4g")]
+    when = "limit never acts" if last is None else stable(last, n["last_limit_time"], ".3g") + " s"
+    after = f"{stable_pair(m['mse_after_limit'], n['mse_after_limit'], '.3g')} ({when})"
+    return [stable_pair(m["mse"], n["mse"]), stable_pair(m["mse_after_5s"], n["mse_after_5s"], ".3g"), after,
+            stable(m["tracking_cost"], n["tracking_cost"]), stable(m["samples_over_limit"], n["samples_over_limit"]),
+            stable(m["max_tau_norm"], n["max_tau_norm"])]
 
 
 # --- the blocks -------------------------------------------------------------------------------------
@@ -77,8 +82,8 @@ def handlings_table() -> str:
     for scenario, codes in COMPARED:
         fmu, _ = controller_of(scenario)
         for code in codes:
-            m = run_metrics(scenario, limit_handling=code)
-            rows.append([LABELS[fmu], f"`{scenario}`", handling_name(scenario, limit_handling=code), *metric_cells(m)])
+            rows.append([LABELS[fmu], f"`{scenario}`", handling_name(scenario, limit_handling=code),
+                         *metric_cells(*run_pair(scenario, limit_handling=code))])
     return table(["controller", "scenario", "limit handling", *METRIC_HEADER], rows)
 
 
@@ -86,7 +91,7 @@ def reading_cells(scenario: str, **overrides: float) -> list[str]:
     """``metric_cells`` of an SOTC reading, or, for a chaotic one (Table 1's metric moves by more than
     ``CHAOS_THRESHOLD`` when the PE amplitude moves by ``PE_NUDGE`` or the RK4 substeps double), what is
     reproducible about it: the lower bound of its MSE and the sensitivity."""
-    cells = metric_cells(run_metrics(scenario, **overrides))
+    cells = metric_cells(*run_pair(scenario, **overrides))
     chaos = chaos_text(scenario, **overrides)
     if chaos is not None:
         cells[:4] = [chaos, "-", "-", "-"]
@@ -107,14 +112,14 @@ def results_table() -> str:
         label = "SOTC, chosen reading" if sotc else f"{LABELS[fmu]} (scenario defaults)"
         for code in codes:
             cells = reading_cells(scenario, limit_handling=code) if sotc else metric_cells(
-                run_metrics(scenario, limit_handling=code))
+                *run_pair(scenario, limit_handling=code))
             rows.append([label, f"`{scenario}`", handling_name(scenario, limit_handling=code), *cells])
     for fmu in CONTROLLERS:
         for code in (2, 0):
             design, m = tuned_metrics(fmu, code)
             rows.append([f"{LABELS[fmu]}, tuned (seed {tuning.stored()['seeds'][0]}: {fair_tables.design_text(design)})",
                          f"`{NOMINAL_SCENARIO[fmu]}`",
-                         LIMIT_HANDLINGS[code], *metric_cells(m)])
+                         LIMIT_HANDLINGS[code], *metric_cells(m, tuned_metrics(fmu, code, nudge=NUDGE)[1])])
     return table(["controller / reading", "scenario", "limit handling", *METRIC_HEADER], rows)
 
 
@@ -127,6 +132,14 @@ def _reading_label(scenario: str, overrides: dict[str, float]) -> str:
     return f"`{scenario}` ({h}{_ADDED.get(h, '')}{learning})"
 
 
+def mse(m: dict[str, Any], n: dict[str, Any]) -> str:
+    return stable_pair(m["mse"], n["mse"])
+
+
+def cost(m: dict[str, Any], n: dict[str, Any]) -> str:
+    return stable(m["tracking_cost"], n["tracking_cost"])
+
+
 def results_verdict() -> str:
     """The plain sentences under the README table: which readings reach Table 1 and at what cost,
     whether the critic's learning is what reaches it, and whether a baseline given the SOTC's limit
@@ -135,35 +148,36 @@ def results_verdict() -> str:
     sotc_codes = next(codes for scenario, codes in COMPARED if scenario == "paper")
     candidates = [(s, {}) for s in LITERAL_SCENARIOS] + [("paper", {"limit_handling": c}) for c in sotc_codes]
     candidates.append(("paper", dict(NO_LEARNING)))
-    measured = [(s, o, run_metrics(s, **o)) for s, o in candidates]
+    measured = [(s, o, *run_pair(s, **o)) for s, o in candidates]
 
     def within(m):
         return m["mse"][0] <= 1.3 * paper[0] and m["mse"][1] <= 1.3 * paper[1]
 
-    def text(s, o, m):
+    def text(s, o, m, n):
         chaos = chaos_text(s, **o)
         if chaos is not None:
             return f"{_reading_label(s, o)}: {chaos}"
-        return f"{_reading_label(s, o)}: MSE {pair(m['mse'])}, realised cost {number(m['tracking_cost'])}"
+        return f"{_reading_label(s, o)}: MSE {mse(m, n)}, realised cost {cost(m, n)}"
 
-    reach = [text(s, o, m) for s, o, m in measured if within(m)]
-    miss = [text(s, o, m) for s, o, m in measured if not within(m)]
-    chosen = run_metrics("paper")
-    learned_off = run_metrics("paper", **NO_LEARNING)
+    reach = [text(s, o, m, n) for s, o, m, n in measured if within(m)]
+    miss = [text(s, o, m, n) for s, o, m, n in measured if not within(m)]
+    chosen, chosen_n = run_pair("paper")
+    learned_off, off_n = run_pair("paper", **NO_LEARNING)
     lines = [
         f"Within 30 % of Table 1's {paper[0]} / {paper[1]}: {'; '.join(reach) or 'none'}. "
         f"Not within: {'; '.join(miss) or 'none'}.",
         f"The critic's learning is not what reaches Table 1: with it switched off, `paper` gives MSE "
-        f"{pair(learned_off['mse'])} and realised cost {number(learned_off['tracking_cost'])}, against "
-        f"{pair(chosen['mse'])} and {number(chosen['tracking_cost'])} with learning; the match rests on the "
+        f"{mse(learned_off, off_n)} and realised cost {cost(learned_off, off_n)}, against "
+        f"{mse(chosen, chosen_n)} and {cost(chosen, chosen_n)} with learning; the match rests on the "
         "feedforward (4) and how the bound (5) is handled."
         if within(learned_off) else
         f"Switching the critic's learning off (alpha1 = alpha2 = 1e-9) moves `paper` out of Table 1's range: "
-        f"MSE {pair(learned_off['mse'])}, realised cost {number(learned_off['tracking_cost'])}."]
+        f"MSE {mse(learned_off, off_n)}, realised cost {cost(learned_off, off_n)}."]
     tuned = sorted(((fmu, *tuned_metrics(fmu, 2)) for fmu in CONTROLLERS), key=lambda t: mse_sum(t[2]))
     lines.append("On the paper's nominal `paper` loop (100 s, not in the tuning's training set; accel for every "
                  "controller, each at the best design of the first tuning seed), Table 1's metric ranks them: " + "; ".join(
-                     f"{LABELS[fmu]} {pair(m['mse'])} (cost {number(m['tracking_cost'])})" for fmu, _, m in tuned)
+                     f"{LABELS[fmu]} {mse(m, n)} (cost {cost(m, n)})" for fmu, _, m in tuned
+                     for n in [tuned_metrics(fmu, 2, nudge=NUDGE)[1]])
                  + ". Judged on points the tuning never saw, across the tuning seeds, see the paired statistics below.")
     return "\n".join(f"- {line}" for line in lines)
 
@@ -179,22 +193,22 @@ def nominal_tuned_table() -> str:
             if fmu == "SotcController":
                 variants += [(f"{d}, learning off", {**ov, **NO_LEARNING}) for d, ov in variants]
             for what, overrides in variants:
-                m = run_metrics(scenario, limit_handling=code, **overrides)
-                rows.append([LIMIT_HANDLINGS[code], LABELS[fmu], what, *metric_cells(m)])
+                rows.append([LIMIT_HANDLINGS[code], LABELS[fmu], what,
+                             *metric_cells(*run_pair(scenario, limit_handling=code, **overrides))])
     return table(["limit handling", "controller", "design", *METRIC_HEADER], rows)
 
 
 def settings_table() -> str:
     from orchestration.study.sotc_study import sotc_settings
 
-    rows = [[f"`{s}`", handling_name(s), *metric_cells(run_metrics(s))] for s in sotc_settings()]
+    rows = [[f"`{s}`", handling_name(s), *metric_cells(*run_pair(s))] for s in sotc_settings()]
     return table(["setting", "limit handling", *METRIC_HEADER], rows)
 
 
 def readings_table() -> str:
     from orchestration.study.sotc_study import READINGS
 
-    rows = [[label, _params_text("paper", ov), *metric_cells(run_metrics("paper", **ov))] for label, ov in READINGS]
+    rows = [[label, _params_text("paper", ov), *metric_cells(*run_pair("paper", **ov))] for label, ov in READINGS]
     return table(["reading", "parameters", *METRIC_HEADER], rows)
 
 
@@ -230,7 +244,7 @@ def learned_w_table() -> str:
 
 
 def otc_table() -> str:
-    rows = [[label, *metric_cells(run_metrics("paper-otc", **ov))] for label, ov in OTC_VARIANTS]
+    rows = [[label, *metric_cells(*run_pair("paper-otc", **ov))] for label, ov in OTC_VARIANTS]
     return table(["OTC variant", *METRIC_HEADER], rows)
 
 

@@ -185,20 +185,3 @@ def store(path: Path, controllers, handlings, seeds, budget: int) -> dict[str, A
     out["trial_seconds"] = round(sum(r["trial_seconds"] for r in records), 1)
     return out
 
-
-def main(argv: list[str] | None = None) -> int:
-    """``python -m orchestration.study.optimize JOURNAL FMU HANDLING SEED BUDGET``: one search (the child
-    interpreter of ``orchestration.sweep.compiled_search``); prints how many trials ran."""
-    import sys
-
-    journal, fmu, handling, seed, budget = argv if argv is not None else sys.argv[1:]
-    try:
-        print(run_search(Path(journal), fmu, int(handling), int(seed), int(budget)))
-    except JournalError as exc:
-        print(exc, file=sys.stderr)
-        return 2
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -90,13 +90,16 @@ class LoopResult:
         return self.outputs[:, :2]
 
 
+PAPER_PHI0 = (0.5, -0.5)  # rad: section 4's initial angles (the plant FMU's phi1_0, phi2_0 defaults)
+
+
 def simulate(
     controller_core: ControllerCore,
     stop_time: float = 100.0,
     step: float = 0.01,
     arm: ArmParameters | None = None,
     trajectory: CircleTrajectory | None = None,
-    phi0: tuple[float, float] = (0.5, -0.5),
+    phi0: tuple[float, float] = PAPER_PHI0,
     dphi0: tuple[float, float] = (0.0, 0.0),
     substeps: int = 4,
     perturbation: Perturbation = NO_PERTURBATION,

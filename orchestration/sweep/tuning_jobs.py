@@ -1,6 +1,6 @@
 """The tuning searches on Dask, like a sweep's points: one task per search (controller, limit handling,
-seed; ``orchestration.study.optimize.run_search``, on compiled cores where they can be built:
-``orchestration.sweep.compiled_search``), all sharing one Optuna journal file, so they need a
+seed; ``orchestration.study.optimize.run_search``; the cores compiled where the installed wheel
+compiled them, setup.py), all sharing one Optuna journal file, so they need a
 file system the workers share with the client (a local cluster's always do). The client follows the
 journal for progress, writes the store when the searches end or Ctrl-C stops them, and tells how to
 resume."""
@@ -16,7 +16,6 @@ from pathlib import Path
 from orchestration.outputs import atomic_write, private_folder
 from orchestration.run import interrupt
 from orchestration.study import optimize
-from orchestration.sweep import compiled_search
 from orchestration.sweep.runner import _client, _shutdown
 
 POLL_S = 1.0  # how often the client reads the journal for progress and looks for Ctrl-C
@@ -85,7 +84,7 @@ def _run(journal, todo, budget, workers, scheduler, names, before, listener) -> 
     seen, stopped, ended = dict(before), False, False
     try:
         client, cluster = _client(scheduler, workers, scratch)
-        futures = [client.submit(compiled_search.run_search, journal.resolve(), fmu, h, s, budget, pure=False,
+        futures = [client.submit(optimize.run_search, journal.resolve(), fmu, h, s, budget, pure=False,
                                  key=f"tune-{optimize.study_name(fmu, h, s)}-{scratch}") for fmu, h, s in todo]
         while not stopped:
             stopped = interrupt.requested()

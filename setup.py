@@ -1,0 +1,53 @@
+"""The wheel, with the hot cores compiled where the build can.
+
+Wherever Cython and a C compiler are found at install time, the modules of
+``orchestration/fmu_build/compiled.py``'s ``HOT`` list are compiled from the same ``.py`` files, typed
+by the ``.pxd`` beside each, with the same flags as the FMUs' cores (no fused multiply-add), so the
+in-process studies (the pure loop of tuning, the fair evaluation, the docs' tables) run them as C and
+get the bits of the ``.py``. Each extension is optional: a failed compile leaves that module Python.
+An editable install (``pip install -e``) and ``SOTC_COSIM_COMPILE=0`` compile nothing, so the ``.py``
+being edited is always what runs.
+"""
+import importlib.util
+import sys
+from pathlib import Path
+
+from setuptools import Extension, setup
+from setuptools.command.build_ext import build_ext
+
+HERE = Path(__file__).resolve().parent
+_spec = importlib.util.spec_from_file_location("_sotc_compiled", HERE / "orchestration" / "fmu_build" / "compiled.py")
+compiled = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(compiled)
+
+
+class OptionalBuildExt(build_ext):
+    """Skips the extensions in an editable install, and any one that fails to compile."""
+
+    def run(self):
+        if getattr(self, "editable_mode", False) or self.inplace:
+            self.extensions = []
+        super().run()
+
+    def build_extension(self, ext):
+        try:
+            super().build_extension(ext)
+        except Exception as exc:  # no compiler, no headers: that module stays Python
+            print(f"sotc-cosim: {ext.name} stays Python ({exc})", file=sys.stderr)
+
+
+def hot_extensions() -> list:
+    if not compiled.requested():
+        return []
+    try:
+        from Cython.Build import cythonize
+    except ImportError:
+        return []
+    flags = compiled.CFLAGS.split()
+    modules = [Extension(rel[:-3].replace("/", "."), [rel], extra_compile_args=flags, optional=True)
+               for rel in compiled.HOT]
+    return cythonize(modules, build_dir="build/cython", quiet=True,
+                     compiler_directives={"language_level": 3, "annotation_typing": False})
+
+
+setup(ext_modules=hot_extensions(), cmdclass={"build_ext": OptionalBuildExt})

@@ -1,0 +1,77 @@
+"""One result on every machine (issue N): the reference runs of ``support/bit_runs.py`` give the same
+bits under every OpenBLAS kernel and with numpy's CPU dispatch limited, for the compiled and the
+Python build of the cores, and equal the stored ``tests/data/reference_bits.json``.
+
+A kernel is forced with ``OPENBLAS_CORETYPE`` (numpy's and scipy's OpenBLAS both read it); numpy's own
+SIMD loops are held to the baseline with ``NPY_DISABLE_CPU_FEATURES`` (the features this machine's numpy
+dispatches to beyond it). The compiled build is the installed package (its pure loop) and the default
+FMU build; the Python build is the source tree's ``.py`` on PYTHONPATH and the FMUs built with
+``SOTC_COSIM_COMPILE=0``."""
+from __future__ import annotations
+
+import json
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy._core._multiarray_umath as numpy_dispatch
+import pytest
+from support.bit_runs import DATA
+
+from orchestration.fmu_build.build import compiles
+
+REPO = Path(__file__).resolve().parents[2]
+SCRIPT = REPO / "tests" / "support" / "bit_runs.py"
+KERNELS = ("Prescott", "Sandybridge", "Haswell", "SkylakeX", "Zen")
+NUMPY_BASELINE = " ".join(numpy_dispatch.__cpu_dispatch__)  # every target beyond numpy's compiled-in baseline
+ENVIRONMENTS = {**{k: {"OPENBLAS_CORETYPE": k} for k in KERNELS}, "numpy baseline": {"NPY_DISABLE_CPU_FEATURES": NUMPY_BASELINE}}
+REFERENCE = json.loads((DATA / "reference_bits.json").read_text())
+
+
+def first_difference(got: dict, want: dict) -> str | None:
+    for case in sorted(set(got) | set(want)):
+        if case not in got or case not in want:
+            return f"{case}: only in {'the run' if case in got else 'the reference'}"
+        for key in sorted(set(got[case]) | set(want[case])):
+            a, b = got[case].get(key), want[case].get(key)
+            if a != b:
+                return (f"{case} / {key}: {float.fromhex(a) if a else None!r} here, "
+                        f"{float.fromhex(b) if b else None!r} stored")
+    return None
+
+
+def bits(environment: dict[str, str], build: str, fmu_dir: Path) -> dict:
+    env = {k: v for k, v in os.environ.items() if k not in ("OPENBLAS_CORETYPE", "NPY_DISABLE_CPU_FEATURES")}
+    env.pop("PYTHONPATH", None)
+    if build == "python":
+        env["PYTHONPATH"] = str(REPO)  # the source tree's .py before the installed (compiled) package
+    proc = subprocess.run([sys.executable, str(SCRIPT), str(fmu_dir)], env=env | environment, capture_output=True,
+                          text=True, timeout=900, cwd=REPO)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    return json.loads(proc.stdout)
+
+
+def python_fmu_dir(python_fmu_paths) -> Path:
+    return next(iter(python_fmu_paths.values())).parent
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("environment", list(ENVIRONMENTS))
+@pytest.mark.parametrize("build", ["compiled", "python"])
+def test_reference_runs_have_the_same_bits_everywhere(environment, build, fmu_dir, request):
+    if build == "compiled" and not compiles():
+        pytest.skip("no compiled build here (Cython or a C compiler missing): the Python build is the one tested")
+    folder = fmu_dir if build == "compiled" else python_fmu_dir(request.getfixturevalue("python_fmu_paths"))
+    difference = first_difference(bits(ENVIRONMENTS[environment], build, folder), REFERENCE)
+    assert difference is None, f"{environment}, {build} build: {difference}"
+
+
+def test_a_changed_bit_is_reported():
+    case = sorted(REFERENCE)[0]
+    key = sorted(REFERENCE[case])[0]
+    value = float.fromhex(REFERENCE[case][key])
+    doctored = {**REFERENCE, case: {**REFERENCE[case], key: math.nextafter(value, math.inf).hex()}}
+    assert first_difference(doctored, REFERENCE).startswith(f"{case} / {key}")
+    assert first_difference(REFERENCE, REFERENCE) is None

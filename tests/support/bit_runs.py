@@ -1,0 +1,83 @@
+"""The runs whose bits must not depend on the CPU (issue N), as a child process of
+``tests/orchestration/test_cpu_independence.py``:
+
+    python tests/support/bit_runs.py FMU_DIR            # prints {case: {metric: float.hex()}} as JSON
+    python tests/support/bit_runs.py FMU_DIR --write    # stores it as tests/data/reference_bits.json
+
+The cases: every shipped scenario's controller under every limit handling it accepts and every
+controller's tuned design under every handling, GRID_TIME seconds in the pure loop (probing, the CL
+stack filling and its first swaps); 100 s of ``paper`` and of its radial variant through the FMUs of
+FMU_DIR (its build decides whether their cores are compiled). The pure loop runs
+whatever ``fmu_controller`` this interpreter imports (the installed, compiled package, or the source
+tree's ``.py`` with PYTHONPATH set to it).
+"""
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+DATA = Path(__file__).resolve().parents[1] / "data"
+GRID_TIME = 3.0  # s of each grid run
+RADIAL = 0.0  # the limit_handling code of radial (fmu_controller.saturation.RADIAL)
+
+
+def _hex_leaves(metrics: dict) -> dict[str, str]:
+    from support.reference_runs import flatten
+
+    return {k: v.hex() for k, v in flatten(metrics).items()}
+
+
+def _handlings(fmu: str) -> range:
+    from fmu_controller.catalog import CORES
+
+    spec = {s.name: s for s in CORES[fmu].PARAMETER_SPECS}["limit_handling"]
+    return range(int(spec.low), int(spec.high) + 1)
+
+
+def pure_loop_cases() -> dict[str, dict[str, str]]:
+    from fmu_controller.catalog import CORES
+    from orchestration.run.scenario import available_scenarios
+    from orchestration.study.comparison import controller_of, run_metrics, tuned_metrics
+
+    out = {}
+    for name in available_scenarios():
+        for code in _handlings(controller_of(name)[0]):
+            out[f"loop {name} handling {code}"] = _hex_leaves(run_metrics(name, GRID_TIME, limit_handling=float(code)))
+    for fmu in CORES:
+        for code in (0, 1, 2):
+            out[f"loop tuned {fmu} handling {code}"] = _hex_leaves(tuned_metrics(fmu, code, GRID_TIME)[1])
+    return out
+
+
+def fmu_cases(fmu_dir: Path) -> dict[str, dict[str, str]]:
+    from support.reference_runs import comparable_summary
+
+    from orchestration.run.master import run
+    from orchestration.run.scenario import load_scenario
+    from orchestration.run.summary import summarize
+
+    paths = {p.stem: p for p in fmu_dir.glob("*.fmu")}
+    out = {}
+    for label, overrides in (("fmu paper 100 s", {}), ("fmu paper radial 100 s", {"controller.limit_handling": RADIAL})):
+        scenario = load_scenario("paper").with_parameters(overrides)  # 100 s, its stop time
+        result = run(scenario, paths)
+        if result.failed:
+            raise SystemExit(f"{label}: {result.error}")
+        out[label] = _hex_leaves(comparable_summary(summarize(result)))
+    return out
+
+
+def main(argv: list[str]) -> int:
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # tests/, for support.*
+    cases = {**pure_loop_cases(), **fmu_cases(Path(argv[0]))}
+    text = json.dumps(cases, indent=0, sort_keys=True)
+    if argv[1:] == ["--write"]:
+        (DATA / "reference_bits.json").write_text(text + "\n")
+    else:
+        print(text)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main(sys.argv[1:]))
