@@ -52,7 +52,8 @@ def handling(text: str) -> int:
 
 class _Listener:
     def __init__(self, out: Path, workers: int | None, scheduler: str | None):
-        self.out, self.where = out, scheduler or f"a local Dask cluster of {workers or os.cpu_count()} worker processes"
+        self.workers = workers or os.cpu_count() or 1
+        self.out, self.where = out, scheduler or f"a local Dask cluster of {self.workers} worker processes"
         self.progress = None
 
     def started(self, outcome, total: int) -> None:
@@ -67,7 +68,7 @@ class _Listener:
                  "Python (an editable install, or SOTC_COSIM_COMPILE=0 at install: about half as fast)")
         print(f"tune: {outcome.searches} searches, {total} trials, {outcome.trials_before} already in "
               f"{self.out.with_suffix('.journal')}, the rest on {self.where}; cores {cores}", flush=True)
-        self.progress = Progress(total, "tune", 1, skipped=outcome.trials_before)
+        self.progress = Progress(total, "tune", self.workers, skipped=outcome.trials_before)
 
     def trial(self, search: str) -> None:
         self.progress.update(True, search)

@@ -65,8 +65,13 @@ def tuning_summary() -> str:
         + f"; the largest last-half improvement is {100 * last_half_improvement(worst[3]['criterion']):.2f} % "
         f"({LABELS[worst[0]]} {worst[1]} seed {worst[2]}).",
         f"- Cost: {hours:.2f} h of trials (the sum of every trial's wall time, pruned trials stopping early), "
-        f"run from {min(r['started'] for *_, r in _searches())} to {max(r['finished'] for *_, r in _searches())} UTC "
+        f"run from {_clock(min(r['started'] for *_, r in _searches()))} to "
+        f"{_clock(max(r['finished'] for *_, r in _searches()))} UTC "
         f"on this 2-core machine shared with other work ({data['sampler']})."])
+
+
+def _clock(iso: str) -> str:
+    return iso[:16].replace("T", " ")
 
 
 def _cell(i: Interval) -> str:
@@ -105,8 +110,7 @@ def _pairs(seeds: list) -> list[tuple[str, str]]:
 
 
 def _family_text(m: int) -> str:
-    return (f"{m} verdicts, each interval at {100 * level(m):.3g} % (Bonferroni: all {m} hold together with "
-            f"at least 95 %)")
+    return f"each interval at {100 * level(m):.5g} % (Bonferroni: all {m} hold together with at least 95 %)"
 
 
 def paired_table(root: Path) -> str:
@@ -126,7 +130,7 @@ def paired_table(root: Path) -> str:
                     cells += [_ratio(v), v.verdict]
                 rows.append([which, handling, f"{a} vs {b}", *cells])
     header = ["set", "limit handling", "A vs B"] + [c for name in MEASURES for c in (f"{name}: A / B", f"{name}: A is")]
-    return f"Family: every verdict of this table, {_family_text(m)}.\n\n" + table(header, rows)
+    return f"Family: the {m} verdicts of this table, {_family_text(m)}.\n\n" + table(header, rows)
 
 
 def _across(verdicts: dict, what: str) -> str:
@@ -152,7 +156,7 @@ def verdict(root: Path) -> str:
     def v(a, b, which, name):
         return paired(measure(data, VERDICT_HANDLING, a, which, name), measure(data, VERDICT_HANDLING, b, which, name), m)
 
-    lines = [f"Family: the {m} verdicts below ({_family_text(m)}); a verdict holds only where every tuning seed "
+    lines = [f"Family: the {m} verdicts below, {_family_text(m)}; a verdict holds only where every tuning seed "
              "gives it."]
     for which in SETS:
         parts = []
