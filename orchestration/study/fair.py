@@ -19,8 +19,10 @@ tests/fmu/test_pure_loop_perturbed.py). Measures, stated before the runs: Table 
 (eq. (50)) over the run, and the post-transient error max_i max |e_i| over its last half. The
 statistics are ``orchestration.study.statistics``.
 
-``python -m orchestration.study.fair`` runs everything and stores ``docs/fair/evaluation.json`` with
-one box plot per set and measure; the tables in docs/ and README are generated from the stored file
+``python -m orchestration.study.fair`` runs everything and stores ``docs/fair/evaluation.json`` (with
+each configuration's parameters, so ``--reuse`` keeps the runs of those that did not change, and
+``--controllers`` evaluates in stages while other searches still run) with one box plot per set and
+measure; the tables in docs/ and README are generated from the stored file
 (``orchestration.reports.fair_tables``), and a test re-runs a sample of it.
 """
 from __future__ import annotations
@@ -56,11 +58,11 @@ def tuned_label(fmu: str, seed: int) -> str:
     return f"{LABELS[fmu]} tuned, seed {seed}"
 
 
-def configurations(handling: int) -> dict[str, tuple[str, dict[str, float]]]:
+def configurations(handling: int, controllers=CONTROLLERS) -> dict[str, tuple[str, dict[str, float]]]:
     """label -> (controller FMU, parameters) of every configuration compared under one handling: each
     controller nominal and tuned by each seed of the stored search (the SOTC also with learning off)."""
     out = {}
-    for fmu in CONTROLLERS:
+    for fmu in controllers:
         nominal = {**nominal_parameters(fmu), "limit_handling": float(handling)}
         designs = {f"{LABELS[fmu]} nominal": nominal}
         designs |= {tuned_label(fmu, s): {**nominal, **tuned_parameters(fmu, handling, s)} for s in stored_tuning()["seeds"]}
@@ -76,23 +78,33 @@ def run_point(fmu: str, params: dict[str, float], point: dict[str, Any]) -> dict
     return points.run_point(fmu, params, point, EVAL_STOP_TIME)
 
 
-def _job(job: tuple[int, str, str, int]) -> tuple[int, str, str, int, dict]:
-    handling, label, which, i = job
-    fmu, params = configurations(handling)[label]
+def _job(job: tuple) -> tuple:
+    handling, label, fmu, params, which, i = job
     return handling, label, which, i, run_point(fmu, params, evaluation_points(which)[i])
 
 
-def evaluate(workers: int = 2) -> dict[str, Any]:
-    jobs = [(h, label, which, i) for h in HANDLINGS for label in configurations(h) for which in SETS
-            for i in range(N_POINTS)]
-    with ProcessPoolExecutor(max_workers=workers) as pool:
-        done = list(pool.map(_job, jobs, chunksize=8))
+def evaluate(workers: int = 2, controllers=CONTROLLERS, previous: dict[str, Any] | None = None) -> dict[str, Any]:
+    """Every configuration of ``controllers`` on both held-out sets. The runs of a configuration whose
+    parameters equal those it has in ``previous`` (a stored evaluation) are taken from there: an
+    evaluation can go in stages, each controller as soon as its tuning searches are finished."""
+    old = previous if previous and "configurations" in previous else {"configurations": {}, "runs": {}}
     runs: dict[str, Any] = {}
-    for h, label, which, i, m in done:
-        cell = runs.setdefault(LIMIT_HANDLINGS[h], {}).setdefault(label, {}).setdefault(which, [None] * N_POINTS)
-        cell[i] = m
+    params_of: dict[str, Any] = {}
+    jobs = []
+    for h in HANDLINGS:
+        handling = LIMIT_HANDLINGS[h]
+        for label, (fmu, params) in configurations(h, controllers).items():
+            params_of.setdefault(handling, {})[label] = params
+            if old["configurations"].get(handling, {}).get(label) == params:
+                runs.setdefault(handling, {})[label] = old["runs"][handling][label]
+                continue
+            runs.setdefault(handling, {})[label] = {which: [None] * N_POINTS for which in SETS}
+            jobs += [(handling, label, fmu, params, which, i) for which in SETS for i in range(N_POINTS)]
+    with ProcessPoolExecutor(max_workers=workers) as pool:
+        for handling, label, which, i, m in pool.map(_job, jobs, chunksize=8):
+            runs[handling][label][which][i] = m
     return {"n_points": N_POINTS, "seed": EVAL_SEED, "stop_time": EVAL_STOP_TIME, "seeds": stored_tuning()["seeds"],
-            "points": {which: evaluation_points(which) for which in SETS}, "runs": runs}
+            "points": {which: evaluation_points(which) for which in SETS}, "configurations": params_of, "runs": runs}
 
 
 def stored(root: Path) -> dict[str, Any]:
@@ -136,11 +148,16 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--root", type=Path, default=Path(__file__).resolve().parents[2], help="the source checkout")
     ap.add_argument("--plots-only", action="store_true", help="redraw the plots from the stored runs")
+    ap.add_argument("--controllers", nargs="+", choices=CONTROLLERS, default=list(CONTROLLERS),
+                    help="evaluate only these (a stage: the others are left out of the store)")
+    ap.add_argument("--reuse", action="store_true",
+                    help="keep the stored runs of every configuration whose parameters did not change")
     args = ap.parse_args(argv)
     if args.plots_only:
         data = stored(args.root)
     else:
-        data = evaluate(args.workers)
+        previous = stored(args.root) if args.reuse and (args.root / STORE).is_file() else None
+        data = evaluate(args.workers, args.controllers, previous)
         (args.root / STORE.parent).mkdir(parents=True, exist_ok=True)
         atomic_write(args.root / STORE, json.dumps(data, indent=1) + "\n")
     for path in [args.root / STORE, *plot(data, args.root)]:
