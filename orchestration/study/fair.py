@@ -85,8 +85,9 @@ def _job(job: tuple) -> tuple:
 
 def evaluate(workers: int = 2, controllers=CONTROLLERS, previous: dict[str, Any] | None = None) -> dict[str, Any]:
     """Every configuration of ``controllers`` on both held-out sets. The runs of a configuration whose
-    parameters equal those it has in ``previous`` (a stored evaluation) are taken from there: an
-    evaluation can go in stages, each controller as soon as its tuning searches are finished."""
+    parameters equal those it has in ``previous`` (a stored evaluation) are taken from there, and its
+    other configurations are kept: an evaluation can go in stages, each controller as soon as its tuning
+    searches are finished."""
     old = previous if previous and "configurations" in previous else {"configurations": {}, "runs": {}}
     runs: dict[str, Any] = {}
     params_of: dict[str, Any] = {}
@@ -103,6 +104,11 @@ def evaluate(workers: int = 2, controllers=CONTROLLERS, previous: dict[str, Any]
     with ProcessPoolExecutor(max_workers=workers) as pool:
         for handling, label, which, i, m in pool.map(_job, jobs, chunksize=8):
             runs[handling][label][which][i] = m
+    for handling, stored_runs in old["runs"].items():  # a stage: the other controllers' runs stay
+        for label, cell in stored_runs.items():
+            if label not in runs.get(handling, {}):
+                runs.setdefault(handling, {})[label] = cell
+                params_of.setdefault(handling, {})[label] = old["configurations"][handling][label]
     return {"n_points": N_POINTS, "seed": EVAL_SEED, "stop_time": EVAL_STOP_TIME, "seeds": stored_tuning()["seeds"],
             "points": {which: evaluation_points(which) for which in SETS}, "configurations": params_of, "runs": runs}
 
@@ -149,7 +155,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--root", type=Path, default=Path(__file__).resolve().parents[2], help="the source checkout")
     ap.add_argument("--plots-only", action="store_true", help="redraw the plots from the stored runs")
     ap.add_argument("--controllers", nargs="+", choices=CONTROLLERS, default=list(CONTROLLERS),
-                    help="evaluate only these (a stage: the others are left out of the store)")
+                    help="evaluate only these (a stage: with --reuse, the stored runs of the others stay)")
     ap.add_argument("--reuse", action="store_true",
                     help="keep the stored runs of every configuration whose parameters did not change")
     args = ap.parse_args(argv)
