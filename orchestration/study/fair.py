@@ -104,9 +104,10 @@ def evaluate(workers: int = 2, controllers=CONTROLLERS, previous: dict[str, Any]
     with ProcessPoolExecutor(max_workers=workers) as pool:
         for handling, label, which, i, m in pool.map(_job, jobs, chunksize=8):
             runs[handling][label][which][i] = m
+    others = {LABELS[f] for f in CONTROLLERS if f not in controllers}
     for handling, stored_runs in old["runs"].items():  # a stage: the other controllers' runs stay
         for label, cell in stored_runs.items():
-            if label not in runs.get(handling, {}):
+            if label.split()[0] in others:
                 runs.setdefault(handling, {})[label] = cell
                 params_of.setdefault(handling, {})[label] = old["configurations"][handling][label]
     return {"n_points": N_POINTS, "seed": EVAL_SEED, "stop_time": EVAL_STOP_TIME, "seeds": stored_tuning()["seeds"],
