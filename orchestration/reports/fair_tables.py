@@ -52,18 +52,22 @@ def tuning_summary() -> str:
     """The budget, whether every search converged by the stated rule, and what the stored study cost."""
     data = stored_tuning()
     worst = max(_searches(), key=lambda s: last_half_improvement(s[3]["criterion"]))
-    over = [f"{LABELS[f]} {h} seed {s}" for f, h, s, r in _searches() if last_half_improvement(r["criterion"]) >= CONVERGED]
+    over = [f"{LABELS[f]} {h} seed {s} ({100 * last_half_improvement(r['criterion']):.1f} %)" for f, h, s, r in _searches()
+            if last_half_improvement(r["criterion"]) >= CONVERGED]
     searches = sum(1 for _ in _searches())
     hours = data["trial_seconds"] / 3600
+    rule = (f"best-so-far improves by less than {100 * CONVERGED:g} % over the last half of the trials")
+    converged = (f"every search meets it; the largest last-half improvement is "
+                 f"{100 * last_half_improvement(worst[3]['criterion']):.2f} % ({LABELS[worst[0]]} {worst[1]} seed {worst[2]})"
+                 if not over else
+                 f"{searches - len(over)} of {searches} searches meet it; not {', '.join(over)}: at this budget those "
+                 "searches were still improving, so the budget is not yet enough by the rule (a larger --budget "
+                 "resumes every search where it stopped)")
     return "\n".join([
         f"- Budget: {data['budget']} trials for every controller under every limit handling, seeds "
         f"{', '.join(map(str, data['seeds']))} ({searches} searches; the store is "
         f"{'complete' if data['complete'] else 'INCOMPLETE'}); training set: {data['training_points']} points.",
-        f"- Converged by the rule stated before the search (best-so-far improves by less than "
-        f"{100 * CONVERGED:g} % over the last half of the trials): "
-        + ("every search" if not over else f"not {', '.join(over)}")
-        + f"; the largest last-half improvement is {100 * last_half_improvement(worst[3]['criterion']):.2f} % "
-        f"({LABELS[worst[0]]} {worst[1]} seed {worst[2]}).",
+        f"- The rule stated before the search ({rule}): {converged}.",
         f"- Cost: {hours:.2f} h of trials (the sum of every trial's wall time, pruned trials stopping early), "
         f"run from {_clock(min(r['started'] for *_, r in _searches()))} to "
         f"{_clock(max(r['finished'] for *_, r in _searches()))} UTC "
