@@ -140,7 +140,7 @@ def paired_table(root: Path) -> str:
 def _across(verdicts: dict, what: str) -> str:
     """One verdict stated across the tuning seeds, or "depends on the tuning seed", with every seed's ratio."""
     said = {v.verdict for v in verdicts.values()}
-    per = "; ".join(f"seed {s}: {_ratio(v)}" + ("" if len(said) == 1 else f" {v.verdict}") for s, v in verdicts.items())
+    per = "; ".join(f"seed {s}: " + ("" if len(said) == 1 else f"{v.verdict}, ") + _ratio(v) for s, v in verdicts.items())
     head = f"{what} {said.pop()} for every tuning seed" if len(said) == 1 else f"{what} depends on the tuning seed"
     return f"{head} (A / B {per})"
 
