@@ -18,10 +18,18 @@ def _is_real(x: Any) -> bool:
     return isinstance(x, (int, float)) and not isinstance(x, bool)
 
 
-def _check_state_value(name: str, value: Any, var: Real | Integer, check: ParameterSpec | tuple | None) -> None:
+# the modes a state may bring into an instance in each mode: those from which the FMI calls that follow
+# are legal (a fresh instance may take any state but a terminated one; a stepping instance stays stepping,
+# or its next doStep would be Discard; a terminated one may be rolled back to stepping)
+RESTORABLE = {INSTANTIATED: (INSTANTIATED, INITIALIZATION, STEPPING), INITIALIZATION: (INITIALIZATION,),
+              STEPPING: (STEPPING,), TERMINATED: (STEPPING, TERMINATED)}
+
+
+def _check_state_value(name: str, value: Any, var: Real | Integer, check: ParameterSpec | tuple | None,
+                       meta: Any = None) -> None:
     """One variable of a restored state: the type of its variable; a parameter inside its declared
-    range (the same check as at initialization); an output finite (an input may hold anything a
-    master could set, NaN included: doStep refuses it)."""
+    range (the same check as at initialization); an input or output finite and inside its declared
+    [min, max] (what doStep demands of an input, and what an output can be)."""
     where = f"FMU state value of '{name}'"
     if isinstance(var, Integer):
         if isinstance(value, bool) or not isinstance(value, int):
@@ -36,8 +44,11 @@ def _check_state_value(name: str, value: Any, var: Real | Integer, check: Parame
             check.check(value)
         except ValueError as exc:
             raise ValueError(f"{where}: {exc}") from None
-    elif var.causality == Fmi2Causality.output and not math.isfinite(value):
-        raise ValueError(f"{where} = {value!r} must be finite")
+    elif var.causality in (Fmi2Causality.output, Fmi2Causality.input):
+        low = -math.inf if meta is None or meta.low is None else meta.low  # the modelDescription's min, max
+        high = math.inf if meta is None or meta.high is None else meta.high
+        if not (math.isfinite(value) and low <= value <= high):
+            raise ValueError(f"{where} = {value!r} must be finite and inside [{low}, {high}]")
 
 
 def _shape_problem(template: Any, value: Any, path: str) -> str | None:
@@ -80,6 +91,11 @@ def _first_nonfinite(tree: Any, path: str) -> str | None:
 class FmuStateMixin:
     """The state calls of ``DescribedSlave`` (which provides ``vars``, ``_mode``, ``_guarded`` and the
     clock fields, and subclasses ``internal_state``/``restore_internal_state``)."""
+
+    def restored_values_problem(self, values: dict[str, Any]) -> str | None:
+        """What a model finds wrong with the variable values of a state to restore (each already of
+        its type and range), or None; a model whose outputs hold its state bounds them here."""
+        return None
 
     def _snapshot(self) -> dict[str, Any]:
         values = {v.name: v.getter() for v in self.vars.values() if v.setter is not None}
@@ -126,15 +142,18 @@ class FmuStateMixin:
         if not isinstance(values, dict) or set(values) != set(settable):
             found = sorted(values) if isinstance(values, dict) else type(values).__name__
             raise ValueError(f"FMU state field 'values' must hold exactly the variables {sorted(settable)}, got {found}")
-        if state["mode"] not in (INSTANTIATED, INITIALIZATION, STEPPING, TERMINATED):
-            raise ValueError(f"FMU state field 'mode' = {state['mode']!r} is not one of "
-                             f"{[INSTANTIATED, INITIALIZATION, STEPPING, TERMINATED]}")
-        # parameters are in force (checked at initialization) once stepping; before, any value a master
-        # may set is a legitimate state (exitInitializationMode refuses it)
-        in_force = state["mode"] in (STEPPING, TERMINATED)
+        if state["mode"] not in RESTORABLE:
+            raise ValueError(f"FMU state field 'mode' = {state['mode']!r} is not one of {list(RESTORABLE)}")
+        if state["mode"] not in RESTORABLE[self._mode]:
+            raise ValueError(f"FMU state field 'mode' = {state['mode']!r} cannot be restored into an instance in "
+                             f"mode '{self._mode}' (the FMI calls that follow would be refused); it may restore "
+                             f"{list(RESTORABLE[self._mode])}")
+        # every parameter in its range, whatever the mode: a state holds no value the FMU would refuse
         for name, value in values.items():
-            check = self._parameter_checks.get(name) if in_force else None
-            _check_state_value(name, value, settable[name], check)
+            _check_state_value(name, value, settable[name], self._parameter_checks.get(name), self._meta.get(name))
+        problem = self.restored_values_problem(values)
+        if problem:
+            raise ValueError(f"FMU state field 'values': {problem}")
         for key in ("initialized", "preview_stale"):
             if not isinstance(state[key], bool):
                 raise ValueError(f"FMU state field '{key}' = {state[key]!r} must be true or false")

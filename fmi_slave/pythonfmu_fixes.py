@@ -64,7 +64,9 @@ def settle_binary_teardown(resources: str | None) -> None:
     """
     if sys.platform != "linux" or not resources:
         return
-    binaries = sorted((Path(resources).parent / "binaries" / "linux64").glob("*.so"))
+    # FMI 2.0 (pythonfmu) or FMI 3.0 (pythonfmu3, whose binary keeps its keeper the same way) layout
+    binaries = sorted(p for folder in ("linux64", "x86_64-linux")
+                      for p in (Path(resources).parent / "binaries" / folder).glob("*.so"))
     if len(binaries) != 1:
         return
     host_made_python = bool(sys.orig_argv)

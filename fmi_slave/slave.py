@@ -53,7 +53,7 @@ from pythonfmu import (
 )
 from pythonfmu.enums import Fmi2Initial, Fmi2Status
 
-from fmi_slave import VERSION
+from fmi_slave import VERSION, compiled_check
 from fmi_slave.fmu_state import FmuStateMixin
 from fmi_slave.model_description import (
     UNIT_BASES,
@@ -115,6 +115,8 @@ class DescribedSlave(VariableAccessMixin, FmuStateMixin, Fmi2Slave):
 
     def __init__(self, **kwargs: Any):
         super().__init__(**kwargs)
+        for why in compiled_check.FALLBACKS:  # a compiled core that was not loaded, and why
+            self.log(why, Fmi2Status.warning)
         self._forget_resources_path()
         settle_binary_teardown(self.resources)
         self._starts, self._starts_problem = self._read_parameter_starts()

@@ -1,10 +1,12 @@
 """Fixed-order linear algebra for the small symmetric problems of the SOTC critic (n = 10).
 
-Every sum here runs in one written order over plain Python lists (matrices row-major, flat, n * n),
+Every sum here runs in one written order over flat float64 buffers (``array('d')``; matrices row-major,
+n * n),
 so a result does not depend on the CPU: no BLAS or LAPACK kernel, no SIMD reduction of numpy, whose
 blocking and instruction choice change the last bits from one processor to the next (issue N,
-``docs/paper-notes.md``). The ``.pxd`` beside this file compiles the same loops to C
-(``-ffp-contract=off``), so the compiled and the Python cores give the same bits.
+``docs/paper-notes.md``). The ``.pxd`` beside this file types the buffers as C arrays (memoryviews) and
+compiles the same loops to C (``-ffp-contract=off``), so the compiled and the Python cores give the same
+bits. ``buffer(n)`` makes one.
 
 - ``cholesky`` / ``cholesky_solve``: the weight update (I + dt alpha1 Gamma) W+ = rhs of (30)/(31)
   (symmetric positive definite) and the positive-definiteness test of the CL stack's swap rule;
@@ -15,9 +17,15 @@ blocking and instruction choice change the last bits from one processor to the n
 from __future__ import annotations
 
 import math
+from array import array
 
 EPS = 2.220446049250313e-16  # the unit roundoff of float64, 2^-52
 MAX_HALVINGS = 200  # bisection stops when the interval stops shrinking, or after this many halvings
+
+
+def buffer(n: int) -> array:
+    """n zeros, float64, contiguous: what every function here takes as a vector or a flat matrix."""
+    return array("d", bytes(8 * n))
 
 
 def dot(a: list, b: list, n: int) -> float:
@@ -107,12 +115,11 @@ def _reflect(A: list, n: int, k: int, v: list, p: list) -> float:
     return alpha
 
 
-def tridiagonalize(M: list, n: int, d: list, e: list) -> None:
+def tridiagonalize(M: list, n: int, d: list, e: list, A: list, v: list, p: list) -> None:
     """Diagonal d (n) and subdiagonal e (n - 1) of a tridiagonal matrix similar to the symmetric M
-    (Householder reflections; M is read, not changed)."""
-    A = list(M[:n * n])
-    v = [0.0] * n
-    p = [0.0] * n
+    (Householder reflections; M is read, not changed; A (n * n), v, p (n) are scratch)."""
+    for k in range(n * n):
+        A[k] = M[k]
     for k in range(n - 2):
         e[k] = _reflect(A, n, k, v, p)
         d[k] = A[k * n + k]
@@ -150,7 +157,7 @@ def gershgorin(d: list, e: list, n: int) -> tuple[float, float]:
 def smallest_of_tridiagonal(d: list, e: list, n: int, resolution: float) -> float:
     """lambda_min of the tridiagonal (d, e) by bisection, to within ``resolution`` (or one ulp)."""
     lo, hi = gershgorin(d, e, n)
-    for _ in range(MAX_HALVINGS):
+    for it in range(MAX_HALVINGS):
         if hi - lo <= resolution:
             break
         mid = 0.5 * (lo + hi)
@@ -163,8 +170,8 @@ def smallest_of_tridiagonal(d: list, e: list, n: int, resolution: float) -> floa
     return 0.5 * (lo + hi)
 
 
-def smallest_eigenvalue(M: list, n: int, d: list, e: list) -> float:
-    """lambda_min of the symmetric M, to within n eps trace(M) (the rounding level of its entries);
-    d (n) and e (n - 1) receive M's tridiagonal form, for ``sturm_count``."""
-    tridiagonalize(M, n, d, e)
+def smallest_eigenvalue(M: list, n: int, d: list, e: list, A: list, v: list, p: list) -> float:
+    """lambda_min of the symmetric M, to within eps trace(M) (the rounding level of its entries);
+    d (n) and e (n - 1) receive M's tridiagonal form, for ``sturm_count``; A, v, p are scratch."""
+    tridiagonalize(M, n, d, e, A, v, p)
     return smallest_of_tridiagonal(d, e, n, EPS * abs(trace(M, n)))

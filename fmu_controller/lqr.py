@@ -29,7 +29,7 @@ import numpy as np
 
 from fmi_slave.parameters import ParameterSpec
 from fmu_controller.computed_torque import LIMIT_SPEC, RHO_SPEC, LinearisingCore
-from fmu_controller.riccati import solve_care
+from fmu_controller.riccati import gain, solve_care
 
 
 def error_system() -> tuple[np.ndarray, np.ndarray]:
@@ -45,9 +45,9 @@ def lqr_gain(q: float, r: float) -> tuple[np.ndarray, np.ndarray]:
     """(K, P) of eq. (LQR-4) for Theta = q I4, R = r I2."""
     a, b = error_system()
     theta, rm = q * np.eye(4), r * np.eye(2)
-    p = solve_care(a, b, theta, rm)
-    k = np.linalg.solve(rm, b.T @ p)
-    return k, p
+    stabilising = np.hstack([np.eye(2), np.eye(2)])  # v = -(e + e_dot): A - B K has eigenvalues (-1 +- i sqrt 3) / 2
+    p = solve_care(a, b, theta, rm, stabilising)
+    return gain(b, rm, p), p
 
 
 class LqrCore(LinearisingCore):

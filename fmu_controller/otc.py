@@ -62,7 +62,6 @@ Euler towards the updated critic.
 from __future__ import annotations
 
 import math
-import operator
 from typing import Any, Sequence
 
 import numpy as np
@@ -81,6 +80,7 @@ from fmu_controller.sotc_math import (
     N_BASIS,
     basis,
     basis_directional,
+    dot_sequence,
     matrix_to_weights,
     probing_signal,
     value_gradient,
@@ -89,7 +89,6 @@ from fmu_plant.dynamics import (
     TORQUE_LIMIT,
     bias_torque,
     inertia_entries,
-    inertia_matrix,
 )
 
 # The quadratic basis sigma(z) of (OTC-7) is the SOTC's zeta(z) of section 4 (same 10 monomials, same
@@ -158,9 +157,13 @@ class OtcCore(ControllerCore):
         f = np.zeros((4, 4))
         f[:2, :2] = -np.diag(self.lam)
         f[:2, 2:] = np.eye(2)
+        d11, d12, d22 = inertia_entries(phi2, self.model)
+        det = d11 * d22 - d12 * d12
         g = np.zeros((4, 2))
-        g[2:, :] = np.linalg.inv(inertia_matrix(phi2, self.model))
-        return solve_care(f, g, self.params["q"] * np.eye(4), np.diag(self.r_diag))
+        g[2:, :] = [[d22 / det, -d12 / det], [-d12 / det, d11 / det]]  # D^-1, closed form
+        stabilising = np.zeros((2, 4))
+        stabilising[:, 2:] = [[d11, d12], [d12, d22]]  # u = -D z2: z2' = -z2, and z1' = -Lambda z1 + z2
+        return solve_care(f, g, self.params["q"] * np.eye(4), np.diag(self.r_diag), stabilising)
 
     # --- control law --------------------------------------------------------------------------
 
@@ -192,7 +195,7 @@ class OtcCore(ControllerCore):
         omega = basis_directional(z, z_dot)  # grad(sigma) z_dot
         wc = self.wc.tolist()
         cost_rate = q * (z[0] * z[0] + z[1] * z[1] + z[2] * z[2] + z[3] * z[3]) + (u1 * (r1 * u1) + u2 * (r2 * u2))
-        delta = sum(map(operator.mul, omega, wc)) + cost_rate  # (OTC-8)
+        delta = dot_sequence(omega, wc) + cost_rate  # (OTC-8)
 
         probe = 0.0
         if t < self.params["probe_duration"]:
@@ -212,7 +215,7 @@ class OtcCore(ControllerCore):
             tau_norm, 1.0 if over else 0.0,
             ta1, ta2, u1, u2,
             z[2], z[3],
-            sum(map(operator.mul, basis(z), wc)), delta, cost_rate,
+            dot_sequence(basis(z), wc), delta, cost_rate,
             math.hypot(*wc), math.hypot(*self.wa.tolist()),
         ]
 
@@ -226,11 +229,11 @@ class OtcCore(ControllerCore):
             return
         pr = self.params
         omega = last["omega"]
-        ww = sum(map(operator.mul, omega, omega))
+        ww = dot_sequence(omega, omega)
         if ww > 0.0 and pr["alpha_c"] > 0.0:
             # exact solution of (OTC-8) for a held regressor: the residual omega'Wc + cost decays
             # as exp(-alpha_c ww/(ww+1)^2 t); only the component of Wc along omega moves.
-            s0 = sum(map(operator.mul, omega, self.wc.tolist())) + last["cost_rate"]
+            s0 = dot_sequence(omega, self.wc.tolist()) + last["cost_rate"]
             decay = math.exp(-pr["alpha_c"] * ww / (ww + 1.0) ** 2 * dt)
             self.wc = self.wc - np.array(omega) * (s0 * (1.0 - decay) / ww)
         decay_a = math.exp(-pr["alpha_a"] * dt)
@@ -254,3 +257,4 @@ class OtcCore(ControllerCore):
         self.wc = np.asarray(state["wc"], dtype=float).copy()
         self.wa = np.asarray(state["wa"], dtype=float).copy()
         self._last = None
+

@@ -1,54 +1,133 @@
-"""The continuous-time algebraic Riccati equation, numpy only (no scipy inside the FMUs).
+"""The continuous-time algebraic Riccati equation in fixed-order arithmetic (no scipy, no LAPACK).
 
     A'P + PA - P B R^-1 B' P + Q = 0,   P = P' >= 0 stabilising                       (CARE)
 
-Solved from the stable invariant subspace of the Hamiltonian matrix
-
-    Z = [[A, -B R^-1 B'], [-Q, -A']],   Z [U1; U2] = [U1; U2] L,  Re(L) < 0,  P = U2 U1^-1
-
-and then polished by Newton-Kleinman steps (Kleinman 1968): with K = R^-1 B'P and A_K = A - BK,
-solve the Lyapunov equation A_K'P+ + P+ A_K = -(Q + K'RK) for P+. The controllers here solve 4x4
-problems once at construction, so the Lyapunov equation is solved through its Kronecker form.
-``tests/test_baselines.py`` checks the result against scipy's Schur-based solver.
+Newton-Kleinman iteration (Kleinman 1968) from a stabilising gain K_0 the caller knows: with
+A_K = A - B K, solve the Lyapunov equation A_K'P + P A_K = -(Q + K'RK) for P, then K = R^-1 B'P, until
+P repeats (quadratic convergence; at most MAX_STEPS). The controllers here solve 4 x 4 problems once
+at construction, so each Lyapunov equation is solved through its Kronecker form by Gaussian
+elimination with partial pivoting, written out: every operation runs in one order on every CPU (a
+LAPACK eigen-solver rounds differently per BLAS kernel, and the OTC's initial weights with it).
+``tests/unit/test_riccati.py`` checks the result against scipy's Schur-based solver.
 """
 from __future__ import annotations
 
+from typing import Sequence
+
 import numpy as np
 
-NEWTON_STEPS = 3
+MAX_STEPS = 60
 
 
 class RiccatiError(ValueError):
     pass
 
 
-def _lyapunov(a: np.ndarray, c: np.ndarray) -> np.ndarray:
-    """X with A'X + XA = -C (small systems: Kronecker form)."""
-    n = a.shape[0]
-    eye = np.eye(n)
-    x = np.linalg.solve(np.kron(eye, a.T) + np.kron(a.T, eye), -c.reshape(-1))
-    x = x.reshape(n, n)
-    return (x + x.T) / 2
+Matrix = list[list[float]]
 
 
-def solve_care(a: np.ndarray, b: np.ndarray, q: np.ndarray, r: np.ndarray) -> np.ndarray:
-    """The stabilising solution P of (CARE); RiccatiError if the problem has none."""
-    n = a.shape[0]
-    r_inv_bt = np.linalg.solve(r, b.T)
-    z = np.block([[a, -b @ r_inv_bt], [-q, -a.T]])
-    values, vectors = np.linalg.eig(z)
-    stable = values.real < 0
-    if stable.sum() != n:
-        raise RiccatiError("the Hamiltonian has eigenvalues on the imaginary axis: no stabilising solution")
-    u1, u2 = vectors[:n, stable], vectors[n:, stable]
-    try:
-        p = np.real(np.linalg.solve(u1.T, u2.T).T)
-    except np.linalg.LinAlgError as exc:
-        raise RiccatiError(f"no stabilising solution: {exc}") from exc
-    p = (p + p.T) / 2
-    for _ in range(NEWTON_STEPS):
-        k = r_inv_bt @ p
-        p = _lyapunov(a - b @ k, q + k.T @ r @ k)
-    if not np.all(np.isfinite(p)):
-        raise RiccatiError("the Riccati solution is not finite")
-    return p
+def _rows(x) -> Matrix:
+    return [[float(v) for v in row] for row in np.asarray(x, dtype=float).tolist()]
+
+
+def _mul(x: Matrix, y: Matrix) -> Matrix:
+    out = []
+    for i in range(len(x)):
+        row = []
+        for j in range(len(y[0])):
+            acc = 0.0
+            for k in range(len(y)):
+                acc += x[i][k] * y[k][j]
+            row.append(acc)
+        out.append(row)
+    return out
+
+
+def _t(x: Matrix) -> Matrix:
+    return [list(col) for col in zip(*x)]
+
+
+def solve_linear(m: Matrix, rhs: Sequence[float]) -> list[float]:
+    """x with M x = rhs: Gaussian elimination, partial pivoting (first largest pivot), in fixed order."""
+    n = len(m)
+    a = [list(row) + [float(v)] for row, v in zip(m, rhs)]
+    for col in range(n):
+        piv = col
+        for i in range(col + 1, n):
+            if abs(a[i][col]) > abs(a[piv][col]):
+                piv = i
+        if a[piv][col] == 0.0:
+            raise RiccatiError("a singular linear system: the problem has no stabilising solution")
+        a[col], a[piv] = a[piv], a[col]
+        for i in range(col + 1, n):
+            f = a[i][col] / a[col][col]
+            for j in range(col, n + 1):
+                a[i][j] -= f * a[col][j]
+    x = [0.0] * n
+    for i in range(n - 1, -1, -1):
+        acc = a[i][n]
+        for j in range(i + 1, n):
+            acc -= a[i][j] * x[j]
+        x[i] = acc / a[i][i]
+    return x
+
+
+def lyapunov(a: Matrix, c: Matrix) -> Matrix:
+    """X with A'X + XA = -C (its Kronecker form, (I (x) A' + A' (x) I) vec X = -vec C), symmetrised."""
+    n = len(a)
+    system = [[0.0] * (n * n) for _ in range(n * n)]
+    for i in range(n):
+        for j in range(n):
+            for k in range(n):  # row (i, j) of vec X, column-major: (A'X)_ij + (XA)_ij
+                system[j * n + i][j * n + k] += a[k][i]
+                system[j * n + i][k * n + i] += a[k][j]
+    x = solve_linear(system, [-c[i][j] for j in range(n) for i in range(n)])
+    return [[0.5 * (x[j * n + i] + x[i * n + j]) for j in range(n)] for i in range(n)]
+
+
+def _positive_definite(p: Matrix) -> bool:
+    """Cholesky succeeds (every pivot positive and finite)."""
+    n = len(p)
+    low = [[0.0] * n for _ in range(n)]
+    for j in range(n):
+        acc = p[j][j]
+        for k in range(j):
+            acc -= low[j][k] * low[j][k]
+        if not (acc > 0.0 and acc < float("inf")):
+            return False
+        low[j][j] = acc ** 0.5
+        for i in range(j + 1, n):
+            acc = p[i][j]
+            for k in range(j):
+                acc -= low[i][k] * low[j][k]
+            low[i][j] = acc / low[j][j]
+    return True
+
+
+def solve_care(a, b, q, r, k0) -> np.ndarray:
+    """The stabilising solution P of (CARE), from a gain ``k0`` with A - B k0 stable; RiccatiError if
+    an iterate is not positive definite (k0 not stabilising, or no stabilising solution)."""
+    A, B, Q, R, K = _rows(a), _rows(b), _rows(q), _rows(r), _rows(k0)
+    r_inv_bt = _r_inv_bt(B, R)
+    previous = None
+    for _ in range(MAX_STEPS):
+        bk = _mul(B, K)
+        ak = [[A[i][j] - bk[i][j] for j in range(len(A))] for i in range(len(A))]
+        krk = _mul(_t(K), _mul(R, K))
+        p = lyapunov(ak, [[Q[i][j] + krk[i][j] for j in range(len(A))] for i in range(len(A))])
+        if not _positive_definite(p):
+            raise RiccatiError("no stabilising solution: a Newton-Kleinman iterate is not positive definite")
+        if p == previous:
+            break
+        previous, K = p, _mul(r_inv_bt, p)
+    return np.array(previous)
+
+
+def _r_inv_bt(B: Matrix, R: Matrix) -> Matrix:
+    """R^-1 B' (m x n), column by column of B'."""
+    return _t([solve_linear(R, row) for row in B])
+
+
+def gain(b, r, p) -> np.ndarray:
+    """K = R^-1 B'P, the optimal feedback of (CARE)'s solution P, in fixed order."""
+    return np.array(_mul(_r_inv_bt(_rows(b), _rows(r)), _rows(p)))

@@ -38,9 +38,10 @@ from fmu_controller.saturation import (
     limit_without_metric,
     saturate_norm,
 )
-from fmu_controller.fixed_linalg import cholesky, cholesky_solve, dot
-from fmu_controller.sotc_math import (N_BASIS, basis, basis_directional, error_rate, policy_arguments, printed_rate,
-                                      probing_signal, reward, value_gradient, value_hessian)
+from fmu_controller.fixed_linalg import buffer, cholesky, cholesky_solve
+from fmu_controller.sotc_math import (N_BASIS, basis, basis_directional, dot_sequence, error_rate, implicit_system,
+                                      policy_arguments, printed_rate, probing_signal, reward, value_gradient,
+                                      value_hessian)
 from fmu_controller.sotc_stack import REPLAYS as CL_REPLAYS
 from fmu_controller.sotc_stack import SELECTIONS as CL_SELECTIONS
 from fmu_controller.sotc_stack import CLStack
@@ -229,6 +230,8 @@ class SotcCore(ControllerCore):
         # saturation level s of (13) and (28): Remark 2 asks ||tau*|| <= sigma so that tau* + tau^a respects rho
         self.s = self.sigma if forms["saturation_form"] == "sigma" else self.rho
         self.bound5 = self.rho - self.sigma * TANH1  # eq. (5)
+        self._G, self._L, self._rhs, self._Wn = buffer(N_BASIS * N_BASIS), buffer(N_BASIS * N_BASIS), buffer(N_BASIS), \
+            buffer(N_BASIS)  # the implicit weight step's work space
         self.stack = CLStack(self.P, forms["cl_selection"], forms["cl_replay"], self.s, self.r, self.theta,
                              self.lam1, self.lam2, self.backstepping, self.eta_coupled)
         self.reset()
@@ -316,7 +319,7 @@ class SotcCore(ControllerCore):
             tau1, tau2, ts1, ts2, ta1, ta2, cs1, cs2, ca1, ca2, zp1, zp2, zv1, zv2, *W,
             J, e1, omega, rew, 31.0 if law31 else 30.0, float(self.stack.count), self.stack.min_eig,
             1.0 if pe_active else 0.0, pe, float(tau_a_bounded), float(chi_a_bounded), float(tau_limited),
-            math.hypot(tau1, tau2), tr1, tr2, dchi1, dchi2, math.sqrt(dot(wdot, wdot, N_BASIS)), zv_res,
+            math.hypot(tau1, tau2), tr1, tr2, dchi1, dchi2, math.sqrt(dot_sequence(wdot, wdot)), zv_res,
         ]
 
     def _error(self, phi1: float, phi2: float, dphi1: float, dphi2: float, ref: tuple[float, ...],
@@ -366,18 +369,18 @@ class SotcCore(ControllerCore):
         # eta_form = printed: (7)'s F_bar without the coupling terms, in eta and (29) only
         eta = basis_directional(z, zd if self.eta_coupled else printed_rate(z, zd))
         rew, omega = reward(z, x, self.theta, self.s, rr)
-        e1 = dot(W, eta, N) + rew
+        e1 = dot_sequence(W, eta) + rew
         # eqs. (30)/(31): dW/dt = -alpha1 xi e1 - alpha1 sum_i xi_i (eta_i^T W + r_i) [+ alpha2/2 grad(zeta) G z],
         # xi = eta / (eta^T eta + 1)^2; the CL sum is M W + b (sotc_stack)
-        ee = dot(eta, eta, N)
+        ee = dot_sequence(eta, eta)
         sc = 1.0 / ((ee + 1.0) * (ee + 1.0))
         xi = [eta[k] * sc for k in range(N)]
         wdot = [xi[k] * (-self.alpha1 * e1) for k in range(N)]
         cl = self.cl_enabled and self.stack.count > 0 and t >= self.cl_start_time
         if cl:
-            M, b = self.stack.terms(W)
+            rate = self.stack.terms(W)  # M W + b
             for k in range(N):
-                wdot[k] -= self.alpha1 * (dot(M[k * N:(k + 1) * N], W, N) + b[k])
+                wdot[k] -= self.alpha1 * rate[k]
         law31 = zp1 * zd[0] + zp2 * zd[1] + zv1 * zd[2] + zv2 * zd[3] >= 0.0  # z^T zdot >= 0: eq. (31)
         if law31:  # + alpha2/2 grad(zeta) G z with G = g R^-1 g^T = diag(R_phi^-1, D^-1 R_v^-1 D^-1)
             u1, u2 = (i11 * zv1 + i12 * zv2) / rr[2], (i12 * zv1 + i22 * zv2) / rr[3]
@@ -398,7 +401,7 @@ class SotcCore(ControllerCore):
         else:
             dca1, dca2 = ddphi1_d + lam11 * zd3, ddphi2_d + lam12 * zd4
         if chi_a_bounded:
-            dca1 = dca2 = 0.0  # a bounded chi_vd^a is not differentiated (inactive in the section-4 runs)
+            dca1 = dca2 = 0.0  # a bounded chi_vd^a is not differentiated (docs/paper-notes.md 2.5 lists where)
         if self.chi_dot_form == "chain":
             # chi_vd* = -s tanh(x_phi), x_phi = grad_phi J_hat / (2 s r): the chain rule gives
             # dx_phi/dt = (Hess(J_hat) zdot + grad(zeta)^T dW/dt)_phi / (2 s r), zdot from (6)
@@ -468,18 +471,10 @@ class SotcCore(ControllerCore):
         N, W, wdot = N_BASIS, self.W, pend["wdot"]
         if not self.implicit:
             return [W[k] + dt * wdot[k] for k in range(N)]
-        xi, eta, c = pend["xi"], pend["eta"], dt * self.alpha1
-        M = self.stack.M if pend["cl"] else None
-        G = [0.0] * (N * N)
-        for a in range(N):
-            for k in range(a + 1):
-                g = xi[a] * eta[k] if M is None else xi[a] * eta[k] + M[a * N + k]
-                G[a * N + k] = G[k * N + a] = c * g
-        rhs = [W[a] + dt * wdot[a] + dot(G[a * N:(a + 1) * N], W, N) for a in range(N)]
-        for a in range(N):
-            G[a * N + a] += 1.0
-        L, Wn = [0.0] * (N * N), [0.0] * N
-        if not cholesky(G, N, L):  # I + (symmetric >= 0) fails only on non-finite or overflowing entries:
-            return [math.nan] * N  # non-finite weights, which the next sample's outputs report as such
-        cholesky_solve(L, rhs, N, Wn)
-        return Wn
+        implicit_system(W, wdot, pend["xi"], pend["eta"], self.stack.M, pend["cl"], dt, dt * self.alpha1,
+                        self._G, self._rhs)
+        if not cholesky(self._G, N, self._L):  # I + (symmetric >= 0) fails only on non-finite or overflowing
+            return [math.nan] * N  # entries: non-finite weights, which the next sample's outputs report as such
+        cholesky_solve(self._L, self._rhs, N, self._Wn)
+        return list(self._Wn)
+

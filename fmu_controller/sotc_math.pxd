@@ -27,3 +27,8 @@ cpdef (double, double, double, double) tanh_law(object x, double s)
 cpdef (double, double, double, double) error_rate(object z, object mu, object fe, object dinv, object lam1,
                                                   object lam2, bint backstepping)
 cpdef (double, double, double, double) printed_rate(object z, object zd)
+@cython.locals(N=int, a=int, k=int, g=double, acc=double)
+cpdef void implicit_system(list W, list wdot, list xi, list eta, double[::1] M, bint with_cl, double dt, double c,
+                           double[::1] G, double[::1] rhs)
+@cython.locals(acc=double, k=int)
+cpdef double dot_sequence(object a, object b)

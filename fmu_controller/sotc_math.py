@@ -341,3 +341,31 @@ def probing_signal(t: float, amplitude: float = 0.5) -> float:
         + s112 * s112
         + math.cos(2.4 * t) * s24 ** 3
     )
+
+
+def implicit_system(W: list, wdot: list, xi: list, eta: list, M: list, with_cl: bool, dt: float, c: float,
+                    G: list, rhs: list) -> None:
+    """The linear system (I + c Gamma) W+ = W + dt dW/dt + c Gamma W of ``advance``, c = dt alpha1,
+    Gamma = xi eta^T (+ M, the CL matrix, when the CL sum entered dW/dt); G (flat) and rhs receive it."""
+    N = N_BASIS
+    for a in range(N):
+        for k in range(a + 1):
+            g = xi[a] * eta[k] + M[a * N + k] if with_cl else xi[a] * eta[k]
+            G[a * N + k] = c * g
+            G[k * N + a] = c * g
+    for a in range(N):
+        acc = 0.0
+        for k in range(N):
+            acc += G[a * N + k] * W[k]
+        rhs[a] = W[a] + dt * wdot[a] + acc
+    for a in range(N):
+        G[a * N + a] += 1.0
+
+
+def dot_sequence(a: Sequence[float], b: Sequence[float]) -> float:
+    """sum_k a_k b_k over the shorter of the two, left to right (``sum`` rounds differently from
+    Python 3.12 on, numpy's ``dot`` per BLAS kernel)."""
+    acc = 0.0
+    for k in range(min(len(a), len(b))):
+        acc += a[k] * b[k]
+    return acc

@@ -30,13 +30,14 @@ Which samples are kept (``selection``):
 * ``maxeig-raw``: the earlier rule, the largest computed lambda_min of the P trial stacks and a 1 %
   gain, with no tolerance (it decides on rounding noise while the stack is rank-deficient).
 
-Every sum runs in a fixed order over plain lists (``fixed_linalg``): the bits do not depend on the CPU.
+Every sum runs in a fixed order over float64 buffers (``fixed_linalg``): the bits do not depend on the CPU.
 """
 from __future__ import annotations
 
 from typing import Any, Sequence
 
-from fmu_controller.fixed_linalg import EPS, cholesky, forward_substitute, smallest_eigenvalue, sturm_count, trace
+from fmu_controller.fixed_linalg import (EPS, buffer, cholesky, forward_substitute, smallest_eigenvalue, sturm_count,
+                                         trace)
 from fmu_controller.sotc_math import (N_BASIS, basis_directional, error_rate, policy_arguments, printed_rate,
                                       reward, tanh_law)
 
@@ -69,6 +70,16 @@ def cl_matrix(n: int, E: list, rew: list, M: list, b: list, sc: list) -> None:
     for a in range(N):
         for c in range(a):
             M[c * N + a] = M[a * N + c]
+
+
+def cl_rate(M: list, b: list, W: list, out: list) -> None:
+    """out = M W + b (rows of M in order)."""
+    N = N_BASIS
+    for a in range(N):
+        acc = 0.0
+        for c in range(N):
+            acc += M[a * N + c] * W[c]
+        out[a] = acc + b[a]
 
 
 def replay_current(n: int, W: list, z: list, dinv: list, fe: list, s: float, r: tuple, theta: tuple,
@@ -111,28 +122,31 @@ class CLStack:
         self.lam1, self.lam2, self.backstepping = tuple(lam1), tuple(lam2), backstepping
         self.coupled = coupled  # eta_i with the coupling terms +z_v, -z_phi of (6) (else (7) as printed)
         N = N_BASIS
-        self.M, self.b, self.sc = [0.0] * (N * N), [0.0] * N, [0.0] * P  # the CL sum at the last terms()
-        self.E, self.rew_now = [0.0] * (P * N), [0.0] * P  # eta_i, r_i at the last terms()
-        self._d, self._e, self._work, self._L, self._y = [0.0] * N, [0.0] * N, [0.0] * (N * N), [0.0] * (N * N), [0.0] * N
+        self.M, self.b, self.sc = buffer(N * N), buffer(N), buffer(P)  # the CL sum at the last terms()
+        self.E, self.rew_now = buffer(P * N), buffer(P)  # eta_i, r_i at the last terms()
+        self._W, self._rate, self._c = buffer(N), buffer(N), buffer(N)
+        self._d, self._e, self._v, self._p, self._y = buffer(N), buffer(N), buffer(N), buffer(N), buffer(N)
+        self._work, self._A, self._L = buffer(N * N), buffer(N * N), buffer(N * N)
         self.clear()
 
     # --- contents --------------------------------------------------------------------------------
 
     def clear(self) -> None:
         P = self.P
-        self.rows = {key: [0.0] * (P * w) for key, w in _WIDTHS.items()}  # eta, z, dinv, fe as recorded
-        self.rew = [0.0] * P  # r(t_i) = z^T Theta z + Omega(mu_hat) as recorded
-        self.t = [0.0] * P  # record time t_i (the oldest row goes among equal swaps)
+        self.rows = {key: buffer(P * w) for key, w in _WIDTHS.items()}  # eta, z, dinv, fe as recorded
+        self.rew = buffer(P)  # r(t_i) = z^T Theta z + Omega(mu_hat) as recorded
+        self.t = buffer(P)  # record time t_i (the oldest row goes among equal swaps)
         self.count = 0  # filled rows
         self.next_row = 0  # row the FIFO overwrites next
+        self.swaps = 0  # samples taken into the full stack
         self.min_eig = 0.0  # lambda_min(M) at the last offer (0 while numerically rank-deficient)
         self.refresh()
 
     def to_state(self) -> dict[str, Any]:
-        state: dict[str, Any] = {key: [a[i * _WIDTHS[key]:(i + 1) * _WIDTHS[key]] for i in range(self.P)]
+        state: dict[str, Any] = {key: [list(a[i * _WIDTHS[key]:(i + 1) * _WIDTHS[key]]) for i in range(self.P)]
                                  for key, a in self.rows.items()}
         state.update(rew=list(self.rew), t=list(self.t), count=self.count, next_row=self.next_row,
-                     min_eig=self.min_eig)
+                     swaps=self.swaps, min_eig=self.min_eig)
         return state
 
     def from_state(self, state: dict[str, Any]) -> None:
@@ -141,15 +155,19 @@ class CLStack:
             flat = [float(v) for row in state[key] for v in row]
             if len(state[key]) != self.P or len(flat) != self.P * w:
                 raise ValueError(f"CL stack state '{key}' must be {self.P} rows of {w} (P = {self.P})")
-            rows[key] = flat
-        rew, t = [float(v) for v in state["rew"]], [float(v) for v in state["t"]]
+            rows[key] = buffer(0)
+            rows[key].fromlist(flat)
+        rew, t = buffer(0), buffer(0)
+        rew.fromlist([float(v) for v in state["rew"]])
+        t.fromlist([float(v) for v in state["t"]])
         if len(rew) != self.P or len(t) != self.P:
             raise ValueError(f"CL stack state 'rew' and 't' must have {self.P} entries (P = {self.P})")
-        count, next_row = int(state["count"]), int(state["next_row"])
-        if not (0 <= count <= self.P and 0 <= next_row < self.P):
-            raise ValueError(f"CL stack state: count {count} / next_row {next_row} out of range for P = {self.P}")
+        count, next_row, swaps = int(state["count"]), int(state["next_row"]), int(state["swaps"])
+        if not (0 <= count <= self.P and 0 <= next_row < self.P and swaps >= 0):
+            raise ValueError(f"CL stack state: count {count} / next_row {next_row} / swaps {swaps} out of range "
+                             f"for P = {self.P}")
         self.rows, self.rew, self.t = rows, rew, t
-        self.count, self.next_row, self.min_eig = count, next_row, float(state["min_eig"])
+        self.count, self.next_row, self.swaps, self.min_eig = count, next_row, swaps, float(state["min_eig"])
         self.refresh()
 
     # --- the CL sum ----------------------------------------------------------------------------------
@@ -161,22 +179,25 @@ class CLStack:
             self.rew_now[:] = self.rew
             cl_matrix(self.count, self.E, self.rew_now, self.M, self.b, self.sc)
 
-    def terms(self, W: list) -> tuple[list, list]:
-        """(M, b) at the weights W: the CL sum of (30)/(31) is M W + b (also kept as ``self.M``,
-        ``self.b``, with the rows ``self.E`` and their scales ``self.sc``)."""
+    def terms(self, W: Sequence[float]) -> list:
+        """The CL sum M W + b of (30)/(31) at the weights W; M, b stay as ``self.M``, ``self.b``, with
+        the rows ``self.E`` and their scales ``self.sc``."""
         if self.replay_form == "current":
             rows = self.rows
             replay_current(self.count, W, rows["z"], rows["dinv"], rows["fe"], self.s, self.r, self.theta,
                            self.lam1, self.lam2, self.backstepping, self.coupled, self.E, self.rew_now)
             cl_matrix(self.count, self.E, self.rew_now, self.M, self.b, self.sc)
-        return self.M, self.b
+        for k in range(N_BASIS):
+            self._W[k] = W[k]
+        cl_rate(self.M, self.b, self._W, self._rate)
+        return list(self._rate)
 
     def spectrum(self) -> tuple[float, int, float]:
         """(lambda_min, numerical rank, tol) of the CL matrix of the last ``terms``; lambda_min is 0
         below full rank (eigenvalues at or below tol = n eps trace(M) are rounding)."""
         n = N_BASIS
         tol = RANK_TOL * trace(self.M, n)
-        lam = smallest_eigenvalue(self.M, n, self._d, self._e)
+        lam = self._smallest(self.M)
         rank = n - sturm_count(self._d, self._e, n, tol) if tol > 0.0 else 0
         return (lam if rank == n else 0.0), rank, tol
 
@@ -204,18 +225,24 @@ class CLStack:
         elif self.selection == "fifo":
             row = self.next_row
             self.next_row = (self.next_row + 1) % self.P
+            self.swaps += 1
         else:
             row = self._swap_row(eta, spectrum) if spectrum is not None else -1
             if row < 0:
                 return False
+            self.swaps += 1
         self._put(row, eta, rew, z, dinv, fe, t)
         return True
+
+    def _smallest(self, M) -> float:
+        return smallest_eigenvalue(M, N_BASIS, self._d, self._e, self._A, self._v, self._p)
 
     def _put(self, row: int, eta: list, rew: float, z: Sequence[float], dinv: Sequence[float],
              fe: Sequence[float], t: float) -> None:
         for key, values in (("eta", eta), ("z", z), ("dinv", dinv), ("fe", fe)):
-            w = _WIDTHS[key]
-            self.rows[key][row * w:(row + 1) * w] = [float(v) for v in values]
+            w, a = _WIDTHS[key], self.rows[key]
+            for k in range(w):
+                a[row * w + k] = values[k]
         self.rew[row], self.t[row] = float(rew), float(t)
         self.refresh()
 
@@ -223,46 +250,48 @@ class CLStack:
         """The row a new sample eta replaces under ``maxeig``/``maxeig-raw``, or -1 (no swap). By
         Weyl's inequality a swap raises lambda_min(M) by at most |eta|^2 / (1 + |eta|^2)^2, so small
         samples are refused at once."""
+        c = self._c
         ee = 0.0
         for k in range(N_BASIS):
+            c[k] = eta[k]
             ee += eta[k] * eta[k]
         c_sc = 1.0 / ((1.0 + ee) * (1.0 + ee))
         lam, rank, tol = spectrum
         if self.selection == "maxeig-raw":
-            lam = smallest_eigenvalue(self.M, N_BASIS, self._d, self._e)
-            return -1 if ee * c_sc <= (MAXEIG_GAIN - 1.0) * lam else self._swap_raw(eta, c_sc, lam)
+            lam = self._smallest(self.M)
+            return -1 if ee * c_sc <= (MAXEIG_GAIN - 1.0) * lam else self._swap_raw(c_sc, lam)
         if ee * c_sc <= (MAXEIG_GAIN - 1.0) * lam + tol:
             return -1
         if rank == N_BASIS:
-            return self._swap_full(eta, c_sc, MAXEIG_GAIN * lam + tol, tol)
-        return self._swap_deficient(eta, c_sc, rank, tol)
+            return self._swap_full(c_sc, MAXEIG_GAIN * lam + tol, tol)
+        return self._swap_deficient(c_sc, rank, tol)
 
-    def _swap_full(self, eta: list, c_sc: float, thr: float, tol: float) -> int:
+    def _swap_full(self, c_sc: float, thr: float, tol: float) -> int:
         """Full rank: only trials with lambda_min > thr count. B = M + c c^T - thr I must be positive
         definite (else no trial is), and then trial j is iff sc_j |L^-1 eta_j|^2 < 1 (B = L L^T)."""
-        N, B, L, y = N_BASIS, self._work, self._L, self._y
-        trial_matrix(self.M, 0.0, self.E, 0, c_sc, eta, B)  # M + c c^T (row 0 taken with weight 0)
+        N, B, L, y, c = N_BASIS, self._work, self._L, self._y, self._c
+        trial_matrix(self.M, 0.0, self.E, 0, c_sc, c, B)  # M + c c^T (row 0 taken with weight 0)
         for a in range(N):
             B[a * N + a] -= thr
         if not cholesky(B, N, L):
             return -1
-        passing = []
+        found = []
         for j in range(self.P):
             forward_substitute(L, self.E[j * N:(j + 1) * N], N, y)
             yy = 0.0
             for k in range(N):
                 yy += y[k] * y[k]
             if self.sc[j] * yy < 1.0:
-                trial_matrix(self.M, self.sc[j], self.E, j, c_sc, eta, B)
-                passing.append((j, N, smallest_eigenvalue(B, N, self._d, self._e)))
-        return self._oldest_best(passing, tol)
+                trial_matrix(self.M, self.sc[j], self.E, j, c_sc, c, B)
+                found.append((j, N, self._smallest(B)))
+        return self._oldest_best(found, tol)
 
-    def _swap_deficient(self, eta: list, c_sc: float, rank: int, tol: float) -> int:
+    def _swap_deficient(self, c_sc: float, rank: int, tol: float) -> int:
         """Below full rank: a swap must raise the numerical rank; among those the largest lambda_min."""
         N, B, found = N_BASIS, self._work, []
         for j in range(self.P):
-            trial_matrix(self.M, self.sc[j], self.E, j, c_sc, eta, B)
-            lam = smallest_eigenvalue(B, N, self._d, self._e)
+            trial_matrix(self.M, self.sc[j], self.E, j, c_sc, self._c, B)
+            lam = self._smallest(B)
             rank_j = N - sturm_count(self._d, self._e, N, tol)
             if rank_j > rank:
                 found.append((j, rank_j, lam if rank_j == N else 0.0))
@@ -278,11 +307,11 @@ class CLStack:
         ties = [j for j, rank, lam in found if rank == top and lam >= best - tol]
         return min(ties, key=lambda j: (self.t[j], j))
 
-    def _swap_raw(self, eta: list, c_sc: float, lam: float) -> int:
+    def _swap_raw(self, c_sc: float, lam: float) -> int:
         B, row, best = self._work, -1, 0.0
         for j in range(self.P):
-            trial_matrix(self.M, self.sc[j], self.E, j, c_sc, eta, B)
-            trial = smallest_eigenvalue(B, N_BASIS, self._d, self._e)
+            trial_matrix(self.M, self.sc[j], self.E, j, c_sc, self._c, B)
+            trial = self._smallest(B)
             if row < 0 or trial > best:
                 row, best = j, trial
         return row if best > MAXEIG_GAIN * lam else -1

@@ -90,6 +90,20 @@ class ArmPlant(Fmi2Slave):
         self._set_state(*new)
         return True
 
+    def restored_values_problem(self, values) -> str | None:
+        """The arm's state lives in its outputs: a restored angle or velocity stays in the range of its
+        initial value (the parameters phi1_0 ... dphi2_0), and the positions on the arm's reach."""
+        for spec in INITIAL_STATE_SPECS:
+            name = spec.name[:-2]
+            if not spec.low <= values[name] <= spec.high:
+                return f"'{name}' = {values[name]!r} is outside [{spec.low:g}, {spec.high:g}] (the range of {spec.name})"
+        l1, l2 = abs(values["l1"]), abs(values["l2"])
+        for name, reach in (("ee_x", l1 + l2), ("ee_y", l1 + l2), ("elbow_x", l1), ("elbow_y", l1)):
+            if not abs(values[name]) <= reach * (1.0 + 1e-9):
+                return (f"'{name}' = {values[name]!r} is beyond the arm's reach ({reach:g} m with parameter "
+                        f"'l1' = {values['l1']!r}, 'l2' = {values['l2']!r})")
+        return None
+
     def restore_internal_state(self, state) -> None:
         if self._initialized:
             self._arm = ArmParameters.from_mapping(self.parameter_values(ARM_PARAMETER_SPECS))

@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import IO, Iterator
 
 from orchestration.exit_codes import UsageError
+from orchestration.paths import lock_path
 
 class OutputError(Exception):
     """An output that could not be written: ``path`` and the ``errno`` of the failure."""
@@ -74,14 +75,19 @@ class PathLock:
     def __init__(self, path: Path | str, what: str, folder: bool = False):
         path = Path(path)
         self.path, self.what = path, what
-        self.file = path / ".sotc-cosim.lock" if folder else path.with_name(f".{path.name}.lock")
+        self.file = lock_path(path, folder)
         self.fd: int | None = None
 
     def acquire(self) -> "PathLock":
         try:
             self.file.parent.mkdir(parents=True, exist_ok=True)
-            fd = os.open(self.file, os.O_CREAT | os.O_RDWR, 0o600)
+            fd = os.open(self.file, os.O_CREAT | os.O_RDWR | os.O_NOFOLLOW, 0o600)  # never a planted link's target
+        except (IsADirectoryError, NotADirectoryError) as exc:
+            raise UsageError(f"{self.what} {self.path}: its lock file {self.file} cannot be a file "
+                             f"({exc.strerror}); remove what is there") from None
         except OSError as exc:
+            if exc.errno == errno.ELOOP:
+                raise UsageError(f"{self.what} {self.path}: its lock file {self.file} is a link; remove it") from None
             raise OutputError.of(self.file, exc) from None
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)

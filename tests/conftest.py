@@ -45,3 +45,14 @@ def shipped_fmu_dir(shipped) -> Path:
     proc = shipped.cli("build", "--out", str(out), cwd=shipped.workdir("build"))
     assert proc.returncode == 0, proc.stderr
     return out
+
+
+@pytest.fixture(scope="session")
+def fmi3_paths(tmp_path_factory) -> dict[str, Path]:
+    """The FMI 3.0 FMUs, cores in Python (compiling them again would double the suite's build time;
+    the compiled FMI 3 build is exercised by tests/shipped/test_shipped_fmi3.py's ArmPlant)."""
+    from orchestration.fmu_build.compiled import switched
+
+    out = tmp_path_factory.mktemp("fmus3")
+    with switched(False):
+        return ensure_built(list(FMU_SOURCES), out, fmi=3)

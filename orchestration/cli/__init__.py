@@ -9,14 +9,15 @@ import sys
 
 from fmi_slave import VERSION
 from orchestration import exit_codes
-from orchestration.cli import batch_commands, compliance_commands, run_commands, tune_commands
+from orchestration.cli import batch_commands, compliance_commands, optimum_commands, run_commands, tune_commands
 from orchestration.exit_codes import UsageError
 from orchestration.fmu_build.build import BuildError
+from orchestration.fmu_build.child import BuildInterrupted
 from orchestration.outputs import OutputError
 from orchestration.paths import check_output_folder
 from orchestration.run import interrupt
 
-COMMAND_GROUPS = (run_commands, batch_commands, compliance_commands, tune_commands)
+COMMAND_GROUPS = (run_commands, batch_commands, compliance_commands, optimum_commands, tune_commands)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -37,6 +38,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    stopped = "stopped between two steps; finished results were kept"
     with interrupt.signals_deferred():
         try:
             fmu_dir = getattr(args, "fmu_dir", None)
@@ -45,6 +47,8 @@ def main(argv: list[str] | None = None) -> int:
             code = args.func(args)
         except interrupt.Interrupted:
             code = interrupt.exit_code()
+        except BuildInterrupted:  # the build child was stopped and cleaned up: no run started
+            code, stopped = interrupt.exit_code(), "stopped while building FMUs; nothing ran"
         except (UsageError, BuildError, OutputError, OSError) as exc:
             if interrupt.requested():
                 code = interrupt.exit_code()
@@ -52,8 +56,7 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"sotc-cosim: error: {exc}", file=sys.stderr)
                 return exit_codes.USAGE if isinstance(exc, (UsageError, BuildError)) else exit_codes.FAILED
         if interrupt.requested():
-            print(f"sotc-cosim: interrupted ({interrupt.signal_name()}): stopped between two steps; finished "
-                  "results were kept", file=sys.stderr)
+            print(f"sotc-cosim: interrupted ({interrupt.signal_name()}): {stopped}", file=sys.stderr)
             return interrupt.exit_code()
         return code
 

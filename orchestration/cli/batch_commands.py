@@ -7,7 +7,7 @@ import os
 from pathlib import Path
 
 from orchestration import exit_codes
-from orchestration.cli.options import add_fmu_dir, add_stop_time, positive_int, stop_times
+from orchestration.cli.options import add_fmi, add_fmu_dir, add_stop_time, fmu_dir_of, positive_int, stop_times
 from orchestration.outputs import PathLock
 from orchestration.paths import check_output_file, check_output_folder
 from orchestration.run import interrupt
@@ -44,22 +44,25 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
 
     if args.workers is not None and args.workers < 1:
         raise ScenarioError(f"--workers {args.workers}: give at least 1")
-    if args.scheduler is not None and not args.scheduler.strip():
-        raise ScenarioError("--scheduler '': give a Dask scheduler address such as tcp://host:8786, or leave it out")
+    if args.scheduler is not None:
+        from orchestration.sweep.addresses import check_scheduler_address
+
+        check_scheduler_address(args.scheduler)
     sweep = grid_from_assignments(args.sweep, args.set) if args.set else load_sweep(args.sweep)
     if args.stop_time is not None:
         sweep = dataclasses.replace(sweep, base=sweep.base.with_stop_time(args.stop_time))
-    out = check_output_folder(args.out or Path("recordings") / sweep.name, "--out")
+    out = check_output_folder(args.out or Path("recordings") / sweep.name, "--out", locked=True)
     if args.doc:
         check_output_file(args.doc, "--doc")
-    existed = out.exists()
+    created = [f for f in (out, *out.parents) if not f.exists()]  # the folders this sweep makes
     try:
         out.mkdir(parents=True, exist_ok=True)
         with PathLock(out, "--out", folder=True):
             return _sweep_into(args, sweep, out)
     finally:
-        if not existed and out.is_dir() and not any(out.iterdir()):
-            out.rmdir()  # nothing was stored (the scheduler was unreachable, say): leave no empty folder
+        for folder in created:  # nothing was stored (the scheduler was unreachable, say): no empty folder
+            if folder.is_dir() and not any(folder.iterdir()):
+                folder.rmdir()
 
 
 def _sweep_into(args: argparse.Namespace, sweep, out: Path) -> int:
@@ -69,8 +72,8 @@ def _sweep_into(args: argparse.Namespace, sweep, out: Path) -> int:
     store = SweepStore(out)
     listener = _SweepListener(sweep, out, args.workers, args.scheduler)
     try:
-        outcome = execute(sweep, args.fmu_dir, store, workers=args.workers, scheduler=args.scheduler,
-                          record=args.record, retry_failed=args.retry_failed, listener=listener)
+        outcome = execute(sweep, fmu_dir_of(args), store, workers=args.workers, scheduler=args.scheduler,
+                          record=args.record, retry_failed=args.retry_failed, listener=listener, fmi=args.fmi)
     finally:
         listener.close()
     reports = write_reports(store, outcome.total)
@@ -84,6 +87,7 @@ def _sweep_into(args: argparse.Namespace, sweep, out: Path) -> int:
         again += ["--scheduler", args.scheduler] if args.scheduler else []
         again += ["--record"] if args.record else []
         again += ["--stop-time", repr(args.stop_time)] if args.stop_time is not None else []
+        again += ["--fmi", "3"] if args.fmi == 3 else []
         print(f"interrupted: the {len(outcome.rows)} finished points are kept in {out}; resume with: "
               f"{' '.join(again)}")
         return interrupt.exit_code()
@@ -125,6 +129,7 @@ def add_commands(sub) -> None:
                    help="also write the results into this markdown file's generated block (plots beside it)")
     add_stop_time(p, "the base scenario's stop time, s (an axis over stop_time still sets its own)")
     add_fmu_dir(p)
+    add_fmi(p)
     p.set_defaults(func=_cmd_sweep)
 
     p = sub.add_parser("bench", help="measure speed and scaling (default), or the measurements behind design choices")

@@ -5,7 +5,7 @@ import argparse
 import math
 from pathlib import Path
 
-from orchestration.fmu_build.build import DEFAULT_FMU_DIR
+from orchestration.fmu_build.build import DEFAULT_FMU_DIR, FMI_VERSIONS, fmu_folder
 from orchestration.run.scenario import MAX_STEPS
 
 DEFAULT_SCENARIO = "paper"
@@ -46,6 +46,17 @@ def stop_times(text: str) -> list[float]:
 
 def add_fmu_dir(p: argparse.ArgumentParser) -> None:
     p.add_argument("--fmu-dir", type=Path, default=DEFAULT_FMU_DIR, help="where FMUs are built and found")
+
+
+def add_fmi(p: argparse.ArgumentParser, what: str = "run") -> None:
+    p.add_argument("--fmi", type=int, choices=FMI_VERSIONS, default=2,
+                   help=f"{what} the FMI 2.0 FMUs (default) or the FMI 3.0 ones, built from the same sources "
+                        f"(default folder {fmu_folder(DEFAULT_FMU_DIR, 3)} for FMI 3)")
+
+
+def fmu_dir_of(args: argparse.Namespace) -> Path:
+    """``--fmu-dir`` as given, else the default folder of the ``--fmi`` version asked for."""
+    return fmu_folder(args.fmu_dir, getattr(args, "fmi", 2), given=args.fmu_dir is not DEFAULT_FMU_DIR)
 
 
 def add_stop_time(p: argparse.ArgumentParser, help: str) -> None:

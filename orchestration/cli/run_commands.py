@@ -6,8 +6,8 @@ import sys
 from pathlib import Path
 
 from orchestration import exit_codes
-from orchestration.cli.options import DEFAULT_SCENARIO, add_fmu_dir, add_stop_time, positive_int
-from orchestration.fmu_build.build import DEFAULT_FMU_DIR, FMU_SOURCES, build_fmus, ensure_built
+from orchestration.cli.options import DEFAULT_SCENARIO, add_fmi, add_fmu_dir, add_stop_time, fmu_dir_of, positive_int
+from orchestration.fmu_build.build import DEFAULT_FMU_DIR, FMU_SOURCES, build_fmus, ensure_built, fmu_folder
 from orchestration.paths import check_output_file, check_output_folder
 from orchestration.run import interrupt
 from orchestration.run.parameter_check import check_scenarios
@@ -17,13 +17,16 @@ MAX_BLOCK = 20_000  # samples per block handed to the recorder at most (about 12
 
 
 def _cmd_build(args: argparse.Namespace) -> int:
-    check_output_folder(args.out, "--out")
+    out = check_output_folder(fmu_folder(args.out, args.fmi, given=args.out is not DEFAULT_FMU_DIR), "--out")
+    from orchestration.fmu_build.build import python_only_reason
     from orchestration.fmu_build.compiled import SWITCH, describe, insisted, unavailable
 
     if insisted() and unavailable():
         print(f"{SWITCH}=1, but the cores stay Python: {unavailable()}")
-    for path in build_fmus(args.models or None, args.out):
-        print(f"{path}: {describe(path)}")
+    why = python_only_reason() or "no hot core in it to compile"
+    for path in build_fmus(args.models or None, out, args.fmi):
+        described = describe(path)
+        print(f"{path}: {described}" + (f" ({why})" if described == "Python only" else ""))
     return exit_codes.OK
 
 
@@ -33,16 +36,16 @@ def _cmd_scenarios(args: argparse.Namespace) -> int:
     return exit_codes.OK
 
 
-def prepare(names: list, stop_time: float | None, fmu_dir: Path, check=None):
+def prepare(names: list, stop_time: float | None, fmu_dir: Path, check=None, fmi: int = 2):
     """Load the scenarios (names, paths or Scenario objects), apply --stop-time, call
     ``check(scenarios)`` (output paths: it raises before anything is built or written), and build the
-    FMUs they need."""
+    FMUs they need (FMI 2.0 or, ``fmi=3``, FMI 3.0)."""
     scenarios = [load_scenario(name) if isinstance(name, str) else name for name in names]
     if stop_time is not None:
         scenarios = [s.with_stop_time(stop_time) for s in scenarios]
     if check is not None:
         check(scenarios)
-    paths = ensure_built(sorted({i.fmu for s in scenarios for i in s.instances.values()}), fmu_dir)
+    paths = ensure_built(sorted({i.fmu for s in scenarios for i in s.instances.values()}), fmu_dir, fmi)
     check_scenarios(scenarios, paths)  # a value the FMU would refuse: exit 2 before anything runs
     return scenarios, paths
 
@@ -106,14 +109,14 @@ def _cmd_run(args: argparse.Namespace) -> int:
         if args.summary:
             check_output_file(args.summary, "--summary")
         if args.recording:
-            check_output_file(args.recording, "--recording")
+            check_output_file(args.recording, "--recording", locked=True)
         elif not args.no_recording:
             from orchestration.recording.writer import default_recording_path
 
             for scenario in scenarios:
-                check_output_file(default_recording_path(scenario.name), "recording")
+                check_output_file(default_recording_path(scenario.name), "recording", locked=True)
 
-    scenarios, paths = prepare(args.scenarios or [DEFAULT_SCENARIO], args.stop_time, args.fmu_dir, check)
+    scenarios, paths = prepare(args.scenarios or [DEFAULT_SCENARIO], args.stop_time, fmu_dir_of(args), check, args.fmi)
     written: list[Path] = []
 
     def recording_for(scenario):
@@ -141,8 +144,9 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     from orchestration.recording.overlays import record_comparison
     from orchestration.run.summary import format_table
 
-    results, summaries = zip(*run_each(*prepare(args.scenarios, args.stop_time, args.fmu_dir,
-                                                  lambda _: check_output_file(args.recording, "--recording"))))
+    results, summaries = zip(*run_each(*prepare(args.scenarios, args.stop_time, fmu_dir_of(args),
+                                                  lambda _: check_output_file(args.recording, "--recording",
+                                                                                locked=True), args.fmi)))
     print(format_table(summaries))
     print(f"recording: {record_comparison(results, args.recording)}")
     return exit_code(summaries)
@@ -154,9 +158,9 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
 
     def check(_) -> None:
         check_output_folder(args.out, "--out")
-        check_output_file(args.recording, "--recording")
+        check_output_file(args.recording, "--recording", locked=True)
 
-    results, summaries = zip(*run_each(*prepare(reproduce_scenarios(), args.stop_time, args.fmu_dir, check),
+    results, summaries = zip(*run_each(*prepare(reproduce_scenarios(), args.stop_time, fmu_dir_of(args), check, args.fmi),
                                         progress_label="reproduce"))
     notes = chaos_notes(summaries)
     md, cs, text = write_table(summaries, args.out, notes)
@@ -173,6 +177,7 @@ def add_commands(sub) -> None:
     p.add_argument("--out", type=Path, default=DEFAULT_FMU_DIR, help=f"output folder (default {DEFAULT_FMU_DIR})")
     p.add_argument("models", nargs="*", metavar="MODEL",
                    help=f"FMUs to build (default all: {', '.join(FMU_SOURCES)})")
+    add_fmi(p, "build")
     p.set_defaults(func=_cmd_build)
 
     p = sub.add_parser("run", help="run scenarios through the FMUs, print their metrics, record them for Rerun")
@@ -187,6 +192,7 @@ def add_commands(sub) -> None:
     rec.add_argument("--no-recording", action="store_true", help="do not write a Rerun recording")
     p.add_argument("--record-every", type=positive_int, default=1, metavar="N",
                    help="record every N-th sample only (long runs: a 10,000 s run is about 960 MB at N = 1)")
+    add_fmi(p)
     p.set_defaults(func=_cmd_run)
 
     p = sub.add_parser("compare", help="run scenarios and overlay them in one Rerun recording (paper Figs 10-12)")
@@ -195,6 +201,7 @@ def add_commands(sub) -> None:
                    help="where to write the recording (default recordings/compare.rrd)")
     add_stop_time(p, "override every scenario's stop time, s")
     add_fmu_dir(p)
+    add_fmi(p)
     p.set_defaults(func=_cmd_compare)
 
     p = sub.add_parser("reproduce", help="run the paper's section 4 experiment and write Table 1 extended")
@@ -203,6 +210,7 @@ def add_commands(sub) -> None:
                    help="the comparison recording of all runs (default recordings/reproduce.rrd)")
     add_stop_time(p, "override every scenario's stop time, s (default: the paper's 100 s)")
     add_fmu_dir(p)
+    add_fmi(p)
     p.set_defaults(func=_cmd_reproduce)
 
     p = sub.add_parser("scenarios", help="list the scenarios that ship with the package")

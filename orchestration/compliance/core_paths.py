@@ -17,6 +17,7 @@ import tempfile
 import zipfile
 from pathlib import Path
 
+from fmi_slave.compiled_check import DIGESTS, problems as compiled_problems
 from fmu_plant.dynamics import STEP_SIZE  # the paper's sampling period T
 from orchestration.fmu_build import compiled
 
@@ -40,18 +41,16 @@ def python_copy(path: Path, dest: Path) -> Path:
 
 def outputs_of(path: Path, steps: int = STEPS) -> tuple[list[str], list[list[float]]]:
     """(output names, their values at every step) of the FMU driven by ``drive``."""
-    from fmpy import read_model_description
+    from orchestration.run.fmi3_direct import open_instance
 
-    from orchestration.run.fmi_direct import FmuInstance
-
-    md = read_model_description(str(path), validate=False)
+    instance = open_instance(path, "cores")
+    md = instance.md  # FMI 3: in FMI 2 terms (fmi3_direct)
     inputs = [v for v in md.modelVariables if v.causality == "input" and v.type == "Real"]
     outputs = [u.variable for u in md.outputs if u.variable.type == "Real"]
     step = float(md.defaultExperiment.stepSize) if md.defaultExperiment and md.defaultExperiment.stepSize \
         else STEP_SIZE
     start = [float(v.start if v.start is not None else 0.0) for v in inputs]
     vrs = [v.valueReference for v in outputs]
-    instance = FmuInstance(path, "cores")
     try:
         instance.initialize()
         rows = []
@@ -82,10 +81,24 @@ def same(a: float, b: float) -> bool:
     return a == b or (math.isnan(a) and math.isnan(b))
 
 
+def digest_problems(path: Path) -> list[str]:
+    """The FMU's extensions that its own check (``fmi_slave.compiled_check``) would not load: their
+    bytes and the recorded digests are read from the archive (nothing of it is loaded)."""
+    with tempfile.TemporaryDirectory(prefix="sotc_cores_") as tmp, zipfile.ZipFile(path) as z:
+        wanted = [n for n in z.namelist() if compiled.is_extension(n) or n == f"resources/{DIGESTS}"]
+        for name in wanted:
+            z.extract(name, tmp)  # archive_problems has refused entries that leave the folder
+        return [f"resources/{rel}: {why}" for rel, why in compiled_problems(str(Path(tmp, "resources"))).items()]
+
+
 def problems(path: Path) -> list[str]:
-    """Where the compiled and the Python cores of the FMU at ``path`` differ (nothing to check: [])."""
+    """A compiled core that would not be loaded, or where the compiled and the Python cores of the FMU
+    at ``path`` differ (nothing to check: [])."""
     if not compiled.extensions(path):
         return []
+    damaged = digest_problems(path)
+    if damaged:
+        return damaged
     with tempfile.TemporaryDirectory(prefix="sotc_cores_") as tmp:
         fast = _child(Path(path).resolve(), Path(tmp))
         pure = _child(python_copy(path, Path(tmp) / Path(path).name), Path(tmp))

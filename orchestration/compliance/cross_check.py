@@ -1,6 +1,7 @@
 """``sotc-cosim cross-check``: a reference run of every FMU in the FMI Cross-Check layout.
 
-For each model the command writes, under ``OUT/fmus/2.0/cs/<platform>/sotc-cosim/<version>/<Model>/``:
+For each model the command writes, under ``OUT/fmus/<FMI version>/cs/<platform>/sotc-cosim/<version>/<Model>/``
+(``2.0``, or ``3.0`` for the FMI 3.0 FMUs, whose arrays are written as their elements' FMI 2 names):
 
 - ``<Model>.fmu``: the FMU;
 - ``<Model>_in.csv``: its input signals (absent for an FMU without inputs);
@@ -41,8 +42,8 @@ def platform() -> str:
     return fmpy.platform
 
 
-def model_dir(out_dir: Path, model: str) -> Path:
-    return Path(out_dir) / "fmus" / "2.0" / "cs" / platform() / TOOL / VERSION / model
+def model_dir(out_dir: Path, model: str, fmi_version: str = "2.0") -> Path:
+    return Path(out_dir) / "fmus" / fmi_version / "cs" / platform() / TOOL / VERSION / model
 
 
 def closed_loop_signals(fmu_paths: dict[str, Path], stop_time: float) -> tuple[np.ndarray, dict[str, np.ndarray]]:
@@ -64,9 +65,9 @@ def closed_loop_signals(fmu_paths: dict[str, Path], stop_time: float) -> tuple[n
 def reference_run(fmu_file: Path, times: np.ndarray, inputs: dict[str, np.ndarray]) -> tuple[list[str], np.ndarray]:
     """Drive the FMU alone with ``inputs`` sampled at ``times``; returns output names and rows
     (time, outputs...) at every communication point, with the cross-check sampling convention."""
-    from orchestration.run.fmi_direct import FmuInstance
+    from orchestration.run.fmi3_direct import open_instance
 
-    instance = FmuInstance(fmu_file, Path(fmu_file).stem)
+    instance = open_instance(fmu_file, Path(fmu_file).stem)
     try:
         outputs = instance.names("output")
         step = float(times[1] - times[0])
@@ -90,12 +91,13 @@ def write_csv(path: Path, names: list[str], rows: np.ndarray) -> None:
             f.write(",".join(repr(float(x)) for x in row) + "\n")
 
 
-def _readme(model: str, description: str, has_inputs: bool, stop_time: float, step: float) -> str:
+def _readme(model: str, description: str, has_inputs: bool, stop_time: float, step: float, fmi: str = "2.0") -> str:
     source = ("its inputs are the signals of the same name recorded in the closed loop of the "
               f"'{SOURCE_SCENARIO}' scenario (fmpy master), see {model}_in.csv" if has_inputs else "it has no inputs")
     return (
         f"{model}: {description}\n\n"
-        f"Exported by {TOOL} {VERSION} with PythonFMU 0.7.0 (an FMI 2.0 co-simulation FMU that runs its\n"
+        f"Exported by {TOOL} {VERSION} with {'PythonFMU 0.7.0' if fmi == '2.0' else 'PythonFMU3 0.3.4'} "
+        f"(an FMI {fmi} co-simulation FMU that runs its\n"
         "model in the host's Python interpreter: the importing process needs a CPython 3.11 with numpy,\n"
         "see docs/interop.md).\n\n"
         f"Reference: a fixed-step run of {stop_time:g} s with communication step {step:g} s; {source}.\n"
@@ -108,21 +110,21 @@ def generate(out_dir: Path, fmu_paths: dict[str, Path], stop_time: float = DEFAU
              models: list[str] | None = None) -> list[Path]:
     """Write the cross-check files of ``models`` (default: every FMU in ``fmu_paths``, which must also
     hold the FMUs of the source scenario); returns the model folders."""
-    from orchestration.run.fmi_direct import FmuInstance
+    from orchestration.run.fmi3_direct import open_instance
 
     times, signals = closed_loop_signals(fmu_paths, stop_time)
     step = float(times[1] - times[0])
     folders = []
     for model in models or list(fmu_paths):
         fmu_file = fmu_paths[model]
-        probe = FmuInstance(fmu_file, model)
+        probe = open_instance(fmu_file, model)
         input_vars = [probe.vars[n] for n in probe.names("input")]
-        description = probe.md.description or model
+        description, fmi = probe.md.description or model, probe.md.fmiVersion
         probe.free()
         inputs = {v.name: signals[v.name] if v.name in signals else np.full(len(times), float(v.start or 0.0))
                   for v in input_vars}
         names, rows = reference_run(fmu_file, times, inputs)
-        folder = model_dir(out_dir, model)
+        folder = model_dir(out_dir, model, fmi)
         folder.mkdir(parents=True, exist_ok=True)
         atomic_write(folder / f"{model}.fmu", Path(fmu_file).read_bytes())
         if inputs:
@@ -132,6 +134,6 @@ def generate(out_dir: Path, fmu_paths: dict[str, Path], stop_time: float = DEFAU
         write_csv(folder / f"{model}_ref.csv", names, rows)
         atomic_write(folder / f"{model}_ref.opt",
             f"StartTime, {float(times[0])!r}\nStopTime, {float(times[-1])!r}\nStepSize, {step!r}\nRelTol, {REL_TOL!r}\n")
-        atomic_write(folder / "ReadMe.txt", _readme(model, description, bool(inputs), float(times[-1]), step))
+        atomic_write(folder / "ReadMe.txt", _readme(model, description, bool(inputs), float(times[-1]), step, fmi))
         folders.append(folder)
     return folders

@@ -25,7 +25,8 @@ input connector has no connection, so it would feed ``d1``/``d2`` with the contr
 Left out, they keep their start value in every engine.
 
 The XML uses the prefixes ``ssd``/``ssc``/``ssv``/``osp`` literally: libcosim's parser matches element
-names with their prefix. The SSD and the SSVs validate against the SSP 1.0 schemas fmpy ships.
+names with their prefix. The SSD, its inline parameter sets included, validates against the SSP 1.0 schemas
+fmpy ships (the archive holds no separate .ssv file).
 """
 from __future__ import annotations
 

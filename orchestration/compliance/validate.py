@@ -7,7 +7,9 @@ Per FMU:
 - ``fmpy``: ``fmpy.validation.validate_fmu`` (schema, units, model structure);
 - ``fmutool``: the checkers ``fmutool -input X.fmu -check`` runs (XSD schema and FMI 2.0 semantic
   rules, fmu-manipulation-toolbox), called through its Python API; an ERROR record is a problem;
-- ``units``: every Real variable (ports and parameters) names a unit defined in UnitDefinitions;
+- ``units``: every Real (FMI 3: Float64) variable, ports and parameters, names a unit defined in
+  UnitDefinitions; an FMI 3 array whose elements differ in unit (the SOTC's z) names each element's
+  unit in its description instead;
 - ``starts``: every input has a start value, and every start value of an input or parameter in the
   XML is exactly (bitwise) the value a fresh instance holds;
 - ``descriptions``: the model and every variable have a description;
@@ -40,6 +42,8 @@ from __future__ import annotations
 
 import fnmatch
 import logging
+import math
+import re
 import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -163,10 +167,13 @@ def _metadata_problems(md, report: FmuReport) -> None:
     for v in md.modelVariables:
         if not v.description:
             p["descriptions"].append(f"'{v.name}' has no description")
-        if v.type == "Real" and v.causality in ("parameter", "input", "output"):
-            if not v.unit:
+        if v.type in ("Real", "Float64") and v.causality in ("parameter", "input", "output"):
+            element_units = _element_units(v)
+            if not v.unit and not element_units:
                 p["units"].append(f"'{v.name}' ({v.causality}) has no unit")
-            elif v.unit not in defined:
+            elif not v.unit and not element_units <= defined:
+                p["units"].append(f"'{v.name}': element units {sorted(element_units - defined)} are not in UnitDefinitions")
+            elif v.unit and v.unit not in defined:
                 p["units"].append(f"'{v.name}': unit '{v.unit}' is not in UnitDefinitions")
         if v.causality == "input" and v.start is None:
             p["starts"].append(f"input '{v.name}' has no start value")
@@ -183,6 +190,16 @@ def _metadata_problems(md, report: FmuReport) -> None:
         for flag in ("canGetAndSetFMUstate", "canSerializeFMUstate"):
             if not getattr(cs, flag):
                 p["state"].append(f"{flag} is not declared true")
+
+
+def _element_units(v) -> set[str]:
+    """An FMI 3.0 array whose elements differ in unit has none; its description then ends each
+    element's part with its unit ("[1] ... (rad); [2] ... (rad/s)", ``fmi3_slave.slave``): those
+    units, or none if any element lacks one."""
+    size = int(math.prod(getattr(v, "shape", None) or ())) if getattr(v, "shape", None) else 1
+    parts = (v.description or "").split("; [")
+    units = [m.group(1) for m in (re.search(r"\(([^()]+)\)$", part) for part in parts) if m]
+    return set(units) if size > 1 and len(parts) == size and len(units) == size else set()
 
 
 def _range_problems(v) -> list[str]:
@@ -217,12 +234,12 @@ def _python_bundle(path: Path) -> dict[str, bytes]:
 
 def _digest_problems(path: Path, stem: str) -> list[str]:
     """The module names must carry the digest of the bundled content (one name, one content)."""
-    from orchestration.fmu_build.packaging import bundle_digest
+    from orchestration.fmu_build.packaging import UNDIGESTED, bundle_digest
 
     model, _, named = stem.rpartition("_")
     with zipfile.ZipFile(path) as z:
         files = {n[len("resources/"):]: z.read(n) for n in z.namelist()
-                 if n.startswith("resources/") and not n.endswith("/") and not n.endswith("parameter_starts.json")}
+                 if n.startswith("resources/") and not n.endswith("/") and n.rsplit("/", 1)[-1] not in UNDIGESTED}
     actual = bundle_digest(files, stem, model.removeprefix("sotc_"))[:12]
     if actual != named:
         return [f"the bundled code has digest {actual}, but its module names say {named}: changed after the build"]
@@ -278,22 +295,23 @@ def _start_problems(fmu, md) -> list[str]:
     return problems
 
 
-def _dependency_problems(path: Path, md, start_problems: list[str]) -> list[str]:
+def _dependency_problems(path: Path, start_problems: list[str]) -> list[str]:
+    """FMI 3.0 FMUs are driven element by element, in FMI 2 terms (``fmi3_direct``)."""
     from fmpy.fmi1 import FMICallException
 
-    from orchestration.run.fmi_direct import FmuInstance
+    from orchestration.run.fmi3_direct import open_instance
 
+    try:
+        instance = open_instance(path, "validate")
+    except Exception as exc:
+        return [f"the experiment could not instantiate the FMU: {exc}"]
+    fmu, md = instance.fmu, instance.md
     inputs = [v for v in md.modelVariables if v.causality == "input" and v.type == "Real"]
     outputs = [u for u in md.outputs if u.variable.type == "Real"]
     problems: list[str] = []
     changed_by_declared = {u.variable.name: False for u in outputs}
     largest = {u.variable.name: 0.0 for u in outputs}
     out_vr = [u.variable.valueReference for u in outputs]
-    try:
-        instance = FmuInstance(path, "validate")
-    except Exception as exc:
-        return [f"the experiment could not instantiate the FMU: {exc}"]
-    fmu = instance.fmu
     try:
         start_problems += _start_problems(fmu, md)
         step = float(md.defaultExperiment.stepSize) if md.defaultExperiment else STEP_SIZE
@@ -364,7 +382,7 @@ def validate_fmu_file(path: Path) -> FmuReport:
     report.model = md.coSimulation.modelIdentifier if md.coSimulation else md.modelName
     _metadata_problems(md, report)
     report.problems["standalone"] = _standalone_problems(path)
-    report.problems["dependencies"] = _dependency_problems(path, md, report.problems["starts"])
+    report.problems["dependencies"] = _dependency_problems(path, report.problems["starts"])
     report.problems["cores"] = core_paths.problems(path)
     return report
 

@@ -14,16 +14,20 @@ from __future__ import annotations
 
 import argparse
 import hashlib
-import subprocess
+import os
 import sys
 import tempfile
+import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Callable
 
 from fmu_controller.catalog import CONTROLLERS
 from orchestration.outputs import atomic_write
 from orchestration.paths import OutputPathError, check_output_folder
-from orchestration.fmu_build import compiled, packaging
+from orchestration.fmu_build import compiled, fmi3, packaging
+from orchestration.fmu_build.child import Stopped, die_with_parent, run_child, stop_on_signals
+from orchestration.scratch import owner_prefix, remove_stale
 
 DEFAULT_FMU_DIR = Path("build") / "fmus"
 PACKAGE_ROOT = Path(__file__).resolve().parents[2]  # folder holding fmu_plant/, fmu_controller/
@@ -51,23 +55,39 @@ FMU_SOURCES: dict[str, FmuSource] = {
 }
 
 
+FMI_VERSIONS = (2, 3)  # ``--fmi``: FMI 2.0 (the default) or FMI 3.0, from the same sources
+
+
 class BuildError(RuntimeError):
     pass
 
 
-def _source_files(source: FmuSource) -> list[Path]:
+def fmu_folder(folder: Path, fmi: int, given: bool = False) -> Path:
+    """Where the FMUs of an FMI version live: ``folder`` if the user gave it, else the default folder
+    (FMI 3 in its ``fmi3`` subfolder, so that the two versions never rebuild each other's FMUs)."""
+    return Path(folder) if given or fmi == 2 else Path(folder) / "fmi3"
+
+
+def packages_of(source: FmuSource, fmi: int) -> tuple[str, ...]:
+    """The packages an FMU of this FMI version bundles: FMI 3 adds the FMI 3 face of the framework."""
+    return source.packages + ((fmi3.FMI3_PACKAGE,) if fmi == 3 else ())
+
+
+def _source_files(source: FmuSource, fmi: int = 2) -> list[Path]:
     files = [PACKAGE_ROOT / source.script, Path(__file__).resolve(), Path(packaging.__file__).resolve(),
-             Path(compiled.__file__).resolve()]
-    for pkg in source.packages:
+             Path(compiled.__file__).resolve(), Path(fmi3.__file__).resolve()]
+    for pkg in packages_of(source, fmi):
         files += sorted((PACKAGE_ROOT / pkg).glob("*.py")) + sorted((PACKAGE_ROOT / pkg).glob("*.pxd"))
-    return sorted(set(files)) + packaging.pythonfmu_sources()
+    exporters = dict.fromkeys(("pythonfmu", packaging.EXPORTERS[fmi]))
+    return sorted(set(files)) + [f for e in exporters for f in packaging.pythonfmu_sources(e)]
 
 
-def source_digest(source: FmuSource) -> str:
-    """What the FMU is built from: its sources, pythonfmu's Python half, the packaging code and
-    whether its cores are compiled (``compiles``)."""
-    h = hashlib.sha256(source.model.encode() + (f" compiled for {compiled.target()}".encode() if compiles() else b""))
-    for f in _source_files(source):
+def source_digest(source: FmuSource, fmi: int = 2) -> str:
+    """What the FMU is built from: its sources, pythonfmu's Python half, the packaging code, its FMI
+    version and whether its cores are compiled (``compiles``)."""
+    h = hashlib.sha256(source.model.encode() + (f" compiled for {compiled.target()}".encode() if compiles() else b"")
+                       + (b" FMI 3.0" if fmi == 3 else b""))
+    for f in _source_files(source, fmi):
         h.update(f.name.encode())
         h.update(f.read_bytes())
     return h.hexdigest()
@@ -81,13 +101,13 @@ def file_digest(path: Path) -> str:
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
-def is_current(model: str, out_dir: Path) -> bool:
+def is_current(model: str, out_dir: Path, fmi: int = 2) -> bool:
     """The FMU is there, built from today's sources, and its bytes are the ones that build wrote (the
     stamp holds both digests): a truncated, corrupt or replaced FMU is built again."""
     stamp, fmu = Path(out_dir) / f"{model}.sources.sha256", fmu_path(model, out_dir)
     try:
         lines = stamp.read_text().split()
-        return fmu.is_file() and lines == [source_digest(FMU_SOURCES[model]), file_digest(fmu)]
+        return fmu.is_file() and lines == [source_digest(FMU_SOURCES[model], fmi), file_digest(fmu)]
     except OSError:
         return False
 
@@ -97,19 +117,25 @@ def compiles() -> bool:
     return compiled.requested() and compiled.unavailable() is None
 
 
-def _build_one(source: FmuSource, out_dir: Path) -> tuple[Path, list[str]]:
+def _build_one(source: FmuSource, out_dir: Path, fmi: int = 2) -> tuple[Path, list[str]]:
     """Runs in the child process only."""
-    with tempfile.TemporaryDirectory(prefix="sotc_stage_") as tmp:
-        digest = source_digest(source)
+    with tempfile.TemporaryDirectory(prefix=owner_prefix("sotc_stage_")) as tmp:
+        digest = source_digest(source, fmi)
+        script = PACKAGE_ROOT / source.script
+        if fmi == 3:
+            script = fmi3.write_script(source.model, script, PACKAGE_ROOT, Path(tmp))
         built, cores = packaging.package_fmu(
-            source.model, PACKAGE_ROOT / source.script, {pkg: PACKAGE_ROOT / pkg for pkg in source.packages},
-            [PACKAGE_ROOT / e for e in source.equations], fmu_path(source.model, out_dir), Path(tmp), compiles())
+            source.model, script, {pkg: PACKAGE_ROOT / pkg for pkg in packages_of(source, fmi)},
+            [PACKAGE_ROOT / e for e in source.equations], fmu_path(source.model, out_dir), Path(tmp), compiles(), fmi)
     atomic_write(out_dir / f"{source.model}.sources.sha256", f"{digest}\n{file_digest(built)}\n")
     return built, cores
 
 
-def build_fmus(models: list[str] | None = None, out_dir: Path = DEFAULT_FMU_DIR) -> list[Path]:
-    """Build the named FMUs (all by default) into ``out_dir`` in a child process."""
+def build_fmus(models: list[str] | None = None, out_dir: Path = DEFAULT_FMU_DIR, fmi: int = 2,
+               report: Callable[[str], None] | None = None) -> list[Path]:
+    """Build the named FMUs (all by default) into ``out_dir`` in a child process, for FMI 2.0 or 3.0;
+    ``report`` gets a line before and one per FMU as it is built (default: stderr). A signal stops the
+    child (``child.BuildInterrupted``)."""
     models = list(FMU_SOURCES) if not models else models
     unknown = [m for m in models if m not in FMU_SOURCES]
     if unknown:
@@ -124,30 +150,67 @@ def build_fmus(models: list[str] | None = None, out_dir: Path = DEFAULT_FMU_DIR)
     if occupied:
         raise BuildError(f"{', '.join(occupied)}: not a file where the FMU goes; remove it")
     out_dir.mkdir(parents=True, exist_ok=True)
-    cmd = [sys.executable, "-m", "orchestration.fmu_build.build", "--out", str(out_dir.resolve()), *models]
-    proc = subprocess.run(cmd, capture_output=True, text=True, cwd=str(PACKAGE_ROOT))
-    if proc.returncode != 0:  # the child's last line says why (its whole output would be a traceback)
-        last = next((line for line in reversed(proc.stderr.splitlines()) if line.strip()), "no message")
+    report = report or _to_stderr
+    report(f"building {len(models)} FMU{'s' if len(models) > 1 else ''} (FMI {fmi}.0) into {out_dir}: {cores_note()}")
+    cmd = [sys.executable, "-m", "orchestration.fmu_build.build", "--out", str(out_dir.resolve()), "--fmi", str(fmi),
+           "--parent", str(os.getpid()), *models]
+    code, errors = run_child(cmd, str(PACKAGE_ROOT), lambda line: report(f"  {line}"))
+    if code != 0:  # the child's last line says why (its whole output would be a traceback)
+        last = next((line for line in reversed(errors) if line.strip()), "no message")
         raise BuildError(f"building {', '.join(models)} in {out_dir} failed: {last.strip()}")
     return [fmu_path(m, out_dir) for m in models]
 
 
-def ensure_built(models: list[str], out_dir: Path = DEFAULT_FMU_DIR) -> dict[str, Path]:
+def _to_stderr(line: str) -> None:
+    print(line, file=sys.stderr, flush=True)
+
+
+def python_only_reason() -> str | None:
+    """Why a build here keeps the hot cores Python (None: it compiles them)."""
+    if compiles():
+        return None
+    return compiled.unavailable() if compiled.requested() else f"{compiled.SWITCH}=0 asks for Python cores"
+
+
+def cores_note() -> str:
+    """What a build here makes of the hot cores, and why they stay Python when they do."""
+    why = python_only_reason()
+    return f"hot cores stay Python: {why}" if why else \
+        f"hot cores compiled with Cython for {compiled.target()} (tens of seconds per FMU)"
+
+
+def ensure_built(models: list[str], out_dir: Path = DEFAULT_FMU_DIR, fmi: int = 2) -> dict[str, Path]:
     """Build the FMUs that are missing or older than their sources; return model -> path."""
-    stale = [m for m in dict.fromkeys(models) if m not in FMU_SOURCES or not is_current(m, out_dir)]
+    stale = [m for m in dict.fromkeys(models) if m not in FMU_SOURCES or not is_current(m, out_dir, fmi)]
     if stale:
-        build_fmus(stale, out_dir)
+        build_fmus(stale, out_dir, fmi)
     return {m: fmu_path(m, out_dir) for m in models}
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description="Build sotc-cosim FMUs (child-process entry point)")
     parser.add_argument("--out", type=Path, default=DEFAULT_FMU_DIR)
+    parser.add_argument("--fmi", type=int, choices=FMI_VERSIONS, default=2)
+    parser.add_argument("--parent", type=int, help="the command's pid: stop when it dies")
     parser.add_argument("models", nargs="*")
     args = parser.parse_args(argv)
-    args.out.mkdir(parents=True, exist_ok=True)
-    for model in args.models or list(FMU_SOURCES):
-        print(_build_one(FMU_SOURCES[model], args.out)[0])
+    models = args.models or list(FMU_SOURCES)
+    try:
+        with stop_on_signals():
+            if args.parent is not None:
+                die_with_parent(args.parent)
+            for prefix in ("sotc_stage_", "sotc_cython_"):  # left by a build that was killed
+                remove_stale(Path(tempfile.gettempdir()), prefix)
+            args.out.mkdir(parents=True, exist_ok=True)
+            for i, model in enumerate(models, 1):
+                print(f"[{i}/{len(models)}] {model} ...", flush=True)
+                started = time.monotonic()
+                built, cores = _build_one(FMU_SOURCES[model], args.out, args.fmi)
+                what = f"{len(cores)} core{'s' if len(cores) > 1 else ''} compiled" if cores else "Python"
+                print(f"[{i}/{len(models)}] {model}: {built.name} in {time.monotonic() - started:.0f} s ({what})",
+                      flush=True)
+    except Stopped as exc:
+        return 128 + exc.signum
     return 0
 
 

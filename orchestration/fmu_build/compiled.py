@@ -129,11 +129,14 @@ def compile_bundle(resources: Path, lib: str, pxd: dict[str, str]) -> list[str]:
     staged = [resources / lib / rel for rel in pxd]
     for path, text in zip(staged, pxd.values()):
         path.write_text(text)
-    with tempfile.TemporaryDirectory(prefix="sotc_cython_") as tmp:
+    # imported here: setup.py loads this file alone (no package around it) for the wheel's extensions
+    from orchestration.fmu_build.child import run_compiler
+    from orchestration.scratch import owner_prefix
+
+    with tempfile.TemporaryDirectory(prefix=owner_prefix("sotc_cython_")) as tmp:
         cmd = [sys.executable, "-c", _SCRIPT, tmp, *(f"{lib}/{rel}" for rel in present)]
         try:
-            proc = subprocess.run(cmd, cwd=resources, capture_output=True, text=True, timeout=TIME_LIMIT,
-                                  env={**os.environ, "CFLAGS": CFLAGS})
+            proc = run_compiler(cmd, resources, {**os.environ, "CFLAGS": CFLAGS}, TIME_LIMIT)
         except subprocess.TimeoutExpired:
             raise CompileError(f"compiling the cores took over {TIME_LIMIT:g} s") from None
     for rel in present:

@@ -11,6 +11,8 @@ therefore share the first one's copy. So every name an FMU brings is unique to i
     resources/<stem>_lib/fmu_plant/...   the cores it needs
     resources/<stem>_lib/fmu_controller/...
     resources/<stem>_lib/pythonfmu/...   pythonfmu's Python half, imported from here only
+    resources/<stem>_lib/fmi3_slave/...  FMI 3.0 only: the FMI 3 face of the same framework
+    resources/<stem>_lib/pythonfmu3/...  FMI 3.0 only: pythonfmu3's Python half
     resources/requirements.txt           what the host must have (``pythonfmu deploy -f`` reads it)
     documentation/index.html             ports, parameters, equations, host requirements
 
@@ -20,7 +22,9 @@ happens here, and a check refuses the build if any import of a bundled package e
 script first checks the host's packages (``fmi_slave.host_check``), then imports its cores.
 
 The modelDescription comes from an instance of the staged (renamed) model class, so it describes
-exactly the code that ships; the binary is pythonfmu's, renamed to the modelIdentifier.
+exactly the code that ships; the binary is pythonfmu's (FMI 2.0) or pythonfmu3's (FMI 3.0), renamed
+to the modelIdentifier. An FMI 3.0 FMU wraps the FMI 2.0 model class (``fmi3_slave``), so it bundles
+both exporters' Python halves: pythonfmu's variable classes are the framework's variable model.
 """
 from __future__ import annotations
 
@@ -39,11 +43,14 @@ from pathlib import Path
 from xml.dom.minidom import parseString
 from xml.etree.ElementTree import Element, tostring
 
+from fmi_slave.compiled_check import DIGESTS, extension_files
 from fmi_slave.host_check import parse_requirement
 from orchestration.fmu_build import compiled
 from orchestration.outputs import atomic_file
 
-BUNDLED = ("fmi_slave", "fmu_plant", "fmu_controller", "pythonfmu")  # top-level packages renamed into <stem>_lib
+# top-level packages renamed into <stem>_lib
+BUNDLED = ("fmi_slave", "fmi3_slave", "fmu_plant", "fmu_controller", "pythonfmu", "pythonfmu3")
+EXPORTERS = {2: "pythonfmu", 3: "pythonfmu3"}  # FMI version -> the package whose binary an FMU carries
 DISTRIBUTION = "sotc-cosim"
 # CPython versions the project's test suite runs the built FMUs on (requires-python >= 3.11)
 MEASURED_PYTHONS = ("3.11",)
@@ -73,10 +80,24 @@ def bundle_digest(files: dict[str, bytes], stem: str, model: str) -> str:
     return h.hexdigest()
 
 
+# files under resources/ that the bundle digest leaves out: the parameter starts of a copy, and the digests
+# of the compiled cores (written after the renaming; the cores themselves are covered)
+UNDIGESTED = ("parameter_starts.json", DIGESTS)
+
+
 def bundled_files(resources: Path) -> dict[str, bytes]:
-    """What ``bundle_digest`` covers: every staged file but the parameter starts of a copy."""
+    """What ``bundle_digest`` covers: every staged file but ``UNDIGESTED``."""
     return {f.relative_to(resources).as_posix(): f.read_bytes() for f in sorted(resources.rglob("*"))
-            if f.is_file() and "__pycache__" not in f.parts and f.name != "parameter_starts.json"}
+            if f.is_file() and "__pycache__" not in f.parts and f.name not in UNDIGESTED}
+
+
+def write_core_digests(resources: Path) -> None:
+    """``resources/compiled_cores.sha256``: the digest of every extension as it ships (after the
+    renaming), which the FMU checks before loading one (``fmi_slave.compiled_check``)."""
+    lines = [f"{hashlib.sha256((resources / rel).read_bytes()).hexdigest()}  {rel}\n"
+             for rel in extension_files(str(resources))]
+    if lines:
+        (resources / DIGESTS).write_text("".join(lines))
 
 
 def _rename_bundle(resources: Path, old: str, new: str) -> None:
@@ -87,22 +108,22 @@ def _rename_bundle(resources: Path, old: str, new: str) -> None:
             f.rename(f.with_name(f.name.replace(old, new)))
 
 
-def _pythonfmu_folder() -> Path:
-    """pythonfmu's installed folder, found without importing it into this process."""
-    spec = importlib.util.find_spec("pythonfmu")
+def _pythonfmu_folder(package: str = "pythonfmu") -> Path:
+    """pythonfmu's (or pythonfmu3's) installed folder, found without importing it into this process."""
+    spec = importlib.util.find_spec(package)
     if spec is None or not spec.submodule_search_locations:
-        raise PackagingError("pythonfmu is not installed: it provides the FMUs' binaries")
+        raise PackagingError(f"{package} is not installed: it provides the FMUs' binaries")
     return Path(next(iter(spec.submodule_search_locations)))
 
 
-def pythonfmu_sources() -> list[Path]:
-    """The Python half of pythonfmu that every FMU carries (what its own builder copies)."""
-    return sorted(_pythonfmu_folder().glob("*.py"))
+def pythonfmu_sources(package: str = "pythonfmu") -> list[Path]:
+    """The Python half of pythonfmu (or pythonfmu3) that an FMU carries (what its own builder copies)."""
+    return sorted(_pythonfmu_folder(package).glob("*.py"))
 
 
-def pythonfmu_binaries() -> list[tuple[Path, str]]:
-    """(binary, its platform folder) for every platform pythonfmu ships an export library for."""
-    root = _pythonfmu_folder() / "resources" / "binaries"
+def pythonfmu_binaries(package: str = "pythonfmu") -> list[tuple[Path, str]]:
+    """(binary, its platform folder) for every platform pythonfmu (or pythonfmu3) ships an export library for."""
+    root = _pythonfmu_folder(package) / "resources" / "binaries"
     return [(f, f.parent.relative_to(root).as_posix()) for ext in ("so", "dll", "dylib")
             for f in sorted(root.rglob(f"*.{ext}"))]
 
@@ -167,7 +188,7 @@ def _insert_after_future(text: str, header: str) -> str:
     return "".join(lines[:line]) + header + "".join(lines[line:])
 
 
-def stage(model: str, script: Path, packages: dict[str, Path], stem: str, dest: Path) -> list[str]:
+def stage(model: str, script: Path, packages: dict[str, Path], stem: str, dest: Path, fmi: int = 2) -> list[str]:
     """Write the renamed script and packages under ``dest`` (the future ``resources/``); return the
     host requirement lines. ``packages`` maps a bundled top-level name to its source folder."""
     lib = f"{stem}_lib"
@@ -177,8 +198,11 @@ def stage(model: str, script: Path, packages: dict[str, Path], stem: str, dest: 
     files = {dest / lib / rel: src.read_text() for rel, src in import_closure([script, host_check], packages).items()}
     files.setdefault(dest / lib / "fmi_slave" / "host_check.py", host_check.read_text())
     files.setdefault(dest / lib / "fmi_slave" / "__init__.py", Path(packages["fmi_slave"], "__init__.py").read_text())
+    files.setdefault(dest / lib / "fmi_slave" / "compiled_check.py",
+                     Path(packages["fmi_slave"], "compiled_check.py").read_text())  # the header's second import
     # pythonfmu's own modules import each other relatively: it comes whole, as its builder copies it
-    files |= {dest / lib / "pythonfmu" / f.name: f.read_text() for f in pythonfmu_sources()}
+    for exporter in dict.fromkeys(("pythonfmu", EXPORTERS[fmi])):
+        files |= {dest / lib / exporter / f.name: f.read_text() for f in pythonfmu_sources(exporter)}
     third_party: set[str] = set()
     for target, text in files.items():
         target.parent.mkdir(exist_ok=True)
@@ -190,7 +214,11 @@ def stage(model: str, script: Path, packages: dict[str, Path], stem: str, dest: 
     requirements = host_requirements(third_party)
     header = (f"# sotc-cosim build: check the host's packages before anything imports them\n"
               f"from {lib}.fmi_slave.host_check import require_host_packages\n"
-              f"require_host_packages({model!r}, {tuple(requirements)!r})\n")
+              f"require_host_packages({model!r}, {tuple(requirements)!r})\n"
+              f"# and verify the compiled cores before anything loads one\n"
+              f"from os.path import dirname as _sotc_dirname\n"
+              f"from {lib}.fmi_slave.compiled_check import verify_compiled_cores\n"
+              f"verify_compiled_cores({model!r}, _sotc_dirname(__file__))\n")
     (dest / f"{stem}.py").write_text(_insert_after_future(script_text, header))
     (dest / "requirements.txt").write_text("".join(r + "\n" for r in requirements))
     (dest / "slavemodule.txt").write_text(stem)
@@ -259,18 +287,26 @@ def _compiled_html(cores: list[str]) -> str:
             "with the same results.</p>")
 
 
+def _requirements_html(model: str, requirements: list[str], exporter: str) -> str:
+    if not requirements:
+        return ("<p>Its code imports no package beyond Python's standard library, so "
+                "<code>resources/requirements.txt</code> is empty and there is nothing to install.</p>")
+    return (f"<p>These packages are listed in <code>resources/requirements.txt</code>; "
+            f"<code>{exporter} deploy -f {html.escape(model)}.fmu</code> installs them. A missing package makes "
+            "instantiation fail with a logged message that names it and its version range.</p>")
+
+
 def documentation_html(model: str, xml: Element, equations: list[str], requirements: list[str],
                        cores: list[str] = ()) -> str:
     """``documentation/index.html``: what the FMU is, its ports, and what its host needs (no links)."""
     esc = html.escape
     rows: dict[str, list[str]] = {"input": [], "output": [], "parameter": []}
-    for sv in xml.iter("ScalarVariable"):
+    for sv, typed, shape in _variables(xml):
         kind = sv.get("causality")
         if kind not in rows:
             continue
-        typed = next(iter(sv))
         rows[kind].append(
-            f"<tr><td>{esc(sv.get('name'))}</td><td>{esc(typed.tag)}</td><td>{esc(typed.get('unit') or '')}</td>"
+            f"<tr><td>{esc(sv.get('name'))}</td><td>{esc(typed.tag + shape)}</td><td>{esc(typed.get('unit') or '')}</td>"
             f"<td>{esc(typed.get('start') or '')}</td><td>{esc(_range(typed))}</td>"
             f"<td>{esc(sv.get('description') or '')}</td></tr>")
     tables = "".join(
@@ -284,23 +320,36 @@ def documentation_html(model: str, xml: Element, equations: list[str], requireme
         "<style>body{font-family:sans-serif;max-width:60em}td,th{border:1px solid #ccc;padding:2px 6px}"
         "table{border-collapse:collapse}pre{background:#f6f6f6;padding:6px}</style></head><body>"
         f"<h1>{esc(model)}</h1><p>{esc(xml.get('description') or '')}</p>"
-        f"<p>FMI 2.0 co-simulation FMU of sotc-cosim {esc(xml.get('version') or '')}, GUID "
-        f"<code>{esc(xml.get('guid') or '')}</code>. Communication step T = {xml.find('DefaultExperiment').get('stepSize')} s by default.</p>"
+        f"<p>FMI {esc(xml.get('fmiVersion'))} {' and '.join(_interfaces(xml))} FMU of sotc-cosim "
+        f"{esc(xml.get('version') or '')}, {'instantiation token' if xml.get('instantiationToken') else 'GUID'} "
+        f"<code>{esc(xml.get('guid') or xml.get('instantiationToken') or '')}</code>. Communication step T = {xml.find('DefaultExperiment').get('stepSize')} s by default.</p>"
         "<h2>Host requirements</h2><p>The FMU runs its Python code inside the host's Python interpreter "
         "(pythonfmu). That interpreter needs:</p>"
         f"<ul><li>CPython {' or '.join(MEASURED_PYTHONS)} (measured), with a shared libpython "
         "loaded into the host process</li>"
-        f"{reqs}</ul><p>These are listed in <code>resources/requirements.txt</code>; "
-        f"<code>pythonfmu deploy -f {esc(model)}.fmu</code> installs them. A missing package makes "
-        "fmi2Instantiate fail with a logged message that names it and its version range.</p>"
+        f"{reqs}</ul>{_requirements_html(model, requirements, EXPORTERS[int(xml.get('fmiVersion', '2')[0])])}"
         f"{_compiled_html(list(cores))}{tables}<h2>Equations</h2>{maths}</body></html>\n")
 
 
-def write_fmu(dest_file: Path, model: str, resources: Path, xml: Element, documentation: str) -> None:
-    """Zip the FMU: modelDescription, pythonfmu's binaries renamed to the model, resources, docs."""
+def _variables(xml: Element):
+    """(variable element, typed element, array shape text) of every variable, FMI 2.0 or 3.0."""
+    if xml.get("fmiVersion", "").startswith("2"):
+        return [(sv, next(iter(sv)), "") for sv in xml.iter("ScalarVariable")]
+    return [(v, v, "".join(f"[{d.get('start')}]" for d in v.iter("Dimension")))
+            for v in xml.find("ModelVariables")]
+
+
+def _interfaces(xml: Element) -> list[str]:
+    names = {"CoSimulation": "co-simulation", "ModelExchange": "Model Exchange"}
+    return [label for tag, label in names.items() if xml.find(tag) is not None]
+
+
+def write_fmu(dest_file: Path, model: str, resources: Path, xml: Element, documentation: str, fmi: int = 2) -> None:
+    """Zip the FMU: modelDescription, pythonfmu's (pythonfmu3's) binaries renamed to the model,
+    resources, docs."""
     with atomic_file(dest_file, "wb") as f, zipfile.ZipFile(f, "w", zipfile.ZIP_DEFLATED) as z:
         z.writestr("modelDescription.xml", parseString(tostring(xml, "UTF-8")).toprettyxml(encoding="UTF-8"))
-        for binary, platform in pythonfmu_binaries():
+        for binary, platform in pythonfmu_binaries(EXPORTERS[fmi]):
             z.write(binary, f"binaries/{platform}/{model}{binary.suffix}")
         for item in sorted(resources.rglob("*")):
             if item.is_file() and "__pycache__" not in item.parts:
@@ -320,19 +369,20 @@ def _declarations(packages: dict[str, Path], lib: str) -> dict[str, str]:
 
 
 def package_fmu(model: str, script: Path, packages: dict[str, Path], equations: list[Path],
-                dest_file: Path, workdir: Path, compile_cores: bool = False) -> tuple[Path, list[str]]:
+                dest_file: Path, workdir: Path, compile_cores: bool = False, fmi: int = 2) -> tuple[Path, list[str]]:
     """Stage, describe and zip one FMU into ``dest_file``; return it and the cores compiled into it
     (``compile_cores``: ``compiled.compile_bundle``). The bundle's module names carry the digest of its
     own content (``bundle_digest``), the extensions included."""
     resources = workdir / "resources"
     placeholder = bundle_stem(model, PLACEHOLDER_DIGEST)
-    requirements = stage(model, script, packages, placeholder, resources)
+    requirements = stage(model, script, packages, placeholder, resources, fmi)
     lib = f"{placeholder}_lib"
     cores = compiled.compile_bundle(resources, lib, _declarations(packages, lib)) if compile_cores else []
     stem = bundle_stem(model, bundle_digest(bundled_files(resources), placeholder, model))
     _rename_bundle(resources, placeholder, stem)
+    write_core_digests(resources)
     xml = model_description(resources, stem, model)
     docs = [ast.get_docstring(ast.parse(p.read_text())) or "" for p in [script, *equations]]
-    write_fmu(dest_file, model, resources, xml, documentation_html(model, xml, docs, requirements, cores))
+    write_fmu(dest_file, model, resources, xml, documentation_html(model, xml, docs, requirements, cores), fmi)
     shutil.rmtree(resources)
     return dest_file, cores

@@ -27,8 +27,9 @@ from orchestration.outputs import atomic_write
 from orchestration.bench.speed import DOC_BLOCKS as SPEED_BLOCKS
 from orchestration.bench.speed import MEASUREMENT as SPEED_MEASUREMENT
 from orchestration.bench.speed import stored_block
+from orchestration.bench import exchange
 from orchestration.markdown import block_pattern, number, replace_block, stable, stable_pair, table
-from orchestration.reports import fair_tables
+from orchestration.reports import fair_tables, numerics_tables, optimum_tables
 from orchestration.study.comparison import (
     COMPARED,
     NUDGE,
@@ -99,8 +100,25 @@ def reading_cells(scenario: str, **overrides: float) -> list[str]:
 
 
 def results_table() -> str:
-    """README's headline: the paper's Table 1, the SOTC readings, every controller per handling, and
+    """docs/results.md: the paper's Table 1, the SOTC readings, every controller per handling, and
     every controller tuned by the one protocol (``orchestration.study.tuning``)."""
+    return table(*results_rows())
+
+
+SUMMARY_COLUMNS = (0, 2, 3, 6, 8)  # controller / reading, limit handling, MSE j1 / j2, realised cost, max |tau|
+
+
+def results_summary() -> str:
+    """README's short table: the rows of ``results_table`` under the paper's Table 1 and the accel handling
+    (the one every controller is tuned and judged under), fewer columns; the full table is docs/results.md."""
+    header, rows = results_rows()
+    keep = [r for r in rows if r[0].startswith("paper, Table 1") or (r[2] == "accel" and (
+        r[0] == "SOTC, chosen reading" or ", tuned (" in r[0]))]
+    return table([header[i] for i in SUMMARY_COLUMNS], [[r[i] for i in SUMMARY_COLUMNS] for r in keep])
+
+
+def results_rows() -> tuple[list[str], list[list[str]]]:
+    """The header and rows of ``results_table``."""
     rows = [[f"paper, Table 1: {k}", "", "(not stated)", f"{a} / {b}", "", "", "", "", ""]
             for k, (a, b) in PAPER_TABLE1.items()]
     for scenario in LITERAL_SCENARIOS:
@@ -120,7 +138,7 @@ def results_table() -> str:
             rows.append([f"{LABELS[fmu]}, tuned (seed {tuning.stored()['seeds'][0]}: {fair_tables.design_text(design)})",
                          f"`{NOMINAL_SCENARIO[fmu]}`",
                          LIMIT_HANDLINGS[code], *metric_cells(m, tuned_metrics(fmu, code, nudge=NUDGE)[1])])
-    return table(["controller / reading", "scenario", "limit handling", *METRIC_HEADER], rows)
+    return ["controller / reading", "scenario", "limit handling", *METRIC_HEADER], rows
 
 
 _ADDED = {"accel": ", a handling of the bound (5) the paper does not give"}
@@ -316,7 +334,8 @@ def integrator_table() -> str:
 
 BLOCKS: dict[str, Block] = {
     "integrator": Block("docs/integration.md", integrator_table, False),
-    "results": Block("README.md", results_table, False),
+    "results": Block("docs/results.md", results_table, False),
+    "results-summary": Block("README.md", results_summary, False),
     "results-verdict": Block("README.md", results_verdict, False),
     "handlings": Block("docs/baselines.md", handlings_table, False),
     "tuning": Block("docs/baselines.md", fair_tables.tuning_table, False),
@@ -326,11 +345,18 @@ BLOCKS: dict[str, Block] = {
     "fair-perturbed": Block("docs/robustness.md", lambda: fair_tables.summary_table(ROOT, "perturbed"), False),
     "fair-paired": Block("docs/robustness.md", lambda: fair_tables.paired_table(ROOT), False),
     "fair-verdict": Block("README.md", lambda: fair_tables.verdict(ROOT), False),
+    # the stored optimum (rerun: sotc-cosim optimum --cold all --json docs/optimum/optimum.json)
+    "optimum": Block("docs/optimum.md", lambda: optimum_tables.report(optimum_tables.stored(ROOT)), False),
+    "optimum-verdict": Block("README.md", lambda: optimum_tables.verdict(optimum_tables.stored(ROOT)), False),
+    "optimum-b": Block("docs/optimum.md",
+                       lambda: optimum_tables.report(optimum_tables.stored(ROOT, optimum_tables.STORE_B)), False),
     "otc-variants": Block("docs/baselines.md", otc_table, True),
     "settings": Block("docs/paper-notes.md", settings_table, False),
     "readings": Block("docs/paper-notes.md", readings_table, True),
     "value": Block("docs/paper-notes.md", value_table, True),
     "learned-w": Block("docs/paper-notes.md", learned_w_table, True),
+    "cl-rule": Block("docs/paper-notes.md", numerics_tables.cl_rule_table, True),
+    "chi-a-bounded": Block("docs/paper-notes.md", numerics_tables.chi_a_bounded_table, True),
     # the results of a shipped sweep, from its stored rows (rerun: sotc-cosim sweep NAME --doc docs/robustness.md)
     "sweep-robustness": Block("docs/robustness.md", lambda: stored_sweep_block("robustness", ROOT / "docs"), False),
     "sweep-controllers": Block("docs/robustness.md", lambda: stored_sweep_block("controllers", ROOT / "docs"), False),
@@ -339,6 +365,8 @@ BLOCKS: dict[str, Block] = {
     # the stored speed measurement (rerun: sotc-cosim bench --update-docs)
     "speed": Block("docs/performance.md", lambda: stored_block(ROOT), False),
     "speed-readme": Block("README.md", lambda: stored_block(ROOT), False),
+    # the stored Model Exchange measurement (rerun: python -m orchestration.bench.exchange)
+    "exchange": Block("docs/interop.md", lambda: exchange.stored_block(ROOT), False),
 }
 
 

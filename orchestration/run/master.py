@@ -140,6 +140,11 @@ class _Loaded:
         self.raw_step = self.fmu._functions["fmi2DoStep"]
         self.n_out = len(self.output_names)
 
+    def initialize(self, stop_time: float) -> None:
+        self.fmu.setupExperiment(startTime=0.0, stopTime=stop_time)
+        self.fmu.enterInitializationMode()
+        self.fmu.exitInitializationMode()
+
     def read_outputs(self) -> None:
         _checked(self.raw_get(self.fmu.component, self.out_vr, self.n_out, self.out_buf), "fmi2GetReal")
 
@@ -165,6 +170,24 @@ class _Loaded:
                 self.fmu.setReal([var.valueReference], [float(value)])
             else:
                 self.fmu.setInteger([var.valueReference], [int(value)])
+
+
+def _instance(inst, fmu_file: Path, workdir: Path, logs: list[LogRecord], clock: _Clock):
+    """The instance of an FMI 2.0 FMU, or of an FMI 3.0 one (``fmi3_instance``: the same interface;
+    ``fmi3_exchange`` for its Model Exchange interface)."""
+    fmi3 = model_description(fmu_file).fmiVersion.startswith("3")
+    if inst.interface == "ModelExchange":
+        if not fmi3:
+            raise ScenarioError(f"instance '{inst.name}': interface = \"ModelExchange\" needs an FMI 3.0 FMU; "
+                                f"{fmu_file} is FMI 2.0 (run with --fmi 3)")
+        from orchestration.run.fmi3_exchange import ExchangeInstance
+
+        return ExchangeInstance(inst.name, fmu_file, workdir, _LogSink(inst.name, logs, clock))
+    if fmi3:
+        from orchestration.run.fmi3_instance import Instance3
+
+        return Instance3(inst.name, fmu_file, workdir, _LogSink(inst.name, logs, clock))
+    return _Loaded(inst.name, fmu_file, workdir, logs, clock)
 
 
 def _checked(status: int, function: str) -> None:
@@ -302,7 +325,7 @@ class _Session:
         for inst in scenario.instances.values():
             if inst.fmu not in fmu_paths:
                 raise ScenarioError(f"instance '{inst.name}': no built FMU for model '{inst.fmu}'")
-            ld = self.loaded[inst.name] = _Loaded(inst.name, fmu_paths[inst.fmu], self.workdir, self.logs, self.clock)
+            ld = self.loaded[inst.name] = _instance(inst, fmu_paths[inst.fmu], self.workdir, self.logs, self.clock)
             self.fmus[inst.name] = {"guid": ld.md.guid or "", "version": ld.md.version or "",
                                     "generation_tool": ld.md.generationTool or ""}
         links = _resolve_links(scenario, self.loaded)
@@ -311,9 +334,7 @@ class _Session:
         for inst in scenario.instances.values():
             ld = self.loaded[inst.name]
             ld.set_parameters(inst.parameters)
-            ld.fmu.setupExperiment(startTime=0.0, stopTime=scenario.stop_time)
-            ld.fmu.enterInitializationMode()
-            ld.fmu.exitInitializationMode()
+            ld.initialize(scenario.stop_time)
             ld.initialized = True
             self.parameters[inst.name] = ld.parameter_values()
             self.records[inst.name] = np.empty((self.rows, len(ld.output_names)))
@@ -432,7 +453,9 @@ def _call_observer(method, *args) -> None:
 def _describe_failure(exc: Exception, k: int, step: float, n_steps: int, logs: list[LogRecord]) -> str:
     where = f"at t = {k * step:.2f} s (sample {k})" if 0 <= k <= n_steps else "during set-up"
     what = str(exc) if isinstance(exc, FMICallException) else f"{type(exc).__name__}: {exc}"
-    reasons = "; ".join(f"{r.instance}: {r.message}" for r in logs if r.status in ("DISCARD", "ERROR", "FATAL"))
+    # on one line: pythonfmu puts the reason of a failed instantiation on the line after "[ctor] findClass"
+    reasons = "; ".join(f"{r.instance}: {' '.join(r.message.split())}" for r in logs
+                        if r.status in ("DISCARD", "ERROR", "FATAL"))
     return f"{what} {where}" + (f" -- {reasons}" if reasons else "")
 
 

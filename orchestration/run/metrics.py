@@ -37,13 +37,24 @@ def limit_active(outputs: dict[str, np.ndarray], n: int) -> np.ndarray:
     return flags
 
 
-def _trapezoid(y: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """Trapezoid integral along axis 0 (numpy's name changed between versions; do it by hand)."""
-    if len(t) < 2:
-        return np.zeros(y.shape[1:]) if y.ndim > 1 else np.float64(0.0)
+def _trapezoid(y: np.ndarray, t: np.ndarray, start=None) -> np.ndarray:
+    """Trapezoid integral along axis 0 (numpy's name changed between versions; do it by hand), added
+    interval by interval to ``start`` (``ordered_sum``)."""
+    y = np.asarray(y, dtype=float)
     dt = np.diff(t)
     mid = 0.5 * (y[1:] + y[:-1])
-    return np.tensordot(dt, mid, axes=(0, 0))
+    return ordered_sum(dt[:, None] * mid if y.ndim > 1 else dt * mid, start)
+
+
+def ordered_sum(x: np.ndarray, start=None) -> np.ndarray:
+    """The sum along axis 0, term after term in sample order (``cumsum``), from ``start`` (default 0):
+    numpy's ``sum`` adds pairwise in blocks whose shape depends on the CPU's SIMD width, ``dot`` goes
+    to BLAS; this is one order everywhere, so a metric has the same bits on every machine, and a run
+    summed block by block (streaming) gets the bits of the whole run summed at once."""
+    x = np.asarray(x, dtype=float)
+    if start is not None:
+        x = np.concatenate([np.asarray(start, dtype=float).reshape((1,) + x.shape[1:]), x])
+    return np.cumsum(x, axis=0)[-1] if len(x) else np.zeros(x.shape[1:])
 
 
 def _per_joint(x: np.ndarray) -> list[float]:
@@ -165,12 +176,13 @@ class TrackingMetrics:
         c = self._column("cost_rate", cost_rate, self.with_cost, m)
         if self.with_e_dot:
             ed = np.asarray(self._column("e_dot", e_dot, True, 2 * m), dtype=float).reshape(m, 2)
-            zz = np.sum(e**2, axis=1) + np.sum((ed + e) ** 2, axis=1)  # z'z of ``tracking_cost``
+            f = ed + e
+            zz = (e[:, 0] ** 2 + e[:, 1] ** 2) + (f[:, 0] ** 2 + f[:, 1] ** 2)  # z'z of ``tracking_cost``
         ae = np.abs(e)
         norm = np.hypot(tau[:, 0], tau[:, 1])
         e2 = e * e
         late = t >= TRANSIENT_END - 1e-12
-        self.late[0] += np.sum(e2[late], axis=0)
+        self.late[0] = ordered_sum(e2[late], self.late[0])
         self.late[1] += int(np.sum(late))
         if self.with_flags:
             hits = np.flatnonzero(np.asarray(self._column("limit_flags", limit_flags, True, m), dtype=bool))
@@ -178,7 +190,7 @@ class TrackingMetrics:
                 self.last_limit_time = float(t[hits[-1]])
                 self.after_limit = [np.zeros(2), 0]
             first = hits[-1] + 1 if len(hits) else 0
-            self.after_limit[0] += np.sum(e2[first:], axis=0)
+            self.after_limit[0] = ordered_sum(e2[first:], self.after_limit[0])
             self.after_limit[1] += m - first
         if self.last is not None:  # the interval from the previous block's last sample
             tp, aep, taup, normp, cp, zzp = self.last
@@ -193,8 +205,8 @@ class TrackingMetrics:
             raise ValueError("t must be strictly increasing")
         new = slice(0 if self.last is None else 1, None)  # the samples of this block
         self.n += m
-        self.e2 += np.sum(e2, axis=0)
-        self.iae += _trapezoid(ae, t)
+        self.e2 = ordered_sum(e2, self.e2)
+        self.iae = _trapezoid(ae, t, self.iae)
         self.max_e = np.maximum(self.max_e, np.max(ae[new], axis=0))
         tn = t[new]
         for t_from in self.max_after:
@@ -214,12 +226,12 @@ class TrackingMetrics:
         self.max_norm = max(self.max_norm, float(np.max(norm[new])))
         self.at_limit += int(np.sum(norm[new] >= self.limit - LIMIT_TOLERANCE))
         self.over_limit += int(np.sum(norm[new] > self.limit + LIMIT_TOLERANCE))
-        self.energy += float(np.dot(np.diff(t), norm[:-1] ** 2))
-        self.tv += np.sum(np.abs(np.diff(tau, axis=0)), axis=0)
+        self.energy = float(ordered_sum(np.diff(t) * norm[:-1] ** 2, self.energy))
+        self.tv = ordered_sum(np.abs(np.diff(tau, axis=0)), self.tv)
         if self.with_cost:
-            self.cost += float(_trapezoid(c, t))
+            self.cost = float(_trapezoid(c, t, self.cost))
         if self.with_e_dot:
-            self.tracking_cost += float(_trapezoid(zz, t))
+            self.tracking_cost = float(_trapezoid(zz, t, self.tracking_cost))
         self.t_last = float(t[-1])
         self.last = (self.t_last, ae[-1].copy(), tau[-1].copy(), float(norm[-1]),
                      float(c[-1]) if self.with_cost else 0.0, float(zz[-1]) if self.with_e_dot else 0.0)
@@ -285,5 +297,6 @@ def weight_total_variation(t: np.ndarray, weights: np.ndarray, t0: float, t1: fl
     weights that settle (concurrent learning)."""
     t = np.asarray(t, dtype=float)
     w = np.asarray(weights, dtype=float)[(t >= t0 - 1e-9) & (t <= t1 + 1e-9)]
-    return float(np.sum(np.linalg.norm(np.diff(w, axis=0), axis=1)))
+    d = np.diff(w, axis=0)
+    return float(ordered_sum(np.sqrt(np.cumsum(d * d, axis=1)[:, -1]))) if len(d) else 0.0
 

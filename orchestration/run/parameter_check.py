@@ -42,9 +42,9 @@ def parameter_problem(md, name: str, value: float, check_range: bool = True) -> 
         if RENAMED_PARAMETERS.get(name) in known:
             return f"'{name}' was renamed '{RENAMED_PARAMETERS[name]}' in 0.2.0 (see CHANGELOG.md)"
         return f"'{name}' is not a parameter of {md.modelName}; known: {', '.join(known)}"
-    if var.type not in ("Real", "Integer"):
+    if var.type not in ("Real", "Integer", "Float64", "Int32"):
         return f"'{name}': parameters of type {var.type} are not supported"
-    if var.type == "Integer" and (not math.isfinite(value) or float(value) != int(value)):
+    if var.type in ("Integer", "Int32") and (not math.isfinite(value) or float(value) != int(value)):
         return f"'{name}' must be a whole number, got {value!r}"
     if not check_range:
         return None

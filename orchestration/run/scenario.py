@@ -10,6 +10,7 @@ A scenario is TOML (``orchestration/run/scenarios/<name>.toml``, shipped as pack
     [instances.controller]
     fmu = "CtController"              # model identifier of a built FMU
     parameters = { kp = 100.0 }
+    interface = "CoSimulation"        # optional; "ModelExchange": an FMI 3.0 FMU integrated by the master
     [[connect]]                       # every output of `from` feeds the same-named input of `to`
     from = "plant"
     to = "controller"
@@ -22,14 +23,14 @@ Instances named ``plant``, ``reference`` and ``controller`` are what the summary
 from __future__ import annotations
 
 import math
-import tomllib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from importlib import resources
 from pathlib import Path
 from typing import Any
 
 from fmu_plant.dynamics import STEP_SIZE, TORQUE_LIMIT
 from orchestration.exit_codes import UsageError
+from orchestration.toml_files import parse_toml, read_toml
 
 # a run holds every sample of every output in memory: 10^6 steps (10,000 s at T = 0.01 s, 100 paper
 # runs) of ~60 outputs is ~0.5 GB per instance; more is refused before anything is allocated
@@ -37,6 +38,7 @@ MAX_STEPS = 1_000_000
 NANOSECOND = 1e-9  # the recordings' time resolution: a step must be a whole number of nanoseconds
 
 _NAME = {"type": "string", "pattern": r"^[A-Za-z_][A-Za-z0-9_-]*$"}
+INTERFACES = ("CoSimulation", "ModelExchange")  # an instance's ``interface`` key (FMI 3.0 FMUs may offer both)
 _PORT = {"type": "string", "pattern": r"^[A-Za-z_][A-Za-z0-9_-]*\.[A-Za-z_][A-Za-z0-9_]*$"}
 _TIME = {"type": "number", "exclusiveMinimum": 0}
 # one scenario file as written (``extends`` resolved later, so nothing is required here but shapes)
@@ -59,6 +61,7 @@ SCENARIO_SCHEMA: dict[str, Any] = {
                     "fmu": _NAME,
                     "parameters": {"type": "object", "propertyNames": _NAME,
                                    "additionalProperties": {"type": "number"}},
+                    "interface": {"enum": list(INTERFACES)},
                 },
             },
         },
@@ -81,6 +84,8 @@ class Instance:
     name: str
     fmu: str
     parameters: dict[str, float] = field(default_factory=dict)
+    # "ModelExchange": an FMI 3.0 FMU's Model Exchange interface, integrated by the master over each T
+    interface: str = "CoSimulation"
 
 
 @dataclass(frozen=True)
@@ -123,7 +128,7 @@ class Scenario:
                     f"in {sorted(instances)}"
                 )
             inst = instances[inst_name]
-            instances[inst_name] = Instance(inst.name, inst.fmu, {**inst.parameters, pname: value})
+            instances[inst_name] = replace(inst, parameters={**inst.parameters, pname: value})
         return _validated({**self.__dict__, "instances": instances, "name": name or self.name})
 
     def controller_fmu(self) -> str | None:
@@ -174,21 +179,18 @@ def available_scenarios() -> list[str]:
 
 def _read_raw(name_or_path: str, seen: tuple[str, ...] = ()) -> dict[str, Any]:
     path = Path(name_or_path)
+    resource = resources.files("orchestration.run.scenarios") / f"{name_or_path}.toml"
     if path.suffix == ".toml" and path.is_file():
-        text, label = path.read_text(), str(path)
+        label, read = str(path), lambda where: read_toml(path, where, ScenarioError)
+    elif resource.is_file():
+        label, read = name_or_path, lambda where: parse_toml(resource.read_bytes(), where, ScenarioError)
     else:
-        resource = resources.files("orchestration.run.scenarios") / f"{name_or_path}.toml"
-        if not resource.is_file():
-            raise ScenarioError(
-                f"no scenario '{name_or_path}': give a .toml path or one of {', '.join(available_scenarios())}"
-            )
-        text, label = resource.read_text(), name_or_path
+        raise ScenarioError(
+            f"no scenario '{name_or_path}': give a .toml path or one of {', '.join(available_scenarios())}"
+        )
     if label in seen:
         raise ScenarioError(f"scenario '{label}' extends itself through {' -> '.join(seen)}")
-    try:
-        raw = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ScenarioError(f"scenario '{label}' is not valid TOML: {exc}") from None
+    raw = read(f"scenario '{label}'")
     _check_schema(raw, label)
     parent = raw.pop("extends", None)
     if parent is None:
@@ -251,7 +253,7 @@ def _from_raw(raw: dict[str, Any]) -> dict[str, Any]:
         if "fmu" not in spec:
             raise ScenarioError(f"scenario '{raw['name']}': instance '{name}' needs an 'fmu' key")
         params = spec.get("parameters", {})
-        instances[name] = Instance(name, spec["fmu"], dict(params))
+        instances[name] = Instance(name, spec["fmu"], dict(params), spec.get("interface", INTERFACES[0]))
     links = []
     for item in raw.get("connection", []):
         try:
@@ -285,7 +287,8 @@ def _validated(fields: dict[str, Any]) -> Scenario:
     steps = fields["stop_time"] / fields["step_size"]
     if steps > MAX_STEPS:
         raise ScenarioError(f"scenario '{name}': stop_time / step_size = {steps:.6g} steps; at most {MAX_STEPS:,} "
-                            "are allowed (every sample is held in memory)")
+                            "per run are allowed (a bound on how long one run may go on; run and sweep stream their samples, "
+                            "compare and reproduce keep them in memory)")
     if round(steps) < 1:
         raise ScenarioError(f"scenario '{name}': stop_time {fields['stop_time']!r} is shorter than one step of "
                             f"{fields['step_size']!r}")

@@ -156,7 +156,8 @@ def cmd_stack(args: argparse.Namespace) -> None:
         st = ctrl.stack
         E = np.array(st.rows["eta"]).reshape(st.P, -1)[:st.count]
         sv = np.linalg.svd(E, compute_uv=False)
-        M = np.array(st.terms(list(ctrl.W))[0]).reshape(len(ctrl.W), -1)
+        st.terms(list(ctrl.W))
+        M = np.array(st.M).reshape(len(ctrl.W), -1)
         Xi = E / (1.0 + np.einsum("ij,ij->i", E, E))[:, None] ** 2
         print(f"{label} at t={args.stop:g}s: P={st.count}, rank(eta_1..eta_P)={np.linalg.matrix_rank(E)}"
               f" (numpy default tol), singular values {np.array2string(sv, precision=2)}")

@@ -50,6 +50,7 @@ from orchestration.outputs import atomic_write, private_folder
 from orchestration.run import interrupt
 from orchestration.run.parameter_check import check_scenarios
 from orchestration.run.scenario import Scenario, ScenarioError
+from orchestration.scratch import remove_stale, scratch_name
 from orchestration.sweep.spec import Point, Sweep
 
 GUARD_BLOCK = 100  # samples between two checks of the time limit and the state bound
@@ -58,9 +59,9 @@ TRACE_POINTS = 2000  # at most this many samples of the tracking error go into t
 STATES = ("phi1", "phi2", "dphi1", "dphi2")
 
 
-def fmu_blobs(models: list[str], fmu_dir: Path) -> dict[str, tuple[str, bytes]]:
-    """Build what is missing and read every FMU: model -> (SHA-256 digest, file bytes)."""
-    paths = ensure_built(models, fmu_dir)
+def fmu_blobs(models: list[str], fmu_dir: Path, fmi: int = 2) -> dict[str, tuple[str, bytes]]:
+    """Build what is missing and read every FMU (FMI 2.0 or 3.0): model -> (SHA-256 digest, file bytes)."""
+    paths = ensure_built(models, fmu_dir, fmi)
     out = {}
     for model, path in paths.items():
         data = Path(path).read_bytes()
@@ -243,17 +244,17 @@ def _client(scheduler: str | None, workers: int | None, scratch: str):
 
 def execute(
     sweep: Sweep, fmu_dir: Path, store, workers: int | None = None, scheduler: str | None = None,
-    record: bool = False, retry_failed: bool = False, listener=None,
+    record: bool = False, retry_failed: bool = False, listener=None, fmi: int = 2,
 ) -> SweepOutcome:
     """Run the points of ``sweep`` missing from ``store`` (a ``sweep.results.SweepStore``); rows are
     stored as they arrive. ``listener`` (optional) gets ``started(outcome)`` before the first point
     and ``finished(row)`` after each. Ctrl-C cancels the pending points, stops the workers and
-    returns with ``interrupted`` set."""
-    blobs = fmu_blobs(sweep.model_names(), fmu_dir)
+    returns with ``interrupted`` set. ``fmi=3`` runs the FMI 3.0 FMUs (their digests key the points)."""
+    blobs = fmu_blobs(sweep.model_names(), fmu_dir, fmi)
     digests = {m: d for m, (d, _) in blobs.items()}
     points = sweep.points()
     # a value an FMU would refuse is an error in the sweep, not a failed point: refused before any run
-    check_scenarios([p.scenario for p in points], ensure_built(sweep.model_names(), fmu_dir))
+    check_scenarios([p.scenario for p in points], ensure_built(sweep.model_names(), fmu_dir, fmi))
     keys = [point_key(p.scenario, digests) for p in points]
     stored = store.load()
     todo = [(p, k) for p, k in zip(points, keys)
@@ -263,15 +264,17 @@ def execute(
     skipped = [stored[k] for k in keys if k in stored and k not in to_run]
     outcome = SweepOutcome(total=len(points), skipped=len(skipped), skipped_failed=sum(r["status"] != "ok" for r in skipped),
                            ran=0, failed=0)
+    client = cluster = None
+    if todo:
+        remove_stale(private_folder("scratch"))  # left by a coordinator killed before it could clean up
+        scratch = scratch_name()  # each point's temporary folders, removed at the end
+        private_folder("fmus")  # a cache folder others could write in is refused here, before any point
+        client, cluster = _client(scheduler, workers, scratch)  # unreachable: refused before the first line
     if listener is not None:
         listener.started(outcome)
     if todo:
-        client = cluster = None
         futures = []
-        scratch = f"{os.getpid()}-{time.time_ns()}"  # each point's temporary folders, removed at the end
-        private_folder("fmus")  # a cache folder others could write in is refused here, before any point
         try:
-            client, cluster = _client(scheduler, workers, scratch)
             from distributed import as_completed
 
             [shared] = client.scatter([blobs], broadcast=True, hash=False)

@@ -53,7 +53,6 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import math
-import tomllib
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
@@ -64,6 +63,7 @@ import numpy as np
 from fmu_controller.base import RENAMED_PARAMETERS
 from fmu_controller.catalog import CORES
 from orchestration.run.scenario import Instance, Scenario, ScenarioError, load_scenario
+from orchestration.toml_files import parse_toml, read_toml
 
 SETTINGS = ("controller", "step_size", "stop_time")  # axes that are not FMU parameters
 COMBINATIONS = ("grid", "paired", "one-at-a-time")
@@ -243,16 +243,14 @@ def grid_from_assignments(scenario: str, items: list[str]) -> Sweep:
 def load_sweep(name_or_path: str) -> Sweep:
     path = Path(name_or_path)
     if path.suffix == ".toml" and path.is_file():
-        text, label, folder = path.read_text(), str(path), path.resolve().parent
+        label, folder = str(path), path.resolve().parent
+        raw = read_toml(path, f"sweep '{label}'", SweepError)
     else:
         resource = resources.files("orchestration.sweep.presets") / f"{name_or_path}.toml"
         if not resource.is_file():
             raise SweepError(f"no sweep '{name_or_path}': give a .toml path or one of {', '.join(available_sweeps())}")
-        text, label, folder = resource.read_text(), name_or_path, None
-    try:
-        raw = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise SweepError(f"sweep '{label}' is not valid TOML: {exc}") from None
+        label, folder = name_or_path, None
+        raw = parse_toml(resource.read_bytes(), f"sweep '{label}'", SweepError)
     return parse_sweep(raw, label, folder, default_name=path.stem)
 
 

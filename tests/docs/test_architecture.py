@@ -14,9 +14,10 @@ from support.imports import PACKAGES, cycles, graph, modules, room, third_party
 # folder -> the folders of the project it may import (besides itself); docs/architecture.md's table
 ALLOWED = {
     "fmi_slave": set(),
+    "fmi3_slave": {"fmi_slave"},
     "fmu_plant": {"fmi_slave"},
     "fmu_controller": {"fmi_slave", "fmu_plant"},
-    "orchestration/run": {"fmi_slave", "fmu_plant", "fmu_controller", "orchestration"},
+    "orchestration/run": {"fmi_slave", "fmi3_slave", "fmu_plant", "fmu_controller", "orchestration"},
     "orchestration/fmu_build": {"fmi_slave", "fmu_plant", "fmu_controller", "orchestration"},
     "orchestration/recording": {"fmu_plant", "fmu_controller", "orchestration", "orchestration/run"},
     "orchestration/study": {"fmu_plant", "fmu_controller", "orchestration", "orchestration/run"},
@@ -31,9 +32,9 @@ ALLOWED = {
                               "orchestration/study", "orchestration/sweep", "orchestration/bench"},
 }
 BASE = {"orchestration.paths", "orchestration.progress", "orchestration.markdown", "orchestration.exit_codes",
-        "orchestration.outputs"}
+        "orchestration.outputs", "orchestration.toml_files", "orchestration.scratch"}
 ARM_MODEL = {"fmu_plant.dynamics", "fmu_plant.kinematics", "fmu_plant.trajectory"}
-CORE_FOLDERS = ("fmi_slave", "fmu_plant", "fmu_controller")
+CORE_FOLDERS = ("fmi_slave", "fmi3_slave", "fmu_plant", "fmu_controller")
 MAX_MODULE_LINES = 500
 MAX_FUNCTION_LINES = 80
 

@@ -14,6 +14,8 @@ import pytest
 
 from support.cli import SIGNALS, exit_code_of, leftovers, one_line, signal_when, start
 
+pytestmark = pytest.mark.slow  # full runs in subprocesses, signalled at random moments
+
 RERUN = str(Path(sys.executable).with_name("rerun"))
 PICKS = random.Random(19)  # the moments, reproducible
 

@@ -22,15 +22,6 @@ from orchestration.fmu_build.build import FMU_SOURCES
 K, M = 25, 30  # crosses t = 0.4 s, where the SOTC's probing and CL recording stop
 
 
-@pytest.fixture
-def loops():
-    """Loops created by a test; freed even when it fails (unfreed instances crash the host at exit)."""
-    made: list[Loop] = []
-    yield made
-    for loop in made:
-        loop.free()
-
-
 def _row(loop: Loop, row: dict) -> np.ndarray:
     return np.concatenate([row[m] for m in loop.models])
 

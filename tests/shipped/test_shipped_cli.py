@@ -13,6 +13,8 @@ import pytest
 
 from orchestration.fmu_build.build import FMU_SOURCES
 
+pytestmark = pytest.mark.slow  # the installed wheel in a fresh virtualenv: minutes
+
 RERUN = str(Path(sys.executable).with_name("rerun"))
 CONTROLLER_SCENARIOS = ("paper", "paper-otc", "paper-ct", "paper-lqr")
 

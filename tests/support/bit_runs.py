@@ -18,7 +18,7 @@ import sys
 from pathlib import Path
 
 DATA = Path(__file__).resolve().parents[1] / "data"
-GRID_TIME = 3.0  # s of each grid run
+GRID_TIME = 2.0  # s of each grid run
 RADIAL = 0.0  # the limit_handling code of radial (fmu_controller.saturation.RADIAL)
 
 

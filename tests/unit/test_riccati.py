@@ -1,4 +1,5 @@
-"""The numpy Riccati solver the OTC and LQR FMUs use (no scipy inside the FMUs) against scipy's."""
+"""The fixed-order Riccati solver the OTC and LQR FMUs use (no scipy or LAPACK inside the FMUs) against
+scipy's."""
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -21,10 +22,11 @@ def test_matches_scipy_on_the_otc_problems(lam1, lam2, phi2, q, r1, r2):
     a[:2, :2] = -np.diag([lam1, lam2])
     a[:2, 2:] = np.eye(2)
     b = np.zeros((4, 2))
-    b[2:, :] = np.linalg.inv(inertia_matrix(phi2, OtcCore().model))
+    d = inertia_matrix(phi2, OtcCore().model)
+    b[2:, :] = np.linalg.inv(d)
     qm, rm = q * np.eye(4), np.diag([r1, r2])
     ref = solve_continuous_are(a, b, qm, rm)
-    p = solve_care(a, b, qm, rm)
+    p = solve_care(a, b, qm, rm, np.hstack([np.zeros((2, 2)), d]))
     np.testing.assert_allclose(p, ref, rtol=1e-7, atol=1e-9 * np.max(np.abs(ref)))
     residual = a.T @ p + p @ a - p @ b @ np.linalg.solve(rm, b.T @ p) + qm
     assert np.max(np.abs(residual)) <= 1e-8 * max(1.0, np.max(np.abs(p)) * np.max(np.abs(a)))
@@ -48,4 +50,15 @@ def _otc_system(core, phi2):
 def test_no_stabilising_solution_is_refused():
     """An uncontrollable unstable mode (A = 1, B = 0) has no stabilising solution."""
     with pytest.raises(RiccatiError):
-        solve_care(np.array([[1.0]]), np.array([[0.0]]), np.array([[1.0]]), np.array([[1.0]]))
+        solve_care(np.array([[1.0]]), np.array([[0.0]]), np.array([[1.0]]), np.array([[1.0]]), np.array([[0.0]]))
+
+
+def test_the_solution_is_the_same_from_another_stabilising_gain():
+    """Newton-Kleinman converges to the one stabilising solution whatever stabilising gain it starts
+    from (to rounding), and its result does not depend on the CPU (fixed-order arithmetic)."""
+    core = OtcCore()
+    a, b, qm, rm = _otc_system(core, -0.5)
+    d = inertia_matrix(-0.5, core.model)
+    p1 = solve_care(a, b, qm, rm, np.hstack([np.zeros((2, 2)), d]))
+    p2 = solve_care(a, b, qm, rm, np.hstack([np.zeros((2, 2)), 3.0 * d]))
+    np.testing.assert_allclose(p1, p2, rtol=1e-12, atol=1e-12 * np.max(np.abs(p1)))

@@ -179,7 +179,8 @@ def test_replayed_cl_terms_equal_a_per_sample_reevaluation():
     is numpy's to within the rank tolerance n eps trace(M)."""
     ctrl = stacked_controller()
     W = (np.array(ctrl.W) + 0.1 * rng(6).normal(size=10)).tolist()
-    M, b = (np.array(v) for v in ctrl.stack.terms(W))
+    ctrl.stack.terms(W)
+    M, b = np.array(ctrl.stack.M), np.array(ctrl.stack.b)
     M = M.reshape(10, 10)
     E = np.array(ctrl.stack.E).reshape(ctrl.stack.P, 10)[:ctrl.stack.count]
     lmin = ctrl.stack.min_eig_at(W)
