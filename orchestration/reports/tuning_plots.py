@@ -11,6 +11,7 @@ from pathlib import Path
 
 from fmu_controller.catalog import LABELS
 from fmu_controller.saturation import LIMIT_HANDLINGS
+from orchestration.outputs import save_figure
 from orchestration.study.tuning import CONTROLLERS, CONVERGED, HANDLINGS, best_so_far, stored
 
 PLOT = Path("docs") / "fair" / "best-so-far.png"
@@ -42,13 +43,8 @@ def plot(root: Path) -> Path:
     fig.suptitle(f"Best-so-far criterion, {data['budget']} trials per search (dotted: half the budget; dashed: "
                  f"{100 * CONVERGED:g} % above the final best)")
     fig.tight_layout()
-    path = root / PLOT
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.part.png")
-    fig.savefig(tmp, dpi=70)
-    plt.close(fig)
-    tmp.replace(path)
-    return path
+    (root / PLOT).parent.mkdir(parents=True, exist_ok=True)
+    return save_figure(fig, root / PLOT, 70)
 
 
 def main(argv: list[str] | None = None) -> int:

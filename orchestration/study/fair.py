@@ -36,7 +36,7 @@ from typing import Any
 
 from fmu_controller.catalog import LABELS
 from fmu_controller.saturation import LIMIT_HANDLINGS
-from orchestration.outputs import atomic_write
+from orchestration.outputs import atomic_write, save_figure
 from orchestration.study import points
 from orchestration.study.sotc_study import NO_LEARNING
 from orchestration.study.tuning import CONTROLLERS, HANDLINGS, nominal_parameters, stored as stored_tuning, tuned_parameters
@@ -141,12 +141,7 @@ def plot(data: dict[str, Any], root: Path) -> list[Path]:
                 ax.set_xlabel(title)
             fig.suptitle(f"{which}: {N_POINTS} seeded points, {EVAL_STOP_TIME:g} s each")
             fig.tight_layout()
-            path = root / STORE.parent / f"{which.replace(' ', '_')}-{name}.png"
-            tmp = path.with_name(f".{path.name}.part.png")
-            fig.savefig(tmp, dpi=80)
-            plt.close(fig)
-            tmp.replace(path)
-            paths.append(path)
+            paths.append(save_figure(fig, root / STORE.parent / f"{which.replace(' ', '_')}-{name}.png", 80))
     return paths
 
 
