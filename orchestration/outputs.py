@@ -68,6 +68,17 @@ def atomic_write(path: Path | str, content: str | bytes) -> Path:
     return Path(path)
 
 
+def save_figure(fig, path: Path, dpi: int) -> Path:
+    """A matplotlib figure written to a temporary PNG beside ``path`` and renamed into place, then closed."""
+    import matplotlib.pyplot as plt
+
+    tmp = path.with_name(f".{path.name}.part.png")
+    fig.savefig(tmp, dpi=dpi)
+    plt.close(fig)
+    tmp.replace(path)
+    return path
+
+
 class PathLock:
     """An advisory lock on ``path`` held through ``.<name>.lock`` beside a file, or ``.sotc-cosim.lock``
     inside a folder (``folder=True``)."""

@@ -9,7 +9,7 @@ import sys
 
 from fmi_slave import VERSION
 from orchestration import exit_codes
-from orchestration.cli import batch_commands, compliance_commands, optimum_commands, run_commands
+from orchestration.cli import batch_commands, compliance_commands, optimum_commands, run_commands, tune_commands
 from orchestration.exit_codes import UsageError
 from orchestration.fmu_build.build import BuildError
 from orchestration.fmu_build.child import BuildInterrupted
@@ -17,7 +17,7 @@ from orchestration.outputs import OutputError
 from orchestration.paths import check_output_folder
 from orchestration.run import interrupt
 
-COMMAND_GROUPS = (run_commands, batch_commands, compliance_commands, optimum_commands)
+COMMAND_GROUPS = (run_commands, batch_commands, compliance_commands, optimum_commands, tune_commands)
 
 
 class _Parser(argparse.ArgumentParser):

@@ -1,7 +1,10 @@
 """The generated blocks of the fair comparison: the tuning protocol's result, the paired statistics and
 the verdict sentences, all from the stored runs (``orchestration.study.tuning.TUNED_FILE``,
 ``orchestration.study.fair.STORE``) so that tests/docs/test_docgen.py checks them in the ordinary
-suite; tests/docs/test_fair_store.py re-runs a sample of the stored runs."""
+suite; tests/docs/test_fair_store.py re-runs a sample of the stored runs.
+
+Each table that states verdicts names its family (the verdicts it states together) and takes every
+interval at the Bonferroni level of that family (``orchestration.study.statistics``)."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -9,36 +12,79 @@ from pathlib import Path
 from fmu_controller.catalog import LABELS
 from fmu_controller.saturation import LIMIT_HANDLINGS
 from orchestration.markdown import number, table
-from orchestration.study.fair import MEASURES, SETS, measure, stored
-from orchestration.study.statistics import Interval, geometric_interval, paired
-from orchestration.study.tuning import BUDGET, CONTROLLERS, HANDLINGS
+from orchestration.study.fair import MEASURES, SETS, measure, stored, tuned_label
+from orchestration.study.statistics import Interval, PairedVerdict, geometric_interval, level, paired
+from orchestration.study.tuning import CONTROLLERS, CONVERGED, HANDLINGS, last_half_improvement
 from orchestration.study.tuning import stored as stored_tuning
 
 VERDICT_HANDLING = "accel"  # the handling the README's verdict is stated under (all three are in docs/robustness.md)
+SOTC = "SotcController"
+BASELINES = tuple(f for f in CONTROLLERS if f != SOTC)
 
 
 def design_text(design: dict[str, float]) -> str:
     return ", ".join(f"{k} {v:.4g}" for k, v in design.items())
 
 
-def tuning_table() -> str:
-    """Per controller and handling: the criterion at the nominal design, the best of the budget and its design."""
+def _searches():
     data = stored_tuning()
-    rows = []
     for fmu in CONTROLLERS:
         for h in HANDLINGS:
-            r = data["controllers"][fmu]["handlings"][LIMIT_HANDLINGS[h]]
-            crit = r["criterion"]
-            failed = sum(v is None for v in crit)
-            rows.append([LABELS[fmu], LIMIT_HANDLINGS[h], number(crit[0], ".4g"), number(crit[r["best"]], ".4g"),
-                         "nominal" if r["best"] == 0 else design_text(r["best_design"]), f"{BUDGET} ({failed} failed)"])
-    return table(["controller", "limit handling", "MSE_1 + MSE_2, nominal", "MSE_1 + MSE_2, tuned",
-                  "tuned design", "points evaluated"], rows)
+            for seed, r in data["controllers"][fmu]["handlings"][LIMIT_HANDLINGS[h]]["seeds"].items():
+                yield fmu, LIMIT_HANDLINGS[h], seed, r
+
+
+def tuning_table() -> str:
+    """Per controller, handling and seed: the criterion at the nominal design (the first trial), the best
+    of the budget and its design, the trials, and how much the best-so-far fell over the last half."""
+    rows = []
+    for fmu, handling, seed, r in _searches():
+        crit = r["criterion"]
+        trials = f"{len(crit)} ({r['state'].count('pruned')} pruned, {r['state'].count('failed')} failed)"
+        rows.append([LABELS[fmu], handling, seed, number(crit[0], ".4g"), number(crit[r["best"]], ".4g"),
+                     "nominal" if r["best"] == 0 else design_text(r["best_design"]), trials,
+                     f"{100 * last_half_improvement(crit):.2f} %"])
+    return table(["controller", "limit handling", "seed", "criterion, nominal", "criterion, tuned", "tuned design",
+                  "trials", "best-so-far: last-half improvement"], rows)
+
+
+def tuning_summary() -> str:
+    """The budget, whether every search converged by the stated rule, and what the stored study cost."""
+    data = stored_tuning()
+    worst = max(_searches(), key=lambda s: last_half_improvement(s[3]["criterion"]))
+    over = [f"{LABELS[f]} {h} seed {s} ({100 * last_half_improvement(r['criterion']):.1f} %)" for f, h, s, r in _searches()
+            if last_half_improvement(r["criterion"]) >= CONVERGED]
+    searches = sum(1 for _ in _searches())
+    hours = data["trial_seconds"] / 3600
+    rule = (f"best-so-far improves by less than {100 * CONVERGED:g} % over the last half of the trials")
+    converged = (f"every search meets it; the largest last-half improvement is "
+                 f"{100 * last_half_improvement(worst[3]['criterion']):.2f} % ({LABELS[worst[0]]} {worst[1]} seed {worst[2]})"
+                 if not over else
+                 f"{searches - len(over)} of {searches} searches meet it; not {', '.join(over)}: at this budget those "
+                 "searches were still improving, so the budget is not yet enough by the rule (a larger --budget "
+                 "resumes every search where it stopped)")
+    return "\n".join([
+        f"- Budget: {data['budget']} trials for every controller under every limit handling, seeds "
+        f"{', '.join(map(str, data['seeds']))} ({searches} searches; the store is "
+        f"{'complete' if data['complete'] else 'INCOMPLETE'}); training set: {data['training_points']} points.",
+        f"- The rule stated before the search ({rule}): {converged}.",
+        f"- Cost: {hours:.2f} h of trials (the sum of every trial's wall time, pruned trials stopping early), "
+        f"run from {_clock(min(r['started'] for *_, r in _searches()))} to "
+        f"{_clock(max(r['finished'] for *_, r in _searches()))} UTC "
+        f"on this 2-core machine shared with other work ({data['sampler']})."])
+
+
+def _clock(iso: str) -> str:
+    return iso[:16].replace("T", " ")
 
 
 def _cell(i: Interval) -> str:
     text = f"{number(i.value, '.3g')} [{number(i.low, '.3g')}, {number(i.high, '.3g')}]"
     return text + (f", {i.failed} failed" if i.failed else "")
+
+
+def _ratio(v: PairedVerdict) -> str:
+    return f"{_cell(v.ratio)}, worse on {v.worse_on} of {v.ratio.n}"
 
 
 def summary_table(root: Path, which: str) -> str:
@@ -56,57 +102,80 @@ def summary_table(root: Path, which: str) -> str:
     return table(header, rows)
 
 
-def _pairs(labels: list[str]) -> list[tuple[str, str]]:
-    sotc = LABELS["SotcController"]
-    out = []
-    for design in ("tuned", "nominal"):
-        out += [(f"{sotc} {design}", f"{LABELS[f]} {design}") for f in CONTROLLERS if f != "SotcController"]
-    out += [(f"{sotc} {d}", f"{sotc} {d}, learning off") for d in ("nominal", "tuned")]
-    out += [(f"{LABELS[f]} tuned", f"{LABELS[f]} nominal") for f in CONTROLLERS]
-    return [p for p in out if p[0] in labels and p[1] in labels]
+def _pairs(seeds: list) -> list[tuple[str, str]]:
+    """The SOTC against each baseline (tuned: seed against the same seed; nominal), learning on against
+    off at every SOTC design, and each controller tuned against nominal."""
+    sotc = LABELS[SOTC]
+    out = [(tuned_label(SOTC, s), tuned_label(f, s)) for s in seeds for f in BASELINES]
+    out += [(f"{sotc} nominal", f"{LABELS[f]} nominal") for f in BASELINES]
+    out += [(d, f"{d}, learning off") for d in [f"{sotc} nominal", *(tuned_label(SOTC, s) for s in seeds)]]
+    out += [(tuned_label(f, s), f"{LABELS[f]} nominal") for f in CONTROLLERS for s in seeds]
+    return out
+
+
+def _family_text(m: int) -> str:
+    return f"each interval at {100 * level(m):.5g} % (Bonferroni: all {m} hold together with at least 95 %)"
 
 
 def paired_table(root: Path) -> str:
-    """A against B on the same points: geometric mean of A / B [95 % interval] and the verdict."""
+    """A against B on the same points: geometric mean of A / B [interval], the sign count, the verdict;
+    the family is every verdict of the table."""
     data = stored(root)
+    pairs = _pairs(data["seeds"])
+    m = len(SETS) * len(HANDLINGS) * len(pairs) * len(MEASURES)
     rows = []
     for which in SETS:
         for h in HANDLINGS:
             handling = LIMIT_HANDLINGS[h]
-            for a, b in _pairs(list(data["runs"][handling])):
+            for a, b in pairs:
                 cells = []
                 for name in MEASURES:
-                    v = paired(measure(data, handling, a, which, name), measure(data, handling, b, which, name))
-                    cells += [_cell(v.ratio), v.verdict]
+                    v = paired(measure(data, handling, a, which, name), measure(data, handling, b, which, name), m)
+                    cells += [_ratio(v), v.verdict]
                 rows.append([which, handling, f"{a} vs {b}", *cells])
     header = ["set", "limit handling", "A vs B"] + [c for name in MEASURES for c in (f"{name}: A / B", f"{name}: A is")]
-    return table(header, rows)
+    return f"Family: the {m} verdicts of this table, {_family_text(m)}.\n\n" + table(header, rows)
+
+
+def _across(verdicts: dict, what: str) -> str:
+    """One verdict stated across the tuning seeds, or "depends on the tuning seed", with every seed's ratio."""
+    said = {v.verdict for v in verdicts.values()}
+    per = "; ".join(f"seed {s}: " + ("" if len(said) == 1 else f"{v.verdict}, ") + _ratio(v) for s, v in verdicts.items())
+    head = f"{what} {said.pop()} for every tuning seed" if len(said) == 1 else f"{what} depends on the tuning seed"
+    return f"{head} (A / B {per})"
+
+
+def readme_family(seeds: list) -> int:
+    """The verdicts the README states together: the tuned SOTC against each tuned baseline per measure,
+    set and seed, and learning on against off at each SOTC design per set."""
+    return len(SETS) * (len(seeds) * len(BASELINES) * len(MEASURES) + 1 + len(seeds))
 
 
 def verdict(root: Path) -> str:
     """README's sentences: the tuned SOTC against each tuned baseline, and what learning adds."""
     data = stored(root)
-    runs = data["runs"][VERDICT_HANDLING]
-    sotc = LABELS["SotcController"]
-    lines = []
+    seeds = data["seeds"]
+    m = readme_family(seeds)
+
+    def v(a, b, which, name):
+        return paired(measure(data, VERDICT_HANDLING, a, which, name), measure(data, VERDICT_HANDLING, b, which, name), m)
+
+    lines = [f"Family: the {m} verdicts below, {_family_text(m)}; a verdict holds only where every tuning seed "
+             "gives it."]
     for which in SETS:
         parts = []
-        for a, b in _pairs(list(runs)):
-            if not (a == f"{sotc} tuned" and b.endswith(" tuned")):
-                continue
-            said = []
-            for name in MEASURES:
-                v = paired(measure(data, VERDICT_HANDLING, a, which, name), measure(data, VERDICT_HANDLING, b, which, name))
-                said.append(f"{name} {v.verdict} (A / B {_cell(v.ratio)})")
-            parts.append(f"against {b}: " + ", ".join(said))
+        for f in BASELINES:
+            said = [_across({s: v(tuned_label(SOTC, s), tuned_label(f, s), which, name) for s in seeds}, name)
+                    for name in MEASURES]
+            parts.append(f"against {LABELS[f]} tuned: " + ", ".join(said))
         lines.append(f"On the {which} set ({data['n_points']} points never used for tuning, {data['stop_time']:g} s, "
-                     f"all under {VERDICT_HANDLING}), the tuned SOTC is " + "; ".join(parts) + ".")
+                     f"all under {VERDICT_HANDLING}), the tuned SOTC (A), each seed against the same seed of B, is "
+                     + "; ".join(parts) + ".")
+    sotc = LABELS[SOTC]
     for which in SETS:
-        said = []
-        for d in ("nominal", "tuned"):
-            v = paired(measure(data, VERDICT_HANDLING, f"{sotc} {d}", which, "tail"),
-                       measure(data, VERDICT_HANDLING, f"{sotc} {d}, learning off", which, "tail"))
-            said.append(f"at the {d} design {v.verdict} (on / off {_cell(v.ratio)})")
-        lines.append(f"What the critic's learning adds on the {which} set (post-transient error, learning on "
-                     f"against off): " + "; ".join(said) + ".")
+        nominal = v(f"{sotc} nominal", f"{sotc} nominal, learning off", which, "tail")
+        tuned = _across({s: v(tuned_label(SOTC, s), f"{tuned_label(SOTC, s)}, learning off", which, "tail")
+                         for s in seeds}, "at the tuned designs")
+        lines.append(f"What the critic's learning adds on the {which} set (post-transient error, learning on (A) "
+                     f"against off): at the nominal design {nominal.verdict} (A / B {_ratio(nominal)}); {tuned}.")
     return "\n".join(f"- {line}" for line in lines)

@@ -1,9 +1,11 @@
 """The fair comparison: every controller, nominal and tuned, judged on points its tuning never saw.
 
-The tuning (``orchestration.study.tuning``) used one run: the nominal `paper` loop. Here each
-controller runs, at its nominal design and at its tuned design under each limit handling (the SOTC
-also with its critic's learning off, alpha1 = alpha2 = 1e-9, at both designs), on two sets of
-``N_POINTS`` seeded points (``evaluation_points``):
+The tuning (``orchestration.study.tuning``) ran on its training set, one search per seed. Here each
+controller runs, at its nominal design and at each tuning seed's best design under each limit
+handling (the SOTC also with its critic's learning off, alpha1 = alpha2 = 1e-9, at each of those
+designs), on two held-out sets of ``N_POINTS`` seeded points (``evaluation_points``,
+``orchestration.study.points``: seed ``EVAL_SEED``, noise seeds 1..``N_POINTS``; the training set's
+seeds differ):
 
 * ``initial states``: the paper's plant, initial angles drawn uniformly over the workspace
   (phi1 in [-pi, pi], phi2 in [-2.5, 2.5] rad), at rest;
@@ -17,102 +19,99 @@ tests/fmu/test_pure_loop_perturbed.py). Measures, stated before the runs: Table 
 (eq. (50)) over the run, and the post-transient error max_i max |e_i| over its last half. The
 statistics are ``orchestration.study.statistics``.
 
-``python -m orchestration.study.fair`` runs everything and stores ``docs/fair/evaluation.json`` with
-one box plot per set and measure; the tables in docs/ and README are generated from the stored file
-(``orchestration.reports.fair_tables``), and a slow test re-runs a sample of it.
+``python -m orchestration.study.fair`` runs everything and stores ``docs/fair/evaluation.json`` (with
+each configuration's parameters, so ``--reuse`` keeps the runs of those that did not change, and
+``--controllers`` evaluates in stages while other searches still run) with one box plot per set and
+measure; the tables in docs/ and README are generated from the stored file
+(``orchestration.reports.fair_tables``), and a test re-runs a sample of it.
 """
 from __future__ import annotations
 
 import argparse
 import json
-import math
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 
-from fmu_controller.catalog import CORES, LABELS
+from fmu_controller.catalog import LABELS
 from fmu_controller.saturation import LIMIT_HANDLINGS
-from fmu_plant.dynamics import ArmParameters, IntegrationError
-from orchestration.outputs import atomic_write
-from orchestration.run.metrics import tracking_metrics
-from orchestration.study.pure_loop import Perturbation, simulate
+from orchestration.outputs import atomic_write, save_figure
+from orchestration.study import points
 from orchestration.study.sotc_study import NO_LEARNING
-from orchestration.study.tuning import CONTROLLERS, HANDLINGS, nominal_parameters, tuned_parameters
+from orchestration.study.tuning import CONTROLLERS, HANDLINGS, nominal_parameters, stored as stored_tuning, tuned_parameters
 
 N_POINTS = 16
 EVAL_SEED = 7
 EVAL_STOP_TIME = 20.0
-SETS = ("initial states", "perturbed")
+SETS = points.KINDS
 MEASURES = {"mse": "MSE_1 + MSE_2 over the run [rad^2]", "tail": "max |e| over the last half [rad]"}
 STORE = Path("docs") / "fair" / "evaluation.json"
-NOMINAL_ARM = ArmParameters()
 
 
 def evaluation_points(which: str) -> list[dict[str, Any]]:
-    """``N_POINTS`` seeded points of one evaluation set (see the module docstring)."""
-    rng = np.random.default_rng([EVAL_SEED, SETS.index(which)])
-    points = []
-    for i in range(N_POINTS):
-        point: dict[str, Any] = {"phi0": [float(rng.uniform(-math.pi, math.pi)), float(rng.uniform(-2.5, 2.5))]}
-        if which == "perturbed":
-            scale = rng.uniform(0.8, 1.2, 5)
-            point["plant"] = {k: float(getattr(NOMINAL_ARM, k) * s) for k, s in zip(("p1", "p2", "p3", "f1", "f2"), scale)}
-            std = float(10 ** rng.uniform(-4, -3))
-            point["perturbation"] = {"step1": float(rng.uniform(-0.5, 0.5)), "step2": float(rng.uniform(-0.5, 0.5)),
-                                     "sin1": float(rng.uniform(0, 0.5)), "sin2": float(rng.uniform(0, 0.5)),
-                                     "std_phi": std, "std_dphi": 10 * std, "seed": i + 1}
-        points.append(point)
-    return points
+    """``N_POINTS`` seeded points of one held-out set (see the module docstring)."""
+    return points.draw_points(EVAL_SEED, which, N_POINTS, 1)
 
 
-def configurations(handling: int) -> dict[str, tuple[str, dict[str, float]]]:
-    """label -> (controller FMU, parameters) of every configuration compared under one handling."""
+def tuned_label(fmu: str, seed: int) -> str:
+    return f"{LABELS[fmu]} tuned, seed {seed}"
+
+
+def configurations(handling: int, controllers=CONTROLLERS) -> dict[str, tuple[str, dict[str, float]]]:
+    """label -> (controller FMU, parameters) of every configuration compared under one handling: each
+    controller nominal and tuned by each seed of the stored search (the SOTC also with learning off)."""
     out = {}
-    for fmu in CONTROLLERS:
+    for fmu in controllers:
         nominal = {**nominal_parameters(fmu), "limit_handling": float(handling)}
-        tuned = {**nominal, **tuned_parameters(fmu, handling)}
-        out[f"{LABELS[fmu]} nominal"] = (fmu, nominal)
-        out[f"{LABELS[fmu]} tuned"] = (fmu, tuned)
-        if fmu == "SotcController":
-            out[f"{LABELS[fmu]} nominal, learning off"] = (fmu, {**nominal, **NO_LEARNING})
-            out[f"{LABELS[fmu]} tuned, learning off"] = (fmu, {**tuned, **NO_LEARNING})
+        designs = {f"{LABELS[fmu]} nominal": nominal}
+        designs |= {tuned_label(fmu, s): {**nominal, **tuned_parameters(fmu, handling, s)} for s in stored_tuning()["seeds"]}
+        for label, params in designs.items():
+            out[label] = (fmu, params)
+            if fmu == "SotcController":
+                out[f"{label}, learning off"] = (fmu, {**params, **NO_LEARNING})
     return out
 
 
-def run_point(fmu: str, params: dict[str, float], point: dict[str, Any],
-              stop_time: float = EVAL_STOP_TIME) -> dict[str, float | None]:
-    """The measures of one run (None for a run that failed)."""
-    try:
-        res = simulate(CORES[fmu](**params), stop_time=stop_time, phi0=tuple(point["phi0"]),
-                       arm=ArmParameters(**point["plant"]) if "plant" in point else None,
-                       perturbation=Perturbation(**point.get("perturbation", {})))
-    except (IntegrationError, ArithmeticError, ValueError):
-        return {"mse": None, "tail": None, "max_tau_norm": None}
-    m = tracking_metrics(res.t, res.error, res.tau)
-    finite = lambda v: v if v is not None and math.isfinite(v) else None  # noqa: E731
-    return {"mse": finite(sum(m["mse"])) if None not in m["mse"] else None,
-            "tail": finite(max(m["max_abs_error_last_half"])), "max_tau_norm": finite(m["max_tau_norm"])}
+def run_point(fmu: str, params: dict[str, float], point: dict[str, Any]) -> dict[str, float | None]:
+    """The measures of one held-out run (None for a run that failed)."""
+    return points.run_point(fmu, params, point, EVAL_STOP_TIME)
 
 
-def _job(job: tuple[int, str, str, int]) -> tuple[int, str, str, int, dict]:
-    handling, label, which, i = job
-    fmu, params = configurations(handling)[label]
+def _job(job: tuple) -> tuple:
+    handling, label, fmu, params, which, i = job
     return handling, label, which, i, run_point(fmu, params, evaluation_points(which)[i])
 
 
-def evaluate(workers: int = 2) -> dict[str, Any]:
-    jobs = [(h, label, which, i) for h in HANDLINGS for label in configurations(h) for which in SETS
-            for i in range(N_POINTS)]
-    with ProcessPoolExecutor(max_workers=workers) as pool:
-        done = list(pool.map(_job, jobs, chunksize=8))
+def evaluate(workers: int = 2, controllers=CONTROLLERS, previous: dict[str, Any] | None = None) -> dict[str, Any]:
+    """Every configuration of ``controllers`` on both held-out sets. The runs of a configuration whose
+    parameters equal those it has in ``previous`` (a stored evaluation) are taken from there, and its
+    other configurations are kept: an evaluation can go in stages, each controller as soon as its tuning
+    searches are finished."""
+    old = previous if previous and "configurations" in previous else {"configurations": {}, "runs": {}}
     runs: dict[str, Any] = {}
-    for h, label, which, i, m in done:
-        cell = runs.setdefault(LIMIT_HANDLINGS[h], {}).setdefault(label, {}).setdefault(which, [None] * N_POINTS)
-        cell[i] = m
-    return {"n_points": N_POINTS, "seed": EVAL_SEED, "stop_time": EVAL_STOP_TIME,
-            "points": {which: evaluation_points(which) for which in SETS}, "runs": runs}
+    params_of: dict[str, Any] = {}
+    jobs = []
+    for h in HANDLINGS:
+        handling = LIMIT_HANDLINGS[h]
+        for label, (fmu, params) in configurations(h, controllers).items():
+            params_of.setdefault(handling, {})[label] = params
+            if old["configurations"].get(handling, {}).get(label) == params:
+                runs.setdefault(handling, {})[label] = old["runs"][handling][label]
+                continue
+            runs.setdefault(handling, {})[label] = {which: [None] * N_POINTS for which in SETS}
+            jobs += [(handling, label, fmu, params, which, i) for which in SETS for i in range(N_POINTS)]
+    with ProcessPoolExecutor(max_workers=workers) as pool:
+        for handling, label, which, i, m in pool.map(_job, jobs, chunksize=8):
+            runs[handling][label][which][i] = m
+    others = {LABELS[f] for f in CONTROLLERS if f not in controllers}
+    for handling, stored_runs in old["runs"].items():  # a stage: the other controllers' runs stay
+        for label, cell in stored_runs.items():
+            if label.split()[0] in others:
+                runs.setdefault(handling, {})[label] = cell
+                params_of.setdefault(handling, {})[label] = old["configurations"][handling][label]
+    return {"n_points": N_POINTS, "seed": EVAL_SEED, "stop_time": EVAL_STOP_TIME, "seeds": stored_tuning()["seeds"],
+            "points": {which: evaluation_points(which) for which in SETS}, "configurations": params_of, "runs": runs}
 
 
 def stored(root: Path) -> dict[str, Any]:
@@ -142,12 +141,7 @@ def plot(data: dict[str, Any], root: Path) -> list[Path]:
                 ax.set_xlabel(title)
             fig.suptitle(f"{which}: {N_POINTS} seeded points, {EVAL_STOP_TIME:g} s each")
             fig.tight_layout()
-            path = root / STORE.parent / f"{which.replace(' ', '_')}-{name}.png"
-            tmp = path.with_name(f".{path.name}.part.png")
-            fig.savefig(tmp, dpi=80)
-            plt.close(fig)
-            tmp.replace(path)
-            paths.append(path)
+            paths.append(save_figure(fig, root / STORE.parent / f"{which.replace(' ', '_')}-{name}.png", 80))
     return paths
 
 
@@ -156,11 +150,16 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--root", type=Path, default=Path(__file__).resolve().parents[2], help="the source checkout")
     ap.add_argument("--plots-only", action="store_true", help="redraw the plots from the stored runs")
+    ap.add_argument("--controllers", nargs="+", choices=CONTROLLERS, default=list(CONTROLLERS),
+                    help="evaluate only these (a stage: with --reuse, the stored runs of the others stay)")
+    ap.add_argument("--reuse", action="store_true",
+                    help="keep the stored runs of every configuration whose parameters did not change")
     args = ap.parse_args(argv)
     if args.plots_only:
         data = stored(args.root)
     else:
-        data = evaluate(args.workers)
+        previous = stored(args.root) if args.reuse and (args.root / STORE).is_file() else None
+        data = evaluate(args.workers, args.controllers, previous)
         (args.root / STORE.parent).mkdir(parents=True, exist_ok=True)
         atomic_write(args.root / STORE, json.dumps(data, indent=1) + "\n")
     for path in [args.root / STORE, *plot(data, args.root)]:

@@ -1,47 +1,56 @@
-"""One tuning protocol for every controller, the SOTC included: the same budget, the same criterion.
+"""One tuning protocol for every controller, the SOTC included: the same budget, the same criterion,
+the same training set, several seeds.
 
-The protocol, fixed before any search ran (docs/baselines.md, "Tuning protocol"):
+The protocol (docs/baselines.md, "Tuning protocol"):
 
 * **Design parameters** (``SEARCH_SPACES``): each controller's own, searched log-uniformly in a range
   of about two decades around its nominal design: SOTC Lambda_1, Lambda_2 (both joints alike), Theta,
   R (all entries alike) and alpha_1; CT kp, kd; LQR q, r; OTC Lambda (two gains), Q and R (two weights).
-* **Budget**: ``BUDGET`` evaluated points per controller and per limit handling: the nominal design
-  (the scenario's parameters, the paper's for the SOTC and the OTC) and ``BUDGET - 1`` points of a
-  Latin hypercube drawn with ``SEED`` (the same draw, in each controller's own dimensions).
-* **Handlings**: each of radial, joint and accel (``fmu_controller.saturation``), for every controller.
-* **Criterion**: Table 1's metric, MSE_1 + MSE_2 (eq. (50)) of the 100 s `paper` loop from the
-  paper's initial state; a run that fails counts as infinite. The lowest wins.
-* **Tuning set**: that one nominal run. Everything the comparison judges afterwards
-  (``orchestration.study.fair``) runs on initial states and perturbed plants the search never saw.
+* **Training set** (``training_points``): ``TRAINING_POINTS`` seeded points, initial states and
+  perturbed plants drawn by ``orchestration.study.points`` with seed ``TRAINING_SEED`` and noise seeds
+  from ``TRAINING_NOISE_SEED``, disjoint from both held-out sets of ``orchestration.study.fair``;
+  each run lasts ``STOP_TIME`` in the pure loop.
+* **Criterion**: the geometric mean over the training set of MSE_1 + MSE_2 (eq. (50)); a run that
+  fails makes it infinite. The lowest wins.
+* **Search** (``orchestration.study.optimize``, Optuna): per controller, limit handling and seed,
+  ``BUDGET`` trials: the nominal design, then ``INITIAL_DESIGN - 1`` points of a scrambled Latin
+  hypercube (``scipy.stats.qmc``, seeded with the tuning seed), then Optuna's TPE sampler, seeded per
+  trial; a trial whose running criterion is not among the best ``PRUNE_PERCENTILE`` % of the complete
+  trials at the same training point is pruned there (from the ``PRUNE_AFTER``-th point on).
+* **Seeds** (``SEEDS``): independent searches; each seed's best design is judged on the held-out sets.
 
-``python -m orchestration.study.tuning`` runs the search and stores it (``TUNED_FILE``, shipped with
-the package, so that an installed `sotc-cosim` and a sweep's ``tuning = "best"`` read the same
-result); tests/docs/test_tuning_store.py re-runs a sample of it and fails when the stored file and
-the code disagree.
+``sotc-cosim tune`` runs the search and writes the store (recordings/tuning/tuned.json); the shipped
+store (``TUNED_FILE``, so that an installed `sotc-cosim` and a sweep's ``tuning = "best"`` read the same
+result) is a copy of that output; tests/docs/test_fair_store.py re-runs a sample of it.
 """
 from __future__ import annotations
 
-import argparse
 import functools
+import itertools
 import json
 import math
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
-from typing import Any
+from typing import Any, Iterator
 
 import numpy as np
+from scipy.stats import qmc
 
 from fmu_controller.catalog import CORES
 from fmu_controller.saturation import LIMIT_HANDLINGS
-from orchestration.outputs import atomic_write
-from orchestration.run.metrics import tracking_metrics
 from orchestration.run.scenario import load_scenario
-from orchestration.study.pure_loop import simulate
+from orchestration.study.points import KINDS, draw_points, run_point
 
-BUDGET = 16
-SEED = 2026
+BUDGET = 64  # trials per controller, limit handling and seed
+SEEDS = (0, 1, 2)
 HANDLINGS = (0, 1, 2)  # radial, joint, accel
-TUNING_STOP_TIME = 100.0
+INITIAL_DESIGN = 8  # the nominal design and a Latin hypercube, before the sampler models anything
+PRUNE_AFTER = 2  # training points every trial runs before it may be pruned (one of each kind)
+PRUNE_PERCENTILE = 25.0  # a trial continues while its running criterion is among this best % of complete trials
+STOP_TIME = 20.0  # s, each training run (as long as the held-out runs)
+TRAINING_SEED = 2026
+TRAINING_NOISE_SEED = 1001  # the held-out sets use noise seeds 1..16
+TRAINING_POINTS = {"initial states": 4, "perturbed": 4}
+CONVERGED = 0.02  # the budget is enough when the best-so-far improves by less than this over the last half
 TUNED_FILE = Path(__file__).with_name("tuned.json")
 
 # the scenario whose controller parameters are each controller's nominal design
@@ -62,6 +71,13 @@ SEARCH_SPACES: dict[str, dict[str, tuple[float, float, tuple[str, ...]]]] = {
 CONTROLLERS = tuple(SEARCH_SPACES)
 
 
+def training_points() -> list[dict[str, Any]]:
+    """The training set: ``TRAINING_POINTS`` of each kind, alternating (pruning compares trials point by
+    point, so an early decision sees both kinds)."""
+    drawn = [draw_points(TRAINING_SEED, which, TRAINING_POINTS[which], TRAINING_NOISE_SEED) for which in KINDS]
+    return [p for group in itertools.zip_longest(*drawn) for p in group if p is not None]
+
+
 def nominal_parameters(fmu: str) -> dict[str, float]:
     return dict(load_scenario(NOMINAL_SCENARIO[fmu]).instances["controller"].parameters)
 
@@ -74,18 +90,15 @@ def nominal_design(fmu: str) -> dict[str, float]:
     return {name: float(params.get(targets[0], defaults[targets[0]])) for name, (_, _, targets) in SEARCH_SPACES[fmu].items()}
 
 
-def design_points(fmu: str) -> list[dict[str, float]]:
-    """The ``BUDGET`` design points of ``fmu``: nominal first, then a seeded Latin hypercube (log scale)."""
+def initial_design(fmu: str, seed: int) -> list[dict[str, float]]:
+    """The first ``INITIAL_DESIGN`` trials of a search: the nominal design, then a scrambled Latin
+    hypercube on the log scale of each design parameter, seeded with the tuning seed."""
     space = SEARCH_SPACES[fmu]
-    rng = np.random.default_rng(SEED)
-    n = BUDGET - 1
-    points = [nominal_design(fmu)]
-    columns = {}
-    for name, (low, high, _) in space.items():
-        u = (rng.permutation(n) + rng.uniform(size=n)) / n  # one sample in each of n strata
-        columns[name] = np.exp(np.log(low) + u * (np.log(high) - np.log(low)))
-    points += [{name: float(f"{columns[name][i]:.4g}") for name in space} for i in range(n)]
-    return points
+    low = np.log([lo for lo, _, _ in space.values()])
+    high = np.log([hi for _, hi, _ in space.values()])
+    unit = qmc.LatinHypercube(d=len(space), rng=np.random.default_rng([seed, CONTROLLERS.index(fmu)]))
+    rows = np.exp(qmc.scale(unit.random(INITIAL_DESIGN - 1), low, high))
+    return [nominal_design(fmu)] + [{name: float(v) for name, v in zip(space, row)} for row in rows]
 
 
 def parameters(fmu: str, design: dict[str, float], handling: int) -> dict[str, float]:
@@ -97,70 +110,72 @@ def parameters(fmu: str, design: dict[str, float], handling: int) -> dict[str, f
     return params
 
 
-def criterion(fmu: str, params: dict[str, float], stop_time: float = TUNING_STOP_TIME) -> float:
-    """MSE_1 + MSE_2 (eq. (50)) of the nominal `paper` loop; inf for a run that fails."""
-    try:
-        res = simulate(CORES[fmu](**params), stop_time=stop_time)
-    except (ArithmeticError, ValueError, RuntimeError):  # IntegrationError, a refused state
-        return math.inf
-    mse = tracking_metrics(res.t, res.error, res.tau)["mse"]
-    value = math.inf if None in mse else float(sum(mse))
-    return value if math.isfinite(value) else math.inf
+def running_criterion(fmu: str, params: dict[str, float]) -> Iterator[float]:
+    """After each training point in turn: the geometric mean of MSE_1 + MSE_2 over the points so far
+    (the criterion, after the last); inf, and no further point, once a run fails."""
+    logs = 0.0
+    for k, point in enumerate(training_points(), start=1):
+        mse = run_point(fmu, params, point, STOP_TIME)["mse"]
+        if mse is None or mse <= 0.0:
+            yield math.inf
+            return
+        logs += math.log(mse)
+        yield math.exp(logs / k)
 
 
-def _evaluate(job: tuple[str, int, int]) -> tuple[str, int, int, float]:
-    fmu, handling, i = job
-    return fmu, handling, i, criterion(fmu, parameters(fmu, design_points(fmu)[i], handling))
+def criterion(fmu: str, params: dict[str, float]) -> float:
+    """The tuning criterion of one design (every training point run)."""
+    value = math.inf
+    for value in running_criterion(fmu, params):
+        pass
+    return value
 
 
-def search(workers: int = 2) -> dict[str, Any]:
-    """Every controller's whole budget under every handling, and the best point of each."""
-    jobs = [(fmu, h, i) for fmu in CONTROLLERS for h in HANDLINGS for i in range(BUDGET)]
-    with ProcessPoolExecutor(max_workers=workers) as pool:
-        done = list(pool.map(_evaluate, jobs, chunksize=4))
-    result: dict[str, Any] = {"budget": BUDGET, "seed": SEED, "criterion": "mse1 + mse2, 100 s `paper` loop",
-                              "controllers": {}}
-    for fmu in CONTROLLERS:
-        points = design_points(fmu)
-        per_handling = {}
-        for h in HANDLINGS:
-            values = [v for f, hh, _, v in sorted(done, key=lambda d: d[2]) if f == fmu and hh == h]
-            best = int(np.argmin(values))
-            per_handling[LIMIT_HANDLINGS[h]] = {"criterion": [None if math.isinf(v) else v for v in values],
-                                                "best": best, "best_design": points[best]}
-        result["controllers"][fmu] = {"designs": points, "handlings": per_handling}
-    return result
+def best_so_far(values: list[float | None]) -> list[float]:
+    """The lowest criterion among the trials up to each one (a pruned or failed trial: None, inf)."""
+    out, best = [], math.inf
+    for v in values:
+        best = min(best, math.inf if v is None else v)
+        out.append(best)
+    return out
 
+
+def last_half_improvement(values: list[float | None]) -> float:
+    """How much the best-so-far fell over the last half of the trials, relative to where it stood at
+    the half (0.01: 1 %); the budget is enough when this is below ``CONVERGED``."""
+    curve = best_so_far(values)
+    half, end = curve[max(len(curve) // 2 - 1, 0)], curve[-1]
+    if half == end:
+        return 0.0
+    return 1.0 if math.isinf(half) else (half - end) / half
+
+
+# --- the stored search --------------------------------------------------------------------------------
 
 @functools.lru_cache(maxsize=1)
 def stored() -> dict[str, Any]:
-    """The stored search, read once per process (every tuned point of a sweep or a batch asks for it)."""
+    """The shipped search, read once per process (every tuned point of a sweep or a batch asks for it)."""
     return json.loads(TUNED_FILE.read_text())
 
 
-def best_design(fmu: str, handling: int) -> dict[str, float]:
-    """The stored best design point of ``fmu`` under a handling (the README's "tuned" rows)."""
-    return dict(stored()["controllers"][fmu]["handlings"][LIMIT_HANDLINGS[int(handling)]]["best_design"])
+def study_record(fmu: str, handling: int, seed: int | None = None, data: dict[str, Any] | None = None) -> dict[str, Any]:
+    """One search of a store (default: the shipped one): ``criterion`` (every trial in order), ``state``,
+    ``best`` (its index), ``best_design``; ``seed`` None is the store's first seed."""
+    data = data or stored()
+    seed = data["seeds"][0] if seed is None else seed
+    return data["controllers"][fmu]["handlings"][LIMIT_HANDLINGS[int(handling)]]["seeds"][str(seed)]
 
 
-def tuned_parameters(fmu: str, handling: int) -> dict[str, float]:
+def best_design(fmu: str, handling: int, seed: int | None = None) -> dict[str, float]:
+    """The stored best design point of ``fmu`` under a handling, for a tuning seed (default: the first)."""
+    return dict(study_record(fmu, handling, seed)["best_design"])
+
+
+def tuned_parameters(fmu: str, handling: int, seed: int | None = None) -> dict[str, float]:
     """The FMU parameters the tuning sets for ``fmu`` under a handling (design parameters expanded)."""
-    design = best_design(fmu, handling)
+    design = best_design(fmu, handling, seed)
     return {target: value for name, value in design.items() for target in SEARCH_SPACES[fmu][name][2]}
 
 
 def tuned_parameter_names(fmu: str) -> set[str]:
     return {target for _, _, targets in SEARCH_SPACES.get(fmu, {}).values() for target in targets}
-
-
-def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--workers", type=int, default=2)
-    args = ap.parse_args(argv)
-    atomic_write(TUNED_FILE, json.dumps(search(args.workers), indent=1) + "\n")
-    print(TUNED_FILE)
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -213,8 +213,10 @@ def _per_controller_text(sweep: Sweep) -> str:
         return ""
     parts = []
     for fmu, sets in sweep.controller_parameters().items():
-        how = ("the best point of its tuning search (`orchestration.study.comparison`, Table 1's metric on the "
-               "paper's loop) under the point's limit handling, " if sweep.per_controller[fmu].tuning == "best" else "")
+        entry = sweep.per_controller[fmu]
+        seed = "the first tuning seed" if entry.tuning_seed is None else f"tuning seed {entry.tuning_seed}"
+        how = (f"the best point of its tuning search (`orchestration.study.tuning`, {seed}) under the "
+               "point's limit handling, " if entry.tuning == "best" else "")
         values = " or ".join(", ".join(f"`{k} = {v:g}`" for k, v in params.items()) for params in sets)
         parts.append(f"{fmu}: {how}{values or 'no point'}")
     return " Per controller (`controller_settings`): " + "; ".join(parts) + "."

@@ -14,6 +14,7 @@ A sweep file is TOML (``orchestration/sweep/presets/<name>.toml``, shipped as pa
 
     [controller_settings.LqrController]   # applied only to points whose controller is this FMU, after `set`
     tuning = "best"                 # optional: the best point of this FMU's tuning search (below)
+    tuning_seed = 1                 # optional, with tuning: the best of this tuning seed (default: the first)
     "controller.r" = 0.1            # instance.parameter = number, like `set`
 
     [controller_settings."SOTC, learning off"]   # a named entry: a controller axis value of its own
@@ -39,9 +40,9 @@ controller FMU its own parameters (a fair comparison tunes each baseline, not on
 controller); a table with ``fmu = "<FMU>"`` is a named entry (any label) that a ``controller`` axis lists
 like an FMU, so one FMU can run twice, e.g. with and without learning, paired on the same points.
 ``tuning = "best"`` takes them from the one tuning protocol every controller gets,
-``orchestration.study.tuning`` (the same budget for the SOTC, CT, LQR and the OTC; its stored best
-point, Table 1's metric on the paper's 100 s loop) under the point's own ``controller.limit_handling``:
-the tuning the README's results table reports. The parameters a point gets this way are part of its settings (and of its resume key). Random axes draw from
+``orchestration.study.tuning`` (the same budget for the SOTC, CT, LQR and the OTC; the stored best
+point of one tuning seed, ``tuning_seed`` or the first, on the tuning's training set) under the point's
+own ``controller.limit_handling``: the tuning the README's results table reports. The parameters a point gets this way are part of its settings (and of its resume key). Random axes draw from
 ``numpy.random.default_rng([seed, axis number])``: the same file and seed give the same points.
 
 Every value is checked before anything runs: a non-numeric or non-finite value is refused with the
@@ -101,6 +102,7 @@ class ControllerSettings:
     values: dict[str, float]  # instance.parameter -> value
     tuning: str = ""  # "best": the parameters of the best point of the FMU's tuning search
     learning: bool = True  # False: alpha1 = alpha2 = 1e-9 after everything else (the SOTC's critic frozen)
+    tuning_seed: int | None = None  # the tuning seed whose best point ``tuning = "best"`` takes (None: the first)
 
     def parameters(self, scenario: Scenario) -> dict[str, float]:
         """What this applies to a point's scenario (whose controller is ``fmu``): the tuned parameters
@@ -112,7 +114,8 @@ class ControllerSettings:
 
             params = {**scenario.instances["controller"].parameters,
                       **{k.partition(".")[2]: v for k, v in self.values.items() if k.startswith("controller.")}}
-            out = {f"controller.{k}": v for k, v in tuned_parameters(self.fmu, handling_code(self.fmu, params)).items()}
+            tuned = tuned_parameters(self.fmu, handling_code(self.fmu, params), self.tuning_seed)
+            out = {f"controller.{k}": v for k, v in tuned.items()}
         out.update(self.values)
         if not self.learning:
             from orchestration.study.sotc_study import NO_LEARNING
@@ -313,7 +316,8 @@ def _controller_settings(raw: Any, base: Scenario, axes: tuple[Axis, ...], where
         fmu, tuning, learning = table.get("fmu", label), table.get("tuning", ""), table.get("learning", True)
         if fmu not in CORES:
             raise SweepError(f"{here}.fmu = {fmu!r}; choose a controller FMU: {', '.join(CORES)}")
-        values = {k: v for k, v in table.items() if k not in ("tuning", "fmu", "learning")}
+        values = {k: v for k, v in table.items() if k not in ("tuning", "fmu", "learning", "tuning_seed")}
+        tuning_seed = _tuning_seed(table, tuning, here)
         if "tuning" in table and tuning not in TUNINGS:
             raise SweepError(f"{here}.tuning = {tuning!r}; choose {' or '.join(repr(t) for t in TUNINGS)}")
         tuned = {f"controller.{p}" for p in tuned_parameter_names(fmu)}
@@ -342,8 +346,21 @@ def _controller_settings(raw: Any, base: Scenario, axes: tuple[Axis, ...], where
                     specs[pname].check(value)
                 except ValueError as exc:
                     raise SweepError(f"{at}: {exc}") from None
-        out[label] = ControllerSettings(fmu, values, tuning, learning)
+        out[label] = ControllerSettings(fmu, values, tuning, learning, tuning_seed)
     return out
+
+
+def _tuning_seed(table: dict[str, Any], tuning: str, here: str) -> int | None:
+    """``tuning_seed``: one of the stored search's seeds, with ``tuning = "best"`` only."""
+    if "tuning_seed" not in table:
+        return None
+    from orchestration.study.tuning import stored
+
+    seeds, value = stored()["seeds"], table["tuning_seed"]
+    if not tuning or isinstance(value, bool) or value not in seeds:
+        raise SweepError(f"{here}.tuning_seed = {value!r}: with tuning = \"best\", one of the stored tuning seeds "
+                         f"{', '.join(map(str, seeds))}")
+    return int(value)
 
 
 def _check_shape(sweep: Sweep, where: str) -> None:

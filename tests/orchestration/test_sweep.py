@@ -85,8 +85,8 @@ def test_tuning_best_asks_the_tuning_protocol_under_each_points_limit_handling(m
 
     asked = []
 
-    def tuned_parameters(fmu, handling):  # stands in for the stored search
-        asked.append((fmu, handling))
+    def tuned_parameters(fmu, handling, seed=None):  # stands in for the stored search
+        asked.append((fmu, handling) if seed is None else (fmu, handling, seed))
         return {name: 10.0 * handling + 1 for name in sorted(tuning.tuned_parameter_names(fmu))[:1]}
 
     monkeypatch.setattr(tuning, "tuned_parameters", tuned_parameters)
@@ -103,6 +103,11 @@ def test_tuning_best_asks_the_tuning_protocol_under_each_points_limit_handling(m
     assert ct.settings == {"controller": "CtController", "controller.kd": 1.0}
     assert lqr.scenario.instances["controller"].parameters == {"limit_handling": 1, "q": 11.0}
     assert {("CtController", 0), ("LqrController", 1)} <= set(asked)
+    # a tuning seed other than the first, named in the table
+    seed = tuning.stored()["seeds"][-1]
+    s = parse_sweep({**CONTROLLERS, "controller_settings": {"CtController": {"tuning": "best", "tuning_seed": seed}}}, "test")
+    s.points()
+    assert ("CtController", 2, seed) in asked
 
 
 @pytest.mark.parametrize("settings, message", [
@@ -118,6 +123,9 @@ def test_tuning_best_asks_the_tuning_protocol_under_each_points_limit_handling(m
     ({"CtController": {"tuning": "fastest"}}, "tuning = 'fastest'; choose 'best'"),
     ({"CtController": {"tuning": "best", "controller.kp": 9.0}}, "tuning = 'best' sets controller.kp already"),
     ({"CtController": 3}, "must hold tables"),
+    ({"CtController": {"tuning_seed": 0}}, 'tuning_seed = 0: with tuning = "best"'),
+    ({"CtController": {"tuning": "best", "tuning_seed": 99}}, "one of the stored tuning seeds"),
+    ({"CtController": {"tuning": "best", "tuning_seed": True}}, "tuning_seed = True"),
 ])
 def test_bad_controller_settings_are_refused_with_the_key_named(settings, message):
     with pytest.raises(ValueError, match=message.replace("(", r"\(").replace("[", r"\[")):

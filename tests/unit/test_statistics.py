@@ -28,3 +28,24 @@ def test_a_failed_run_is_counted_apart_and_left_out_of_the_pairs():
     v = paired([1.0, None, 2.0, 4.0], [2.0, 1.0, 4.0, None])
     assert (v.failed_a, v.failed_b, v.ratio.n) == (1, 1, 2)
     assert math.isclose(v.ratio.value, 0.5) and v.verdict == "better"
+
+
+def test_a_larger_family_widens_every_interval_and_can_undo_a_verdict():
+    g = np.random.default_rng(3)
+    b = 10 ** g.uniform(-3, 0, 16)
+    a = b * 0.95 * 10 ** g.normal(0, 0.03, 16)
+    alone, in_family = paired(a, b), paired(a, b, family=144)
+    assert in_family.ratio.low < alone.ratio.low and in_family.ratio.high > alone.ratio.high
+    assert alone.verdict == "better" and in_family.verdict == "not distinguishable"
+    assert math.isclose(alone.ratio.value, in_family.ratio.value)
+
+
+def test_the_sign_count_says_on_how_many_points_a_is_worse():
+    v = paired([1.0, 3.0, 2.0, 5.0, 1.0], [2.0, 1.0, 4.0, 4.0, 1.0])
+    assert v.worse_on == 2 and v.ratio.n == 5
+
+
+def test_identical_configurations_are_not_distinguishable_and_their_interval_is_a_point():
+    values = [0.1, 0.02, 0.3, 0.004]
+    v = paired(values, values)
+    assert v.verdict == "not distinguishable" and v.ratio.low == v.ratio.high == 1.0 and v.worse_on == 0

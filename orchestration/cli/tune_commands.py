@@ -1,0 +1,139 @@
+"""``sotc-cosim tune``: the tuning protocol every controller gets (``orchestration.study.tuning``), with
+Optuna, on Dask, resumable."""
+from __future__ import annotations
+
+import argparse
+import os
+from pathlib import Path
+
+from orchestration import exit_codes
+from orchestration.cli.options import positive_int
+from orchestration.outputs import PathLock
+from orchestration.paths import check_output_file
+from orchestration.run import interrupt
+from orchestration.run.scenario import ScenarioError
+
+DEFAULT_OUT = Path("recordings") / "tuning" / "tuned.json"
+MAX_SEED = 2**31 - 1
+
+
+def _controllers(names: list[str]) -> list[str]:
+    from fmu_controller.catalog import LABELS
+    from orchestration.study.tuning import CONTROLLERS
+
+    by_name = {**{c.lower(): c for c in CONTROLLERS}, **{LABELS[c].lower(): c for c in CONTROLLERS}}
+    unknown = [n for n in names if n.lower() not in by_name]
+    if unknown:
+        raise ScenarioError(f"CONTROLLER {unknown[0]!r}: choose from {', '.join(CONTROLLERS)} "
+                            f"(or {', '.join(LABELS[c] for c in CONTROLLERS)})")
+    chosen = [by_name[n.lower()] for n in names] or list(CONTROLLERS)
+    return list(dict.fromkeys(chosen))
+
+
+def seed(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if not 0 <= value <= MAX_SEED:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number from 0 to {MAX_SEED}")
+    return value
+
+
+def handling(text: str) -> int:
+    from fmu_controller.saturation import LIMIT_HANDLINGS
+    from orchestration.study.tuning import HANDLINGS
+
+    names = {LIMIT_HANDLINGS[h]: h for h in HANDLINGS}
+    if text not in names:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a limit handling; choose from {', '.join(names)}")
+    return names[text]
+
+
+class _Listener:
+    def __init__(self, out: Path, workers: int | None, scheduler: str | None):
+        self.workers = workers or os.cpu_count() or 1
+        self.out, self.where = out, scheduler or f"a local Dask cluster of {self.workers} worker processes"
+        self.progress = None
+
+    def started(self, outcome, total: int) -> None:
+        from orchestration.progress import Progress
+
+        import importlib.machinery
+
+        import fmu_controller.sotc
+
+        compiled = fmu_controller.sotc.__file__.endswith(tuple(importlib.machinery.EXTENSION_SUFFIXES))
+        cores = ("compiled" if compiled else
+                 "Python (an editable install, or SOTC_COSIM_COMPILE=0 at install: about half as fast)")
+        print(f"tune: {outcome.searches} searches, {total} trials, {outcome.trials_before} already in "
+              f"{self.out.with_suffix('.journal')}, the rest on {self.where}; cores {cores}", flush=True)
+        self.progress = Progress(total, "tune", self.workers, skipped=outcome.trials_before)
+
+    def trial(self, search: str) -> None:
+        self.progress.update(True, search)
+
+    def close(self) -> None:
+        if self.progress is not None:
+            self.progress.close()
+
+
+def _cmd_tune(args: argparse.Namespace) -> int:
+    from orchestration.study.tuning import CONVERGED, HANDLINGS, SEEDS, last_half_improvement
+    from orchestration.sweep.tuning_jobs import tune
+
+    if args.scheduler is not None and not args.scheduler.strip():
+        raise ScenarioError("--scheduler '': give a Dask scheduler address such as tcp://host:8786, or leave it out")
+    controllers = _controllers(args.controllers)
+    seeds = list(dict.fromkeys(args.seeds or SEEDS))
+    handlings = list(dict.fromkeys(args.handlings or HANDLINGS))
+    out = check_output_file(args.out, "--out")
+    listener = _Listener(out, args.workers, args.scheduler)
+    with PathLock(out, "--out"):
+        try:
+            outcome = tune(out, controllers, handlings, seeds, args.budget, args.workers, args.scheduler, listener)
+        finally:
+            listener.close()
+    data = outcome.store
+    print(f"store: {out} ({'complete' if data['complete'] else 'incomplete'}; journal {out.with_suffix('.journal')})")
+    for fmu, c in data["controllers"].items():
+        for h, per in c["handlings"].items():
+            for s, r in per["seeds"].items():
+                best = r["criterion"][r["best"]]
+                print(f"{fmu} {h} seed {s}: {r['trials']} trials, best {best if best is None else f'{best:.6g}'}, "
+                      f"last-half improvement {100 * last_half_improvement(r['criterion']):.2f} % "
+                      f"(converged below {100 * CONVERGED:g} %)")
+    if outcome.interrupted:
+        again = ["sotc-cosim", "tune", *controllers, "--budget", str(args.budget), "--seeds", *map(str, seeds),
+                 "--handlings", *(h for h in data["controllers"][controllers[0]]["handlings"]), "--out", str(out)]
+        again += ["--workers", str(args.workers)] if args.workers else []
+        again += ["--scheduler", args.scheduler] if args.scheduler else []
+        print(f"interrupted: the finished trials are kept in {out.with_suffix('.journal')}; resume with: {' '.join(again)}")
+        return interrupt.exit_code()
+    return exit_codes.OK
+
+
+def add_commands(sub) -> None:
+    """tune."""
+    from orchestration.study.tuning import BUDGET, SEEDS
+
+    p = sub.add_parser("tune", help="tune the controllers by the one protocol (Optuna, on Dask), resumable")
+    p.add_argument("controllers", nargs="*", metavar="CONTROLLER",
+                   help="controllers to tune: SotcController CtController LqrController OtcController, or SOTC CT "
+                        "LQR OTC (default: all)")
+    p.add_argument("--budget", type=positive_int, default=BUDGET,
+                   help=f"trials per controller, limit handling and seed (default {BUDGET})")
+    p.add_argument("--seeds", type=seed, nargs="+", metavar="SEED",
+                   help=f"tuning seeds, one independent search each (default {' '.join(map(str, SEEDS))})")
+    p.add_argument("--handlings", type=handling, nargs="+", metavar="HANDLING",
+                   help="limit handlings to tune under (default: radial joint accel)")
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=positive_int,
+                       help="worker processes of the local Dask cluster (default: one per core)")
+    where.add_argument("--scheduler", metavar="ADDRESS",
+                       help="an existing dask.distributed scheduler, tcp://host:8786, whose workers share this "
+                            "file system (default: a local cluster)")
+    p.add_argument("--out", type=Path, default=DEFAULT_OUT,
+                   help=f"the store (default {DEFAULT_OUT}); the Optuna journal beside it (.journal) makes a "
+                        "rerun resume")
+    p.set_defaults(func=_cmd_tune)

@@ -1,0 +1,53 @@
+"""``sotc-cosim tune`` as a user runs it: the installed console script, from a folder outside the
+repository, with a tiny budget (the stored search is 64 trials per controller, handling and seed)."""
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+ARGS = ["tune", "CT", "--budget", "3", "--seeds", "0", "1", "--handlings", "accel", "--workers", "1"]
+
+
+def _finished(journal: Path) -> int:
+    """Trials the journal holds as complete or pruned (Optuna's log line that sets a trial's state)."""
+    text = journal.read_text() if journal.is_file() else ""
+    return len(re.findall(r'"op_code":6,[^\n]*"state":[12],', text))
+
+
+def _searches(store: dict) -> dict:
+    return store["controllers"]["CtController"]["handlings"]["accel"]["seeds"]
+
+
+def test_tune_refuses_bad_values_with_one_line(shipped):
+    work = shipped.workdir("tune-refused")
+    for args in (["tune", "--budget", "0"], ["tune", "PID"], ["tune", "--seeds", "-1"], ["tune", "--handlings", "none"]):
+        proc = shipped.cli(*args, cwd=work)
+        assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, (args, proc.stderr)
+        assert "Traceback" not in proc.stderr
+    assert not any(work.iterdir())
+
+
+def test_tune_writes_the_store_and_resumes_after_ctrl_c_to_the_same_trials(shipped):
+    work = shipped.workdir("tune")
+    whole = shipped.cli(*ARGS, "--out", "whole/tuned.json", cwd=work)
+    assert whole.returncode == 0, whole.stderr
+    store = json.loads((work / "whole" / "tuned.json").read_text())
+    assert (store["budget"], store["seeds"], store["training_points"], store["complete"]) == (3, [0, 1], 8, True)
+    for seed, r in _searches(store).items():
+        assert len(r["criterion"]) == len(r["state"]) == 3 and set(r["best_design"]) == {"kp", "kd"}
+        assert r["criterion"][r["best"]] == min(v for v in r["criterion"] if v is not None)
+        assert f"CtController accel seed {seed}: 3 trials" in whole.stdout
+
+    journal = work / "cut" / "tuned.journal"
+    cut = shipped.interrupt([*ARGS, "--out", "cut/tuned.json"], work, ready=lambda: _finished(journal) >= 2)
+    assert cut.returncode == 130 and "resume with:" in cut.stdout, cut.stdout + cut.stderr
+    partial = json.loads((work / "cut" / "tuned.json").read_text())
+    assert not partial["complete"]
+    resumed = shipped.cli(*ARGS, "--out", "cut/tuned.json", cwd=work)
+    assert resumed.returncode == 0, resumed.stderr
+    again = json.loads((work / "cut" / "tuned.json").read_text())
+    assert again["complete"]
+    for seed, r in _searches(store).items():
+        other = _searches(again)[seed]
+        assert (other["criterion"], other["state"], other["best_design"]) == (r["criterion"], r["state"], r["best_design"])
