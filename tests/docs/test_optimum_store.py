@@ -46,7 +46,7 @@ def test_the_stored_optimal_torques_replay_to_the_stored_j_star(data, index):
     assert math.isclose(optimum.trajectory_cost(_problem(state, data), run), state["J_star"], rel_tol=1e-6)
 
 
-@pytest.mark.parametrize("index, label", [(0, "SOTC nominal"), (9, "LQR tuned")])
+@pytest.mark.parametrize("index, label", [(0, "SOTC nominal"), (9, "LQR tuned, seed 0")])
 def test_a_stored_controller_cost_is_recomputed(index, label):
     state = DATA["states"][index]
     factory = optimum_scores.controller_cores(optimum_scores.learned_weights())[label]
