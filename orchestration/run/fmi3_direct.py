@@ -18,6 +18,7 @@ from fmpy import extract, read_model_description
 from fmpy.fmi3 import FMU3Slave
 
 from fmi3_slave.arrays import element_names
+from orchestration.run.fmi_direct import ByName
 
 _TYPES = {"Float64": "Real", "Int32": "Integer"}
 
@@ -101,7 +102,7 @@ class _ScalarCalls:
         return self.fmu.terminate()
 
 
-class FmuInstance3:
+class FmuInstance3(ByName):
     """One FMI 3.0 co-simulation instance, addressed by FMI 2 scalar names (``fmi_direct.FmuInstance``)."""
 
     def __init__(self, fmu_file: Path, instance_name: str = "instance", workdir: Path | None = None):
@@ -119,20 +120,6 @@ class FmuInstance3:
             (int(status), (message or b"").decode(errors="replace"))))
         self.fmu = _ScalarCalls(self._fmu3, slots)
         self._freed = False
-
-    def names(self, causality: str, types: tuple[str, ...] = ("Real",)) -> list[str]:
-        return [v.name for v in self.md.modelVariables if v.causality == causality and v.type in types]
-
-    def set(self, **values: float) -> None:
-        for name, value in values.items():
-            var = self.vars[name]
-            if var.type == "Integer":
-                self.fmu.setInteger([var.valueReference], [int(value)])
-            else:
-                self.fmu.setReal([var.valueReference], [float(value)])
-
-    def get(self, *names: str) -> list[float]:
-        return self.fmu.getReal([self.vars[n].valueReference for n in names])
 
     def initialize(self, start_time: float = 0.0, inputs: dict[str, float] | None = None, **parameters: float) -> None:
         """Parameters, enter/exit initialization (inputs, if given, set in between)."""

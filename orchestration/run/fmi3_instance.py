@@ -20,7 +20,7 @@ from fmpy.fmi3 import FMU3Slave, fmi3Boolean, fmi3Float64, fmi3ValueReference
 
 from fmi3_slave.arrays import element_names
 from orchestration.run.fmi3_direct import element_count, element_starts
-from orchestration.run.parameter_check import model_description, parameter_problem
+from orchestration.run.parameter_check import model_description, parameter_values, set_parameters
 from orchestration.run.scenario import ScenarioError
 
 _WARNING = 1  # fmi3Warning: anything worse fails the call
@@ -111,20 +111,8 @@ class Instance3:
                             ctypes.byref(early), ctypes.byref(self._reached)), "fmi3DoStep")
 
     def parameter_values(self) -> dict[str, float]:
-        values: dict[str, float] = {}
-        for v in self.md.modelVariables:
-            if v.causality == "parameter" and v.type in ("Float64", "Int32"):
-                get = self.fmu.getFloat64 if v.type == "Float64" else self.fmu.getInt32
-                values[v.name] = get([v.valueReference])[0]
-        return values
+        return parameter_values(self.md, {"Float64": self.fmu.getFloat64, "Int32": self.fmu.getInt32})
 
     def set_parameters(self, values: dict[str, float]) -> None:
-        for pname, value in values.items():
-            problem = parameter_problem(self.md, pname, value, check_range=False)
-            if problem:
-                raise ScenarioError(f"{self.name}: {problem}")
-            var = self._by_name[pname]
-            if var.type == "Float64":
-                self.fmu.setFloat64([var.valueReference], [float(value)])
-            else:
-                self.fmu.setInt32([var.valueReference], [int(value)])
+        set_parameters(self.md, self.name, values, {"Float64": (self.fmu.setFloat64, float),
+                                                     "Int32": (self.fmu.setInt32, int)})

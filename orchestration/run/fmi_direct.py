@@ -50,7 +50,25 @@ def forget_callbacks(callbacks: fmi2CallbackFunctions) -> None:
     _SINKS.pop(callbacks.componentEnvironment or 0, None)
 
 
-class FmuInstance:
+class ByName:
+    """Variables addressed by their FMI 2 names (``md``, ``vars`` and an ``fmu`` with FMI 2's scalar calls)."""
+
+    def names(self, causality: str, types: tuple[str, ...] = ("Real",)) -> list[str]:
+        return [v.name for v in self.md.modelVariables if v.causality == causality and v.type in types]
+
+    def set(self, **values: float) -> None:
+        for name, value in values.items():
+            var = self.vars[name]
+            if var.type == "Integer":
+                self.fmu.setInteger([var.valueReference], [int(value)])
+            else:
+                self.fmu.setReal([var.valueReference], [float(value)])
+
+    def get(self, *names: str) -> list[float]:
+        return self.fmu.getReal([self.vars[n].valueReference for n in names])
+
+
+class FmuInstance(ByName):
     """One co-simulation instance of an FMU file, addressed by variable names."""
 
     def __init__(self, fmu_file: Path, instance_name: str = "instance", workdir: Path | None = None):
@@ -66,20 +84,6 @@ class FmuInstance:
                              modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=instance_name)
         self.fmu.instantiate(callbacks=self._callbacks, loggingOn=True)
         self._freed = False
-
-    def names(self, causality: str, types: tuple[str, ...] = ("Real",)) -> list[str]:
-        return [v.name for v in self.md.modelVariables if v.causality == causality and v.type in types]
-
-    def set(self, **values: float) -> None:
-        for name, value in values.items():
-            var = self.vars[name]
-            if var.type == "Integer":
-                self.fmu.setInteger([var.valueReference], [int(value)])
-            else:
-                self.fmu.setReal([var.valueReference], [float(value)])
-
-    def get(self, *names: str) -> list[float]:
-        return self.fmu.getReal([self.vars[n].valueReference for n in names])
 
     def initialize(self, start_time: float = 0.0, inputs: dict[str, float] | None = None, **parameters: float) -> None:
         """setupExperiment, parameters, enter/exit initialization (inputs, if given, set in between)."""

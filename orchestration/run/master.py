@@ -31,7 +31,7 @@ from fmpy.fmi2 import FMU2Slave, fmi2Real, fmi2True, fmi2ValueReference, fmi2War
 
 from orchestration.run import interrupt
 from orchestration.run.fmi_direct import forget_callbacks, make_callbacks
-from orchestration.run.parameter_check import model_description, parameter_problem
+from orchestration.run.parameter_check import model_description, parameter_values, set_parameters
 from orchestration.run.scenario import Scenario, ScenarioError
 
 STATUS_LABELS = ("OK", "WARNING", "DISCARD", "ERROR", "FATAL", "PENDING")
@@ -153,24 +153,11 @@ class _Loaded:
 
     def parameter_values(self) -> dict[str, float]:
         """Every Real and Integer parameter as the instance holds it now."""
-        values: dict[str, float] = {}
-        for v in self.md.modelVariables:
-            if v.causality == "parameter" and v.type in ("Real", "Integer"):
-                get = self.fmu.getReal if v.type == "Real" else self.fmu.getInteger
-                values[v.name] = get([v.valueReference])[0]
-        return values
+        return parameter_values(self.md, {"Real": self.fmu.getReal, "Integer": self.fmu.getInteger})
 
     def set_parameters(self, values: dict[str, float]) -> None:
-        for pname, value in values.items():
-            problem = parameter_problem(self.md, pname, value, check_range=False)
-            if problem:
-                raise ScenarioError(f"{self.name}: {problem}")
-            var = self.vars[pname]
-            if var.type == "Real":
-                self.fmu.setReal([var.valueReference], [float(value)])
-            else:
-                self.fmu.setInteger([var.valueReference], [int(value)])
-
+        set_parameters(self.md, self.name, values, {"Real": (self.fmu.setReal, float),
+                                                     "Integer": (self.fmu.setInteger, int)})
 
 def _instance(inst, fmu_file: Path, workdir: Path, logs: list[LogRecord], clock: _Clock):
     """The instance of an FMI 2.0 FMU, or of an FMI 3.0 one (``fmi3_instance``: the same interface;

@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 from functools import lru_cache
 from pathlib import Path
+from typing import Any
 
 from fmu_controller.base import RENAMED_PARAMETERS
 from orchestration.run.scenario import Scenario, ScenarioError
@@ -66,3 +67,22 @@ def check_scenarios(scenarios: list[Scenario], fmu_paths: dict[str, Path]) -> No
                 problem = parameter_problem(md, name, value)
                 if problem:
                     raise ScenarioError(f"scenario '{scenario.name}', instance '{inst.name}': {problem}")
+
+
+def parameter_values(md, getters: dict[str, Any]) -> dict[str, float]:
+    """Every parameter of a type in ``getters`` (type name -> the FMU's getter) as the instance holds it."""
+    return {v.name: getters[v.type]([v.valueReference])[0] for v in md.modelVariables
+            if v.causality == "parameter" and v.type in getters}
+
+
+def set_parameters(md, instance: str, values: dict[str, float], setters: dict[str, Any]) -> None:
+    """Set parameters by name, each checked first (``parameter_problem``; ScenarioError naming the
+    instance); ``setters``: type name -> (the FMU's setter, the Python type it takes)."""
+    by_name = {v.name: v for v in md.modelVariables}
+    for pname, value in values.items():
+        problem = parameter_problem(md, pname, value, check_range=False)
+        if problem:
+            raise ScenarioError(f"{instance}: {problem}")
+        var = by_name[pname]
+        setter, kind = setters[var.type]
+        setter([var.valueReference], [kind(value)])
