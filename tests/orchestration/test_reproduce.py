@@ -112,8 +112,16 @@ def test_reproduce_console_script_in_a_fresh_interpreter_outside_the_repo(tmp_pa
     assert (tmp_path / "recordings" / "table1.md").is_file() and (tmp_path / "recordings" / "reproduce.rrd").is_file()
 
 
-def test_paper_literal_is_reported_as_not_tracking_with_its_sensitivity():
-    """A chaotic reading is said as such (the README's results block and reproduce share chaos_text)."""
+def test_a_chaotic_reading_is_reported_as_not_tracking_with_its_sensitivity(monkeypatch):
+    """A chaotic reading is said as such (the README's results block and reproduce share chaos_text). Since
+    the cores decide only above rounding (issue N), no shipped reading is chaotic any more (`paper-literal`
+    moves 0.03 % with the PE nudge, 1.8 % with 8 substeps): here its sensitivity is stood in for by the
+    one measured before, 31 % and 27 %."""
+    from orchestration.study import comparison
+
+    real = comparison.sensitivity
+    monkeypatch.setattr(comparison, "sensitivity", lambda scenario, *a, **k: (
+        (0.31, 0.27, 8.3) if scenario == "paper-literal" else real(scenario, *a, **k)))
     notes = chaos_notes([{"scenario": "paper-literal", "stop_time": 100.0}, {"scenario": "paper-accel", "stop_time": 100.0}])
     assert list(notes) == ["paper-literal"]
     assert notes["paper-literal"].startswith("does not track (MSE_1 + MSE_2 > ")
