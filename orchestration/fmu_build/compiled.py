@@ -136,7 +136,9 @@ def compile_bundle(resources: Path, lib: str, pxd: dict[str, str]) -> list[str]:
     with tempfile.TemporaryDirectory(prefix=owner_prefix("sotc_cython_")) as tmp:
         cmd = [sys.executable, "-c", _SCRIPT, tmp, *(f"{lib}/{rel}" for rel in present)]
         try:
-            proc = run_compiler(cmd, resources, {**os.environ, "CFLAGS": CFLAGS}, TIME_LIMIT)
+            # TMPDIR inside this folder: the compiler's own temporaries (cc*.s) go when it does, even when
+            # a signal kills the compiler mid-file
+            proc = run_compiler(cmd, resources, {**os.environ, "CFLAGS": CFLAGS, "TMPDIR": tmp}, TIME_LIMIT)
         except subprocess.TimeoutExpired:
             raise CompileError(f"compiling the cores took over {TIME_LIMIT:g} s") from None
     for rel in present:
