@@ -17,7 +17,7 @@ def test_optimum_solves_the_papers_state_and_no_controller_beats_it(shipped):
     [state] = data["states"]
     assert state["index"] == 0 and state["phi0"] == [0.5, -0.5] and len(state["torques"]) == 2000
     assert f"J* at the paper's initial state: {state['J_star']:.6g}" in proc.stdout
-    assert len(data["summary"]) == 14
+    assert len(data["summary"]) == len(state["J"]) >= 14  # every fair configuration (per tuning seed) and the frozen W
     for label, s in data["summary"].items():
         assert s["paper"] >= 1.0, label
         assert f"| {label} | {s['paper']:.3f} |" in proc.stdout  # printed for every controller
