@@ -58,7 +58,8 @@ def test_a_read_only_folder_is_refused_before_anything_runs(option, read_only, f
 
 def test_a_second_writer_of_one_recording_is_refused_and_the_first_finishes(fmu_dir, tmp_path):
     target = tmp_path / "shared.rrd"
-    args = ["run", "paper", "--stop-time", "30", "--recording", str(target), "--fmu-dir", str(fmu_dir)]
+    # long enough that the second starts while the first still writes (30 s took under a second compiled)
+    args = ["run", "paper", "--stop-time", "300", "--recording", str(target), "--fmu-dir", str(fmu_dir)]
     first = start(args, tmp_path)
     lock = tmp_path / ".shared.rrd.lock"
     try:
