@@ -129,9 +129,6 @@ class FmuInstance3(ByName):
             self.set(**inputs)
         self._fmu3.exitInitializationMode()
 
-    def logged(self) -> str:
-        return "\n".join(m for _, m in self.messages)
-
     def free(self) -> None:
         if self._freed:
             return

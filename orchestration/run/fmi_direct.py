@@ -51,7 +51,8 @@ def forget_callbacks(callbacks: fmi2CallbackFunctions) -> None:
 
 
 class ByName:
-    """Variables addressed by their FMI 2 names (``md``, ``vars`` and an ``fmu`` with FMI 2's scalar calls)."""
+    """Variables addressed by their FMI 2 names (``md``, ``vars`` and an ``fmu`` with FMI 2's scalar calls),
+    and the messages the instance logged."""
 
     def names(self, causality: str, types: tuple[str, ...] = ("Real",)) -> list[str]:
         return [v.name for v in self.md.modelVariables if v.causality == causality and v.type in types]
@@ -66,6 +67,9 @@ class ByName:
 
     def get(self, *names: str) -> list[float]:
         return self.fmu.getReal([self.vars[n].valueReference for n in names])
+
+    def logged(self) -> str:
+        return "\n".join(m for _, m in self.messages)
 
 
 class FmuInstance(ByName):
@@ -93,9 +97,6 @@ class FmuInstance(ByName):
         if inputs:
             self.set(**inputs)
         self.fmu.exitInitializationMode()
-
-    def logged(self) -> str:
-        return "\n".join(m for _, m in self.messages)
 
     def free(self) -> None:
         if self._freed:
