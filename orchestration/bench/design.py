@@ -28,6 +28,7 @@ import numpy as np
 
 from fmu_plant.dynamics import STEP_SIZE as STEP
 from fmu_plant.dynamics import ArmParameters, forward_dynamics, rk4_step
+from fmu_plant.paper_setting import INITIAL_STATE
 
 
 def excitation_torque(t: float) -> tuple[float, float]:
@@ -67,7 +68,7 @@ INTEGRATOR_SUBSTEPS = (1, 2, 4, 8)
 def integrator_errors(substeps=INTEGRATOR_SUBSTEPS, steps: int = 1000) -> list[tuple[int, float, float]]:
     """(N, max |phi error| rad, max |dphi error| rad/s) of RK4 with N substeps against DOP853 over the
     10 s excitation: deterministic, so docs/integration.md's table is generated from it."""
-    state0 = (0.5, -0.5, 0.0, 0.0)
+    state0 = INITIAL_STATE
     reference = dop853_zoh(state0, excitation_torque, steps)
     out = []
     for n in substeps:
@@ -78,7 +79,7 @@ def integrator_errors(substeps=INTEGRATOR_SUBSTEPS, steps: int = 1000) -> list[t
 
 
 def bench_integrator() -> str:
-    state0 = (0.5, -0.5, 0.0, 0.0)
+    state0 = INITIAL_STATE
     lines = [
         "RK4 with N substeps vs DOP853 (rtol 1e-10), 10 s excitation, torque held per 0.01 s step",
         f"{'N':>3} {'max |phi err| rad':>18} {'max |dphi err| rad/s':>21} {'us per step':>12} {'cost vs N=1':>12}",
