@@ -389,7 +389,7 @@ def _long_rows(data: dict) -> list[list[str]]:
 
 
 def format_markdown(data: dict) -> str:
-    """The generated block of docs/performance.md and the README (from the JSON of one bench run)."""
+    """The generated block of docs/performance.md (from the JSON of one bench run)."""
     m, meth = data["machine"], data["method"]
     lines = [
         f"Measured {data['date']} with `sotc-cosim bench` on {m['cpu']} ({m['cores']} cores; Python {m['python']}, "
@@ -443,7 +443,7 @@ def compare(old: dict, new: dict) -> str:
 
 
 # the generated blocks (``orchestration.reports.docgen``) that show the stored measurement, per file
-DOC_BLOCKS = {"speed": "docs/performance.md", "speed-readme": "README.md"}
+DOC_BLOCKS = {"speed": "docs/performance.md"}
 MEASUREMENT = "docs/performance.json"
 
 

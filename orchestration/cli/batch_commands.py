@@ -137,6 +137,6 @@ def add_commands(sub) -> None:
     p.add_argument("--compare", type=Path, metavar="OLD.json", help="print the change against an earlier --json")
     add_stop_time(p, "shorten the side-by-side runs of speed (default: the scenario's 100 s)")
     p.add_argument("--update-docs", action="store_true",
-                   help="write docs/performance.json and the generated tables of docs/performance.md and README.md")
+                   help="write docs/performance.json and the generated tables of docs/performance.md")
     add_fmu_dir(p)
     p.set_defaults(func=_cmd_bench)
