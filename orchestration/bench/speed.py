@@ -34,7 +34,7 @@ from orchestration.markdown import table
 
 SCENARIO = "paper"
 LONG_RUNS = (1000.0, 10000.0)
-TARGETS = {  # the speed targets the project set itself (docs/performance.md; issue N)
+TARGETS = {  # the speed targets the project set itself (docs/performance.md, "Against the targets")
     "recorded_wall_s": 0.8,  # 100 s paper through the FMUs with recording, wall time
     "recorded_over_floor": 1.5,
     "long_linearity": 0.10,  # 10,000 s run within 10 % of 100x the 100 s run
