@@ -1,17 +1,10 @@
 """Running a sweep (``orchestration.sweep.spec``) on Dask: one task per point, results on disk as
 each point finishes, resume, per-point limits, Ctrl-C that keeps what finished.
 
-Where the points run:
-
-- default: an embedded ``dask.distributed.LocalCluster`` with ``workers`` processes (one per core
-  by default), started and stopped by the command: nothing to install or start. Processes, not
-  threads: the FMUs run Python inside the host's interpreter, so threads would share one GIL.
-- ``scheduler="tcp://HOST:PORT"``: an existing cluster. Start it with ``dask scheduler`` on one
-  machine and ``dask worker tcp://HOST:8786 --nthreads 1`` on each machine (one worker per core:
-  ``--nworkers N``). Each worker machine needs ``pip install sotc-cosim`` (the same version: the
-  task function and the FMUs' Python requirements come from it); no shared folder is needed. The
-  FMUs are built here, sent once to every worker (``Client.scatter(broadcast=True)``) and unpacked
-  into a cache keyed by their SHA-256 digest in the worker's temp folder.
+Where the points run: ``orchestration.sweep.cluster`` (a local cluster of ``workers`` processes, or
+an existing scheduler; the same for tune and optimum). On an existing cluster no shared folder is
+needed: the FMUs are built here, sent once to every worker (``Client.scatter(broadcast=True)``) and
+unpacked into a cache keyed by their SHA-256 digest in the worker's temp folder.
 
 Every point is a task that never raises: a point whose scenario is refused, whose FMU reports an
 error, whose state diverges (non-finite, or |phi|, |dphi| beyond ``state_bound``) or that runs
