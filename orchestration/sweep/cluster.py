@@ -62,12 +62,20 @@ class Cluster:
 def open_client(scheduler: str | None, workers: int | None) -> Cluster:
     """A client of the scheduler at ``scheduler`` (``ScenarioError`` naming ``--scheduler`` if there
     is none), or of a local cluster whose workers keep their files in this command's scratch folder."""
+    scratch = scratch_folder()
+    try:
+        return Cluster(*_connect(scheduler, workers, scratch), scratch)
+    except BaseException:  # nothing started: the scratch folder goes at once
+        shutil.rmtree(private_folder("scratch") / scratch, ignore_errors=True)
+        raise
+
+
+def _connect(scheduler: str | None, workers: int | None, scratch: str) -> tuple[Any, Any]:
     from distributed import Client, LocalCluster
 
-    scratch = scratch_folder()
     if scheduler:
         try:
-            return Cluster(Client(scheduler, timeout="10s"), None, scratch)
+            return Client(scheduler, timeout="10s"), None
         except OSError as exc:
             raise ScenarioError(f"--scheduler {scheduler}: cannot reach a Dask scheduler there ({exc})") from None
         except (ValueError, TypeError) as exc:  # not an address: no port, a bad port, an unknown protocol
@@ -82,7 +90,7 @@ def open_client(scheduler: str | None, workers: int | None) -> Cluster:
                          silence_logs=logging.ERROR, local_directory=files)
     client = Client(local)
     client.register_plugin(IgnoreSigint())
-    return Cluster(client, local, scratch)
+    return client, local
 
 
 def follow(futures: list, done: Callable[[Any], None], tick: Callable[[], None] | None = None,

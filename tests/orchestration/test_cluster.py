@@ -117,3 +117,10 @@ def test_optimum_says_what_it_does_before_the_long_first_steps(monkeypatch, caps
     assert "optimum: 3 initial states" in seen["before learning"]
     assert "the paper run learns" in seen["before learning"]
     assert "solving 3 states, 2 at a time" in seen["after submitting"]
+
+
+def test_an_unreachable_scheduler_is_named_and_leaves_no_scratch():
+    before = set(private_folder("scratch").iterdir())
+    with pytest.raises(ValueError, match="--scheduler tcp://127.0.0.1:1: cannot reach a Dask scheduler"):
+        cluster.open_client("tcp://127.0.0.1:1", None)
+    assert set(private_folder("scratch").iterdir()) <= before
