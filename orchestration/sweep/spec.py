@@ -42,8 +42,9 @@ like an FMU, so one FMU can run twice, e.g. with and without learning, paired on
 ``tuning = "best"`` takes them from the one tuning protocol every controller gets,
 ``orchestration.study.tuning`` (the same budget for the SOTC, CT, LQR and the OTC; the stored best
 point of one tuning seed, ``tuning_seed`` or the first, on the tuning's training set) under the point's
-own ``controller.limit_handling``: the tuning the README's results table reports. The parameters a point gets this way are part of its settings (and of its resume key). Random axes draw from
-``numpy.random.default_rng([seed, axis number])``: the same file and seed give the same points.
+own ``controller.limit_handling``: the tuning the results table reports (README, docs/results.md).
+The parameters a point gets this way are part of its settings (and of its resume key). Random axes
+draw from ``numpy.random.default_rng([seed, axis number])``: the same file and seed give the same points.
 
 Every value is checked before anything runs, the file's shape by a JSON schema
 (``orchestration.sweep.schema``: a non-numeric or non-finite value, an unknown key, a missing one),

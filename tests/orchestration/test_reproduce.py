@@ -113,7 +113,7 @@ def test_reproduce_console_script_in_a_fresh_interpreter_outside_the_repo(tmp_pa
 
 
 def test_a_chaotic_reading_is_reported_as_not_tracking_with_its_sensitivity(monkeypatch):
-    """A chaotic reading is said as such (the README's results block and reproduce share chaos_text). Since
+    """A chaotic reading is said as such (the results blocks and reproduce share chaos_text). Since
     the cores decide only above rounding (issue N), no shipped reading is chaotic any more (`paper-literal`
     moves 0.03 % with the PE nudge, 1.8 % with 8 substeps): here its sensitivity is stood in for by the
     one measured before, 31 % and 27 %."""
