@@ -23,17 +23,17 @@ from fmu_plant.dynamics import (
     substeps_needed,
 )
 from fmu_plant.kinematics import elbow_position, forward_kinematics
+from fmu_plant.paper_setting import INITIAL_ANGLES, INITIAL_VELOCITIES, SUBSTEPS
 
 INITIAL_STATE_SPECS = (
     # |phi| <= 1e3 rad: any angle modulo 2 pi, far from where phi1 + phi2 of (49) could overflow
-    ParameterSpec("phi1_0", 0.5, "rad", "Initial angle of joint 1 (paper: 0.5)", low=-1e3, high=1e3),
-    ParameterSpec("phi2_0", -0.5, "rad", "Initial angle of joint 2, relative to link 1 (paper: -0.5)",
+    ParameterSpec("phi1_0", INITIAL_ANGLES[0], "rad", "Initial angle of joint 1 (paper: 0.5)", low=-1e3, high=1e3),
+    ParameterSpec("phi2_0", INITIAL_ANGLES[1], "rad", "Initial angle of joint 2, relative to link 1 (paper: -0.5)",
                   low=-1e3, high=1e3),
     # |dphi| <= 1e3 rad/s (160 rev/s): beyond that no arm of the parameter box is integrable at T = 0.01 s
-    ParameterSpec("dphi1_0", 0.0, "rad/s", "Initial velocity of joint 1", low=-1e3, high=1e3),
-    ParameterSpec("dphi2_0", 0.0, "rad/s", "Initial velocity of joint 2", low=-1e3, high=1e3),
+    ParameterSpec("dphi1_0", INITIAL_VELOCITIES[0], "rad/s", "Initial velocity of joint 1", low=-1e3, high=1e3),
+    ParameterSpec("dphi2_0", INITIAL_VELOCITIES[1], "rad/s", "Initial velocity of joint 2", low=-1e3, high=1e3),
 )
-DEFAULT_SUBSTEPS = 4
 
 
 class ArmPlant(Fmi2Slave):
@@ -46,7 +46,7 @@ class ArmPlant(Fmi2Slave):
         self._specs = specs
         for spec in specs:
             self.declare_parameter(spec)
-        self.declare_integer_parameter("substeps", DEFAULT_SUBSTEPS, 1, MAX_SUBSTEPS,
+        self.declare_integer_parameter("substeps", SUBSTEPS, 1, MAX_SUBSTEPS,
                                         "RK4 substeps per communication step, at least (more where the arm is stiff)")
         self.declare_input("tau1", "N.m", "Joint 1 actuator torque, held over the step")
         self.declare_input("tau2", "N.m", "Joint 2 actuator torque, held over the step")

@@ -28,6 +28,7 @@ import numpy as np
 
 from fmu_plant.dynamics import STEP_SIZE as STEP
 from fmu_plant.dynamics import ArmParameters, forward_dynamics, rk4_step
+from fmu_plant.paper_setting import INITIAL_STATE
 
 
 def excitation_torque(t: float) -> tuple[float, float]:
@@ -67,7 +68,7 @@ INTEGRATOR_SUBSTEPS = (1, 2, 4, 8)
 def integrator_errors(substeps=INTEGRATOR_SUBSTEPS, steps: int = 1000) -> list[tuple[int, float, float]]:
     """(N, max |phi error| rad, max |dphi error| rad/s) of RK4 with N substeps against DOP853 over the
     10 s excitation: deterministic, so docs/integration.md's table is generated from it."""
-    state0 = (0.5, -0.5, 0.0, 0.0)
+    state0 = INITIAL_STATE
     reference = dop853_zoh(state0, excitation_torque, steps)
     out = []
     for n in substeps:
@@ -78,7 +79,7 @@ def integrator_errors(substeps=INTEGRATOR_SUBSTEPS, steps: int = 1000) -> list[t
 
 
 def bench_integrator() -> str:
-    state0 = (0.5, -0.5, 0.0, 0.0)
+    state0 = INITIAL_STATE
     lines = [
         "RK4 with N substeps vs DOP853 (rtol 1e-10), 10 s excitation, torque held per 0.01 s step",
         f"{'N':>3} {'max |phi err| rad':>18} {'max |dphi err| rad/s':>21} {'us per step':>12} {'cost vs N=1':>12}",
@@ -210,7 +211,8 @@ def machine_scaling(units: int = 4, n: int = 3_000_000) -> float:
 
 
 def bench_sweep(fmu_dir, points: int = 8, stop_time: float = 10.0, rounds: int = 2) -> str:
-    from orchestration.sweep.runner import _client, fmu_blobs, point_key, run_point
+    from orchestration.sweep.cluster import open_client, shutdown
+    from orchestration.sweep.runner import fmu_blobs, point_key, run_point
     from orchestration.sweep.spec import parse_sweep
 
     values = [float(v) for v in np.linspace(30.0, 70.0, points)]
@@ -236,15 +238,17 @@ def bench_sweep(fmu_dir, points: int = 8, stop_time: float = 10.0, rounds: int =
     try:
         for workers in (1, 2):  # both clusters up (idle) before any timing; each warmed with a point per worker
             t0 = time.perf_counter()
-            clusters[workers] = _client(None, workers, f"bench-{os.getpid()}")
+            clusters[workers] = open_client(None, workers)
             started[workers] = time.perf_counter() - t0
         shared = {}
-        for workers, (client, _) in clusters.items():
+        for workers, cluster in clusters.items():
+            client = cluster.client
             [shared[workers]] = client.scatter([blobs], broadcast=True, hash=False)
             client.gather([client.submit(run_point, t, shared[workers], pure=False) for t in tasks[:workers]])
         run_point(tasks[0], blobs)  # the loop's warm-up: imports, FMU cache
         variants = {"plain loop": lambda: [run_point(t, blobs) for t in tasks]}
-        for workers, (client, _) in clusters.items():
+        for workers, cluster in clusters.items():
+            client = cluster.client
             variants[f"Dask, {workers} worker{'s' if workers > 1 else ''}"] = (
                 lambda c=client, w=workers: c.gather([c.submit(run_point, t, shared[w], pure=False) for t in tasks]))
         best: dict[str, tuple[float, float]] = {}
@@ -254,9 +258,8 @@ def bench_sweep(fmu_dir, points: int = 8, stop_time: float = 10.0, rounds: int =
                 if name not in best or wall < best[name][0]:
                     best[name] = (wall, busy)
     finally:
-        for client, cluster in clusters.values():
-            client.close()
-            cluster.close()
+        for cluster in clusters.values():
+            shutdown(cluster, [], False)
     loop, one, two = (best[n][0] for n in variants)
     lines = [
         f"Sweep throughput: {points} points of scenario paper (SotcController), {stop_time:g} s each; best of {rounds} "

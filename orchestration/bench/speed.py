@@ -34,7 +34,7 @@ from orchestration.markdown import table
 
 SCENARIO = "paper"
 LONG_RUNS = (1000.0, 10000.0)
-TARGETS = {  # the speed targets the project set itself (docs/performance.md; issue N)
+TARGETS = {  # the speed targets the project set itself (docs/performance.md, "Against the targets")
     "recorded_wall_s": 0.8,  # 100 s paper through the FMUs with recording, wall time
     "recorded_over_floor": 1.5,
     "long_linearity": 0.10,  # 10,000 s run within 10 % of 100x the 100 s run
@@ -389,7 +389,7 @@ def _long_rows(data: dict) -> list[list[str]]:
 
 
 def format_markdown(data: dict) -> str:
-    """The generated block of docs/performance.md and the README (from the JSON of one bench run)."""
+    """The generated block of docs/performance.md (from the JSON of one bench run)."""
     m, meth = data["machine"], data["method"]
     lines = [
         f"Measured {data['date']} with `sotc-cosim bench` on {m['cpu']} ({m['cores']} cores; Python {m['python']}, "
@@ -443,7 +443,7 @@ def compare(old: dict, new: dict) -> str:
 
 
 # the generated blocks (``orchestration.reports.docgen``) that show the stored measurement, per file
-DOC_BLOCKS = {"speed": "docs/performance.md", "speed-readme": "README.md"}
+DOC_BLOCKS = {"speed": "docs/performance.md"}
 MEASUREMENT = "docs/performance.json"
 
 

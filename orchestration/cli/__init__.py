@@ -1,7 +1,8 @@
 """``sotc-cosim``: build the FMUs, run scenarios, and report.
 
-One module per group of subcommands (``run_commands``, ``batch_commands``, ``compliance_commands``),
-each adding its parsers; ``options`` holds the argument types they share."""
+One module per group of subcommands (``run_commands``, ``batch_commands``, ``compliance_commands``,
+``optimum_commands``, ``tune_commands``), each adding its parsers; ``options`` holds the argument types
+and the options they share."""
 from __future__ import annotations
 
 import argparse

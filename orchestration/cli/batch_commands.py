@@ -3,11 +3,11 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import os
 from pathlib import Path
 
 from orchestration import exit_codes
-from orchestration.cli.options import add_fmi, add_fmu_dir, add_stop_time, fmu_dir_of, positive_int, stop_times
+from orchestration.cli.options import (add_cluster, add_fmi, add_fmu_dir, add_stop_time, fmu_dir_of, positive_int,
+                                       stop_times)
 from orchestration.outputs import PathLock
 from orchestration.paths import check_output_file, check_output_folder
 from orchestration.run import interrupt
@@ -24,10 +24,11 @@ class _SweepListener:
     def started(self, outcome) -> None:
         from orchestration.progress import Progress
 
-        where = self.scheduler or f"a local Dask cluster of {self.workers or os.cpu_count()} worker processes"
+        from orchestration.sweep.cluster import where, worker_count
+
         print(f"sweep {self.sweep.name}: {outcome.total} points, {outcome.skipped} already in {self.out}, "
-              f"{outcome.total - outcome.skipped} to run on {where}", flush=True)
-        self.progress = Progress(outcome.total, f"sweep {self.sweep.name}", self.workers or os.cpu_count() or 1,
+              f"{outcome.total - outcome.skipped} to run on {where(self.scheduler, self.workers)}", flush=True)
+        self.progress = Progress(outcome.total, f"sweep {self.sweep.name}", worker_count(self.workers),
                                  skipped=outcome.skipped, skipped_failed=outcome.skipped_failed)
 
     def finished(self, row) -> None:
@@ -42,12 +43,6 @@ class _SweepListener:
 def _cmd_sweep(args: argparse.Namespace) -> int:
     from orchestration.sweep.spec import grid_from_assignments, load_sweep
 
-    if args.workers is not None and args.workers < 1:
-        raise ScenarioError(f"--workers {args.workers}: give at least 1")
-    if args.scheduler is not None:
-        from orchestration.sweep.addresses import check_scheduler_address
-
-        check_scheduler_address(args.scheduler)
     sweep = grid_from_assignments(args.sweep, args.set) if args.set else load_sweep(args.sweep)
     if args.stop_time is not None:
         sweep = dataclasses.replace(sweep, base=sweep.base.with_stop_time(args.stop_time))
@@ -119,9 +114,7 @@ def add_commands(sub) -> None:
                    "with --set: a scenario name or path")
     p.add_argument("--set", action="append", default=[], metavar="INSTANCE.PARAM=V1,V2,...",
                    help="sweep FILE as a scenario over these values (several --set: a grid), without a sweep file")
-    p.add_argument("--workers", type=positive_int, help="worker processes of the local cluster (default: one per core)")
-    p.add_argument("--scheduler", metavar="ADDRESS",
-                   help="an existing dask.distributed scheduler, tcp://host:8786 (default: a local cluster)")
+    add_cluster(p)
     p.add_argument("--out", type=Path, help="results folder (default recordings/<sweep>); rerun into it to resume")
     p.add_argument("--record", action="store_true", help="write each point's Rerun recording (points/<key>.rrd)")
     p.add_argument("--retry-failed", action="store_true", help="run the stored failed points again")
@@ -144,6 +137,6 @@ def add_commands(sub) -> None:
     p.add_argument("--compare", type=Path, metavar="OLD.json", help="print the change against an earlier --json")
     add_stop_time(p, "shorten the side-by-side runs of speed (default: the scenario's 100 s)")
     p.add_argument("--update-docs", action="store_true",
-                   help="write docs/performance.json and the generated tables of docs/performance.md and README.md")
+                   help="write docs/performance.json and the generated tables of docs/performance.md")
     add_fmu_dir(p)
     p.set_defaults(func=_cmd_bench)

@@ -4,64 +4,59 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import shutil
-import time
 from pathlib import Path
 
 from orchestration import exit_codes
-from orchestration.cli.options import positive_int, seconds
+from orchestration.cli.options import add_cluster, positive_int, seconds
 from orchestration.exit_codes import UsageError
 from orchestration.run import interrupt
 
 COLD_CHOICES = ("paper", "all", "none")
 
 
-def _solve_on_dask(args: argparse.Namespace, indices: list[int], learned: list[float]) -> tuple[list, list, bool]:
-    """(records, failures, interrupted): ``solve_state`` of each index on the sweep's Dask client setup."""
-    from distributed import as_completed
+class _Listener:
+    """Says what the optimum does from its first second on (each solve takes minutes), then a line per state."""
 
-    from orchestration.outputs import private_folder
-    from orchestration.progress import Progress
-    from orchestration.study.optimum_scores import solve_state
-    from orchestration.sweep.runner import POLL_S, _client, _shutdown
+    def __init__(self, args: argparse.Namespace, states: int):
+        from orchestration.sweep.cluster import where, worker_count
 
-    workers = args.workers or os.cpu_count() or 1
-    where = args.scheduler or f"a local Dask cluster of {workers} worker processes"
-    print(f"optimum: {len(indices)} initial states, objective {args.objective}, {args.horizon:g} s, on {where}",
-          flush=True)
-    scratch = f"optimum-{os.getpid()}-{time.time_ns()}"
-    client = cluster = None
-    futures, records, failures, interrupted = [], [], [], False
-    progress = Progress(len(indices), "optimum", workers)
+        self.states, self.progress = states, None
+        self.running = min(worker_count(args.workers), states)
+        print(f"optimum: {states} initial states, objective {args.objective}, {args.horizon:g} s, on "
+              f"{where(args.scheduler, args.workers)}; first the weights the paper run learns in 100 s", flush=True)
+
+    def submitted(self, n: int) -> None:
+        from orchestration.progress import Progress
+
+        print(f"optimum: solving {n} states, {self.running} at a time (minutes each: every controller's run, "
+              f"then the solver); a line as each state ends", flush=True)
+        self.progress = Progress(n, "optimum", self.running)
+
+    def solved(self, rec: dict) -> None:
+        solver = rec["solver"]
+        self.progress.update(True, f"state {rec['index']}: J* = {rec['J_star']:.6g} ({solver['seconds']:.1f} s, "
+                                   f"{solver['iterations']} iterations)")
+
+    def failed(self, index: int, reason: str) -> None:
+        self.progress.update(False, f"state {index}: {reason}"[:200])
+
+    def close(self) -> None:
+        if self.progress is not None:
+            self.progress.close()
+
+
+def _solve_on_dask(args: argparse.Namespace, indices: list[int]) -> tuple[list, list, bool]:
+    """(records, failures, interrupted) of the states ``indices`` (``orchestration.sweep.optimum_jobs``)."""
+    from orchestration.study.optimum_scores import learned_weights
+    from orchestration.sweep.optimum_jobs import solve_states
+
+    listener = _Listener(args, len(indices))
     try:
-        client, cluster = _client(args.scheduler, args.workers, scratch)
-        futures = [client.submit(solve_state, i, args.horizon, args.objective, learned,
-                                 args.cold == "all" or (args.cold == "paper" and i == 0), pure=False,
-                                 key=f"optimum-state-{i}-{scratch}") for i in indices]
-        index_of = {f.key: i for f, i in zip(futures, indices)}
-        pending = as_completed(futures)
-        while not pending.is_empty() and not interrupted:
-            interrupted = interrupt.requested()
-            ready = pending.next_batch(block=False)
-            for future in ready:
-                if future.status == "finished":
-                    rec = future.result()
-                    records.append(rec)
-                    solver = rec["solver"]
-                    progress.update(True, f"state {rec['index']}: J* = {rec['J_star']:.6g} ({solver['seconds']:.1f} s, "
-                                          f"{solver['iterations']} iterations)")
-                else:
-                    exc = future.exception()
-                    failures.append((index_of[future.key], f"{type(exc).__name__}: {exc}"))
-                    progress.update(False, f"state {index_of[future.key]}: {failures[-1][1]}"[:200])
-            if not ready:
-                time.sleep(POLL_S)
+        out = solve_states(indices, args.horizon, args.objective, learned_weights(), args.cold, args.workers,
+                           args.scheduler, listener)
     finally:
-        progress.close()
-        _shutdown(client, cluster, futures, interrupted)
-        shutil.rmtree(private_folder("scratch") / scratch, ignore_errors=True)
-    return records, failures, interrupted
+        listener.close()
+    return out.records, out.failures, out.interrupted
 
 
 def _rescore(args: argparse.Namespace) -> tuple[list, list, bool]:
@@ -99,20 +94,18 @@ def _cmd_optimum(args: argparse.Namespace) -> int:
     from orchestration.outputs import atomic_write
     from orchestration.paths import check_output_file
     from orchestration.reports.optimum_tables import summary_table
-    from orchestration.study.optimum_scores import all_states, learned_weights, result
+    from orchestration.study.optimum_scores import all_states, result
 
     states = all_states()
     if args.states > len(states):
         raise UsageError(f"--states {args.states}: there are {len(states)} (the paper's and the value study's 16)")
-    if args.workers is not None and args.scheduler is not None:
-        raise UsageError("--workers and --scheduler: give one (workers start a local cluster)")
     optimum.Problem(*states[0], args.horizon, args.objective)  # a horizon or objective it refuses: exit 2 now
     if args.json:
         check_output_file(args.json, "--json")
     if args.rescore:
         records, failures, interrupted = _rescore(args)
     else:
-        records, failures, interrupted = _solve_on_dask(args, list(range(args.states)), learned_weights())
+        records, failures, interrupted = _solve_on_dask(args, list(range(args.states)))
     data = result(records, args.horizon, args.objective)
     if records:
         paper = next((s for s in data["states"] if s["index"] == 0), None)
@@ -146,7 +139,5 @@ def add_commands(sub) -> None:
     p.add_argument("--rescore", action="store_true",
                    help="keep the optimum stored in --json and compute every controller's J again (after a new "
                         "tuning: J* does not depend on the controllers)")
-    p.add_argument("--workers", type=positive_int, help="worker processes of the local cluster (default: one per core)")
-    p.add_argument("--scheduler", metavar="ADDRESS",
-                   help="an existing dask.distributed scheduler, tcp://host:8786 (default: a local cluster)")
+    add_cluster(p)
     p.set_defaults(func=_cmd_optimum)

@@ -61,3 +61,27 @@ def fmu_dir_of(args: argparse.Namespace) -> Path:
 
 def add_stop_time(p: argparse.ArgumentParser, help: str) -> None:
     p.add_argument("--stop-time", type=seconds, help=help)
+
+
+class _SchedulerAddress(argparse.Action):
+    """``--scheduler``: its form checked while the command line is read, before anything is built,
+    created or printed (one that cannot be reached is found when the command connects)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        from orchestration.sweep.addresses import check_scheduler_address
+
+        try:
+            setattr(namespace, self.dest, check_scheduler_address(values))
+        except ValueError as exc:
+            parser.error(str(exc))
+
+
+def add_cluster(p: argparse.ArgumentParser, scheduler_note: str = "") -> None:
+    """``--workers`` or ``--scheduler`` (one of the two), the same in every command that runs on Dask
+    (``orchestration.sweep.cluster``)."""
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=positive_int,
+                       help="worker processes of the local Dask cluster (default: one per core)")
+    where.add_argument("--scheduler", action=_SchedulerAddress, metavar="ADDRESS",
+                       help=f"an existing dask.distributed scheduler, tcp://host:8786{scheduler_note} "
+                            "(default: a local cluster)")

@@ -3,11 +3,10 @@ Optuna, on Dask, resumable."""
 from __future__ import annotations
 
 import argparse
-import os
 from pathlib import Path
 
 from orchestration import exit_codes
-from orchestration.cli.options import positive_int
+from orchestration.cli.options import add_cluster, positive_int
 from orchestration.outputs import PathLock
 from orchestration.paths import check_output_file
 from orchestration.run import interrupt
@@ -52,23 +51,25 @@ def handling(text: str) -> int:
 
 class _Listener:
     def __init__(self, out: Path, workers: int | None, scheduler: str | None):
-        self.workers = workers or os.cpu_count() or 1
-        self.out, self.where = out, scheduler or f"a local Dask cluster of {self.workers} worker processes"
+        self.out, self.workers, self.scheduler = out, workers, scheduler
         self.progress = None
 
     def started(self, outcome, total: int) -> None:
-        from orchestration.progress import Progress
-
         import importlib.machinery
 
         import fmu_controller.sotc
+        from orchestration.progress import Progress
+        from orchestration.sweep.cluster import where, worker_count
 
         compiled = fmu_controller.sotc.__file__.endswith(tuple(importlib.machinery.EXTENSION_SUFFIXES))
-        cores = ("compiled" if compiled else
-                 "Python (an editable install, or SOTC_COSIM_COMPILE=0 at install: about half as fast)")
+        cores = ("compiled" if compiled else "Python (an editable install, or SOTC_COSIM_COMPILE=0 at install: "
+                 "slower, docs/performance.md)")
         print(f"tune: {outcome.searches} searches, {total} trials, {outcome.trials_before} already in "
-              f"{self.out.with_suffix('.journal')}, the rest on {self.where}; cores {cores}", flush=True)
-        self.progress = Progress(total, "tune", self.workers, skipped=outcome.trials_before)
+              f"{self.out.with_suffix('.journal')}, the rest on {where(self.scheduler, self.workers)}; cores {cores}",
+              flush=True)
+        # one search is one task: no more run at once than there are searches
+        self.progress = Progress(total, "tune", min(worker_count(self.workers), outcome.searches),
+                                 skipped=outcome.trials_before)
 
     def trial(self, search: str) -> None:
         self.progress.update(True, search)
@@ -82,8 +83,6 @@ def _cmd_tune(args: argparse.Namespace) -> int:
     from orchestration.study.tuning import CONVERGED, HANDLINGS, SEEDS, last_half_improvement
     from orchestration.sweep.tuning_jobs import tune
 
-    if args.scheduler is not None and not args.scheduler.strip():
-        raise ScenarioError("--scheduler '': give a Dask scheduler address such as tcp://host:8786, or leave it out")
     controllers = _controllers(args.controllers)
     seeds = list(dict.fromkeys(args.seeds or SEEDS))
     handlings = list(dict.fromkeys(args.handlings or HANDLINGS))
@@ -127,12 +126,7 @@ def add_commands(sub) -> None:
                    help=f"tuning seeds, one independent search each (default {' '.join(map(str, SEEDS))})")
     p.add_argument("--handlings", type=handling, nargs="+", metavar="HANDLING",
                    help="limit handlings to tune under (default: radial joint accel)")
-    where = p.add_mutually_exclusive_group()
-    where.add_argument("--workers", type=positive_int,
-                       help="worker processes of the local Dask cluster (default: one per core)")
-    where.add_argument("--scheduler", metavar="ADDRESS",
-                       help="an existing dask.distributed scheduler, tcp://host:8786, whose workers share this "
-                            "file system (default: a local cluster)")
+    add_cluster(p, ", whose workers share this file system")
     p.add_argument("--out", type=Path, default=DEFAULT_OUT,
                    help=f"the store (default {DEFAULT_OUT}); the Optuna journal beside it (.journal) makes a "
                         "rerun resume")

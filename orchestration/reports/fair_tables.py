@@ -17,7 +17,7 @@ from orchestration.study.statistics import Interval, PairedVerdict, geometric_in
 from orchestration.study.tuning import CONTROLLERS, CONVERGED, HANDLINGS, last_half_improvement
 from orchestration.study.tuning import stored as stored_tuning
 
-VERDICT_HANDLING = "accel"  # the handling the README's verdict is stated under (all three are in docs/robustness.md)
+VERDICT_HANDLING = "accel"  # the handling the verdict is stated under (all three are in docs/robustness.md)
 SOTC = "SotcController"
 BASELINES = tuple(f for f in CONTROLLERS if f != SOTC)
 
@@ -146,13 +146,13 @@ def _across(verdicts: dict, what: str) -> str:
 
 
 def readme_family(seeds: list) -> int:
-    """The verdicts the README states together: the tuned SOTC against each tuned baseline per measure,
+    """The verdicts stated together (docs/robustness.md, "The verdict"): the tuned SOTC against each tuned baseline per measure,
     set and seed, and learning on against off at each SOTC design per set."""
     return len(SETS) * (len(seeds) * len(BASELINES) * len(MEASURES) + 1 + len(seeds))
 
 
 def verdict(root: Path) -> str:
-    """README's sentences: the tuned SOTC against each tuned baseline, and what learning adds."""
+    """The verdict's sentences (docs/robustness.md): the tuned SOTC against each tuned baseline, and what learning adds."""
     data = stored(root)
     seeds = data["seeds"]
     m = readme_family(seeds)

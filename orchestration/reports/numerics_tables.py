@@ -1,4 +1,4 @@
-"""Generated tables of docs/paper-notes.md on numerics (issue N): the CL stack's swap rule against the
+"""Generated tables of docs/paper-notes.md on numerics (the fixed-order, CPU-independent cores): the CL stack's swap rule against the
 earlier rule, and where the bound (5) holds chi_vd^a (whose derivative the core then sets to 0)."""
 from __future__ import annotations
 

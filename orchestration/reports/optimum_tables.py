@@ -103,7 +103,7 @@ def gap_text(data: dict[str, Any]) -> str:
 
 
 def verdict(data: dict[str, Any]) -> str:
-    """One sentence for the README: how far the learned SOTC and the best controller are from the optimum,
+    """One sentence for docs/optimum.md ("The verdict"): how far the learned SOTC and the best controller are from the optimum,
     and where the learned SOTC's gap arises from the paper's state."""
     summ = data["summary"]
     best = min(summ, key=lambda k: summ[k]["gmean"])

@@ -26,7 +26,7 @@ import math
 from dataclasses import dataclass, field, replace
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 from fmu_plant.dynamics import STEP_SIZE, TORQUE_LIMIT
 from orchestration.exit_codes import UsageError
@@ -191,28 +191,52 @@ def _read_raw(name_or_path: str, seen: tuple[str, ...] = ()) -> dict[str, Any]:
     if label in seen:
         raise ScenarioError(f"scenario '{label}' extends itself through {' -> '.join(seen)}")
     raw = read(f"scenario '{label}'")
-    _check_schema(raw, label)
+    check_schema(raw, SCENARIO_SCHEMA, f"scenario '{label}'")
     parent = raw.pop("extends", None)
     if parent is None:
         return raw
     return _merge(_read_raw(parent, seen + (label,)), raw)
 
 
-def _check_schema(raw: dict[str, Any], label: str) -> None:
-    """Refuse a file whose shape is wrong, naming the key and what it may be (the first error)."""
-    from jsonschema import Draft202012Validator
+_KINDS = {"number": "a number", "integer": "a whole number", "string": "a string", "boolean": "true or false",
+          "object": "a table", "array": "a list"}
+
+
+def check_schema(raw: dict[str, Any], schema: dict[str, Any], what: str, error: type[Exception] = ScenarioError,
+                 where: Callable[[list], str] | None = None) -> None:
+    """Refuse a file whose shape is wrong in one line naming the file (``what``), the key (``where`` of
+    its path; default dotted) and what it may be (the first error). ``"format": "finite"`` refuses
+    nan and inf."""
+    from jsonschema import Draft202012Validator, FormatChecker
     from jsonschema.exceptions import best_match
 
-    error = best_match(Draft202012Validator(SCENARIO_SCHEMA).iter_errors(raw))
-    if error is None:
-        return
-    where = "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in error.absolute_path).lstrip(".")
-    message = error.message if len(error.message) <= 200 else error.message[:200] + "..."
-    if error.validator == "pattern":
-        message = f"{error.instance!r} is not a name (letters, digits, _ and -; 'instance.port' for a port)"
-    elif error.validator == "exclusiveMinimum":
-        message = f"{error.instance!r} must be a number > 0"
-    raise ScenarioError(f"scenario '{label}': {where or 'the file'}: {message}")
+    formats = FormatChecker(formats=())
+    formats.checks("finite")(lambda value: not isinstance(value, float) or math.isfinite(value))
+    found = best_match(Draft202012Validator(schema, format_checker=formats).iter_errors(raw))
+    if found is not None:
+        key = (where or dotted)(list(found.absolute_path))
+        raise error(f"{what}: {key or 'the file'}: {_schema_message(found)}")
+
+
+def dotted(path: list) -> str:
+    """A key's path as written in TOML: ``axis[0].range.stop``, ``set."plant.f1"``."""
+    return "".join(f"[{p}]" if isinstance(p, int) else (f'."{p}"' if "." in p else f".{p}") for p in path).lstrip(".")
+
+
+def _schema_message(found) -> str:
+    value, rule = found.instance, found.validator
+    if rule == "pattern":
+        return f"{value!r} is not a name (letters, digits, _ and -; 'instance.port' for a port)"
+    if rule == "exclusiveMinimum":
+        return f"{value!r} must be a number > 0"
+    if rule == "format":
+        return f"{value!r} is not finite"
+    if rule == "type" and isinstance(found.validator_value, str):
+        return f"{value!r} is not {_KINDS.get(found.validator_value, found.validator_value)}"
+    if rule == "additionalProperties":
+        known = sorted(found.schema.get("properties", {}))
+        return f"unknown keys {sorted(set(value) - set(known))}; known: {known}"
+    return found.message if len(found.message) <= 200 else found.message[:200] + "..."
 
 
 def _merge(base: dict[str, Any], override: dict[str, Any]) -> dict[str, Any]:

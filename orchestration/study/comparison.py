@@ -20,9 +20,10 @@ import numpy as np
 from fmu_controller.catalog import CORES
 from fmu_controller.saturation import LIMIT_HANDLINGS
 from fmu_plant.dynamics import TORQUE_LIMIT
+from fmu_plant.paper_setting import INITIAL_ANGLES, SUBSTEPS
 from orchestration.run.metrics import limit_active, tracking_metrics
 from orchestration.run.scenario import load_scenario
-from orchestration.study.pure_loop import PAPER_PHI0, LoopResult, simulate
+from orchestration.study.pure_loop import LoopResult, simulate
 from orchestration.study.tuning import NOMINAL_SCENARIO, best_design, tuned_parameters
 
 # (scenario, handlings to run): the scenario's own default first
@@ -66,11 +67,11 @@ def _cached(fmu: str, params: tuple[tuple[str, float], ...], stop_time: float, s
             nudge: float = 0.0) -> dict[str, Any]:
     p = dict(params)
     limit = float(p.get("rho", TORQUE_LIMIT))
-    phi0 = (PAPER_PHI0[0] * (1.0 + nudge), PAPER_PHI0[1] * (1.0 + nudge))
+    phi0 = (INITIAL_ANGLES[0] * (1.0 + nudge), INITIAL_ANGLES[1] * (1.0 + nudge))
     return loop_metrics(simulate(CORES[fmu](**p), stop_time=stop_time, substeps=substeps, phi0=phi0), limit)
 
 
-def run_metrics(scenario: str, stop_time: float = 100.0, substeps: int = 4, nudge: float = 0.0,
+def run_metrics(scenario: str, stop_time: float = 100.0, substeps: int = SUBSTEPS, nudge: float = 0.0,
                 **overrides: float) -> dict[str, Any]:
     """Metrics of a scenario's controller (with overrides) in the pure loop, its initial angles scaled by
     1 + nudge; cached per process."""
@@ -89,6 +90,12 @@ PAPER_TABLE1 = {
     "SOTC": (0.0025, 0.0084),
     "OTC": (0.0059, 0.0159),
 }
+TABLE1_MARGIN = 1.3  # a reading reaches Table 1 when each joint's MSE is within 30 % of the paper's
+
+
+def within_table1(mse: tuple[float, float], controller: str = "SOTC") -> bool:
+    """Whether the MSE (50) of both joints is at most ``TABLE1_MARGIN`` times Table 1's."""
+    return all(m <= TABLE1_MARGIN * p for m, p in zip(mse, PAPER_TABLE1[controller]))
 
 # a reading is chaotic when Table 1's metric moves by more than this under either nudge below
 CHAOS_THRESHOLD = 0.10

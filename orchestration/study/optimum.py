@@ -6,7 +6,7 @@ The problem, for one initial state (phi(0), dphi(0)) over ``horizon`` = N T:
 * **Decision**: the torques tau_0 .. tau_{N-1}, each held over one sample T (zero-order hold, as the
   master runs every controller), with ||tau_k|| <= rho (section 2.1; rho = ``TORQUE_LIMIT``).
 * **Model**: the plant core's own step, ``fmu_plant.dynamics.rk4_step`` with the plant FMU's
-  ``DEFAULT_SUBSTEPS``, evaluated symbolically: its ``.py`` is loaded once more with ``math`` bound to
+  default substeps (``paper_setting.SUBSTEPS``), evaluated symbolically: its ``.py`` is loaded once more with ``math`` bound to
   CasADi's functions (``symbolic_dynamics``), so the optimiser integrates exactly the formulas of
   eq. (46) the plant runs, with the same constants (``ArmParameters``), not a restatement.
 * **Reference**: eqs. (47)-(48) from ``fmu_plant.trajectory.CircleTrajectory`` sampled at t_k (it does
@@ -24,8 +24,9 @@ The problem, for one initial state (phi(0), dphi(0)) over ``horizon`` = N T:
   torque can follow the path there and Omega may be undefined: objective B is then refused.
 
 The solution is checked the way a user would: the torques are brought exactly into the disc
-(``saturate_norm``, which removes IPOPT's constraint tolerance) and replayed through the plant core
-(``dynamics.integrate``, what the plant FMU runs), and J* is the cost of that replay, scored by the
+(``saturate_norm``, which removes IPOPT's constraint tolerance) and replayed through the sampled loop
+every controller runs in (``pure_loop.simulate``: the plant core's ``dynamics.integrate``, what the
+plant FMU runs), and J* is the cost of that replay, scored by the
 same ``trajectory_cost`` as every controller.
 """
 from __future__ import annotations
@@ -44,12 +45,12 @@ from fmu_controller.saturation import saturate_norm
 from fmu_controller.sotc import SotcCore
 from fmu_controller.sotc_math import omega_of_mu
 from fmu_plant import dynamics
-from fmu_plant.arm_plant_fmu import DEFAULT_SUBSTEPS
-from fmu_plant.dynamics import STEP_SIZE, TORQUE_LIMIT, ArmParameters, integrate, inverse_dynamics
+from fmu_plant.dynamics import STEP_SIZE, TORQUE_LIMIT, ArmParameters, inverse_dynamics
+from fmu_plant.paper_setting import SUBSTEPS
 from fmu_plant.trajectory import CircleTrajectory
 from orchestration.exit_codes import UsageError
 from orchestration.run.metrics import _trapezoid
-from orchestration.study.pure_loop import LoopResult
+from orchestration.study.pure_loop import LoopResult, simulate
 from orchestration.study.value_function import shared_z
 
 OBJECTIVES = ("A", "B")
@@ -83,7 +84,7 @@ def symbolic_dynamics():
     return module
 
 
-def step_function(arm: ArmParameters, substeps: int = DEFAULT_SUBSTEPS):
+def step_function(arm: ArmParameters, substeps: int = SUBSTEPS):
     """F(x, u): one sample T of the plant core's RK4 step, as a CasADi function of the state (4) and
     the held torque (2)."""
     ca = casadi()
@@ -165,18 +166,30 @@ def trajectory_cost(problem: Problem, run: LoopResult, until: float | None = Non
     return cost
 
 
+class _HeldTorques:
+    """A controller core of ``pure_loop.simulate`` that holds given torques: tau_k over [t_k, t_k + T),
+    the last one again at t_N (recorded, never applied)."""
+
+    def __init__(self, torques: np.ndarray):
+        self.torques, self.k, self.outputs = torques, 0, [0.0, 0.0]
+
+    @staticmethod
+    def output_names() -> tuple[str, ...]:
+        return ("tau1", "tau2")
+
+    def evaluate(self, t: float, y, r) -> None:
+        row = self.torques[min(self.k, len(self.torques) - 1)]
+        self.outputs, self.k = [float(row[0]), float(row[1])], self.k + 1
+
+    def advance(self, t: float, dt: float) -> None:
+        """Nothing learns."""
+
+
 def replay(problem: Problem, torques: np.ndarray) -> LoopResult:
-    """The torques held over each sample through the plant core (``dynamics.integrate``, the plant FMU's
-    step) from the problem's initial state; the torque row at t_N repeats the last one (never applied)."""
-    n = problem.steps
-    y = np.empty((n + 1, 4))
-    state = problem.x0
-    y[0] = state
-    for k in range(n):
-        state = integrate(state, float(torques[k, 0]), float(torques[k, 1]), STEP_SIZE, DEFAULT_SUBSTEPS, problem.arm)
-        y[k + 1] = state
-    outputs = np.vstack([torques[:n], torques[n - 1:n]])
-    return LoopResult(problem.times(), y, problem.references, outputs, ("tau1", "tau2"))
+    """The torques held over each sample through the sampled loop (``pure_loop.simulate``) from the
+    problem's initial state; the torque row at t_N repeats the last one (never applied)."""
+    return simulate(_HeldTorques(np.asarray(torques, dtype=float)[:problem.steps]), stop_time=problem.horizon,
+                    arm=problem.arm, trajectory=problem.trajectory, phi0=problem.phi0, dphi0=problem.dphi0)
 
 
 def into_disc(torques: np.ndarray) -> np.ndarray:

@@ -12,7 +12,7 @@ would leave the problem's constraint):
   learned in 100 s, W = 0 (the feedforward alone), the paper's W and the LQR weights of the
   linearised (6).
 
-Initial states: the paper's (phi(0) = (0.5, -0.5), dphi(0) = 0) first, then the value study's 16
+Initial states: the paper's (``paper_setting.INITIAL_STATE``) first, then the value study's 16
 (``value_function.initial_states``). One state is one task (``solve_state``): it runs every controller,
 warm-starts the solver from the best controller's trajectory and, where asked, solves again from zero
 torque as a check that the optimum does not depend on the start.
@@ -26,17 +26,15 @@ import numpy as np
 
 from fmu_controller.catalog import CORES
 from fmu_controller.saturation import ACCEL, in_disc
-from fmu_plant.arm_plant_fmu import INITIAL_STATE_SPECS
 from fmu_plant.dynamics import TORQUE_LIMIT
+from fmu_plant.paper_setting import INITIAL_ANGLES, INITIAL_VELOCITIES
 from orchestration.study.fair import configurations
 from orchestration.study.optimum import Optimum, Problem, Nlp, solve, trajectory_cost
 from orchestration.study.pure_loop import LoopResult, simulate
 from orchestration.study.statistics import geometric_interval
 from orchestration.study.value_function import _core, candidates, initial_states
 
-_START = {spec.name: spec.default for spec in INITIAL_STATE_SPECS}
-# section 4's, as the plant FMU's defaults give it
-PAPER_STATE = ((_START["phi1_0"], _START["phi2_0"]), (_START["dphi1_0"], _START["dphi2_0"]))
+PAPER_STATE = (INITIAL_ANGLES, INITIAL_VELOCITIES)  # section 4's (the plant FMU's defaults)
 HANDLING = ACCEL
 FROZEN_LABELS = {"learned W": "SOTC, learned W frozen", "W = 0": "SOTC, W = 0 (feedforward only)",
                  "the paper's W": "SOTC, the paper's W frozen", "LQR": "SOTC, LQR weights of (6) frozen"}

@@ -25,6 +25,7 @@ import numpy as np
 
 from fmu_controller.base import ControllerCore
 from fmu_plant.dynamics import ArmParameters, integrate
+from fmu_plant.paper_setting import INITIAL_ANGLES, INITIAL_VELOCITIES, STEP_SIZE, SUBSTEPS
 from fmu_plant.perturbation import (
     DISTURBANCE_PARAMETER_SPECS,
     NOISE_PARAMETER_SPECS,
@@ -90,21 +91,19 @@ class LoopResult:
         return self.outputs[:, :2]
 
 
-PAPER_PHI0 = (0.5, -0.5)  # rad: section 4's initial angles (the plant FMU's phi1_0, phi2_0 defaults)
-
-
 def simulate(
     controller_core: ControllerCore,
     stop_time: float = 100.0,
-    step: float = 0.01,
+    step: float = STEP_SIZE,
     arm: ArmParameters | None = None,
     trajectory: CircleTrajectory | None = None,
-    phi0: tuple[float, float] = PAPER_PHI0,
-    dphi0: tuple[float, float] = (0.0, 0.0),
-    substeps: int = 4,
+    phi0: tuple[float, float] = INITIAL_ANGLES,
+    dphi0: tuple[float, float] = INITIAL_VELOCITIES,
+    substeps: int = SUBSTEPS,
     perturbation: Perturbation = NO_PERTURBATION,
 ) -> LoopResult:
-    """Run the sampled zero-order-hold loop (see module docstring) and return the recording."""
+    """Run the sampled zero-order-hold loop (see module docstring) and return the recording; by
+    default from section 4's initial state with the plant FMU's substeps (``fmu_plant.paper_setting``)."""
     arm = arm if arm is not None else ArmParameters()
     trajectory = trajectory if trajectory is not None else CircleTrajectory()
     n = int(round(stop_time / step))

@@ -1,17 +1,10 @@
 """Running a sweep (``orchestration.sweep.spec``) on Dask: one task per point, results on disk as
 each point finishes, resume, per-point limits, Ctrl-C that keeps what finished.
 
-Where the points run:
-
-- default: an embedded ``dask.distributed.LocalCluster`` with ``workers`` processes (one per core
-  by default), started and stopped by the command: nothing to install or start. Processes, not
-  threads: the FMUs run Python inside the host's interpreter, so threads would share one GIL.
-- ``scheduler="tcp://HOST:PORT"``: an existing cluster. Start it with ``dask scheduler`` on one
-  machine and ``dask worker tcp://HOST:8786 --nthreads 1`` on each machine (one worker per core:
-  ``--nworkers N``). Each worker machine needs ``pip install sotc-cosim`` (the same version: the
-  task function and the FMUs' Python requirements come from it); no shared folder is needed. The
-  FMUs are built here, sent once to every worker (``Client.scatter(broadcast=True)``) and unpacked
-  into a cache keyed by their SHA-256 digest in the worker's temp folder.
+Where the points run: ``orchestration.sweep.cluster`` (a local cluster of ``workers`` processes, or
+an existing scheduler; the same for tune and optimum). On an existing cluster no shared folder is
+needed: the FMUs are built here, sent once to every worker (``Client.scatter(broadcast=True)``) and
+unpacked into a cache keyed by their SHA-256 digest in the worker's temp folder.
 
 Every point is a task that never raises: a point whose scenario is refused, whose FMU reports an
 error, whose state diverges (non-finite, or |phi|, |dphi| beyond ``state_bound``) or that runs
@@ -29,13 +22,10 @@ from __future__ import annotations
 
 import hashlib
 import json
-import logging
 import os
 import shutil
-import signal
 import socket
 import tempfile
-import threading
 import time
 import traceback
 from dataclasses import dataclass, field
@@ -43,18 +33,15 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from distributed import WorkerPlugin
 
 from orchestration.fmu_build.build import ensure_built
 from orchestration.outputs import atomic_write, private_folder
-from orchestration.run import interrupt
 from orchestration.run.parameter_check import check_scenarios
-from orchestration.run.scenario import Scenario, ScenarioError
-from orchestration.scratch import remove_stale, scratch_name
+from orchestration.run.scenario import Scenario
+from orchestration.sweep.cluster import follow, open_client, shutdown
 from orchestration.sweep.spec import Point, Sweep
 
 GUARD_BLOCK = 100  # samples between two checks of the time limit and the state bound
-POLL_S = 0.05  # how often the client looks for finished points and for Ctrl-C
 TRACE_POINTS = 2000  # at most this many samples of the tracking error go into the sweep recording
 STATES = ("phi1", "phi2", "dphi1", "dphi2")
 
@@ -218,30 +205,6 @@ class SweepOutcome:
     rows: list[dict[str, Any]] = field(default_factory=list)  # every stored row of this sweep, by index
 
 
-def _client(scheduler: str | None, workers: int | None, scratch: str):
-    """A client of the scheduler at ``scheduler``, or of a local cluster whose workers keep their
-    files in this sweep's private scratch folder (removed with it)."""
-    from distributed import Client, LocalCluster
-
-    if scheduler:
-        try:
-            return Client(scheduler, timeout="10s"), None
-        except OSError as exc:
-            raise ScenarioError(f"--scheduler {scheduler}: cannot reach a Dask scheduler there ({exc})") from None
-        except (ValueError, TypeError) as exc:  # not an address: no port, a bad port, an unknown protocol
-            raise ScenarioError(f"--scheduler {scheduler}: not a Dask scheduler address such as tcp://host:8786 "
-                                f"({exc})") from None
-    import dask
-
-    files = str(private_folder("scratch", scratch, "dask"))
-    dask.config.set({"temporary-directory": files})  # the scheduler's and workers' lock files go there too
-    cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
-                           dashboard_address=None, silence_logs=logging.ERROR, local_directory=files)
-    client = Client(cluster)
-    client.register_plugin(IgnoreSigint())
-    return client, cluster
-
-
 def execute(
     sweep: Sweep, fmu_dir: Path, store, workers: int | None = None, scheduler: str | None = None,
     record: bool = False, retry_failed: bool = False, listener=None, fmi: int = 2,
@@ -264,44 +227,34 @@ def execute(
     skipped = [stored[k] for k in keys if k in stored and k not in to_run]
     outcome = SweepOutcome(total=len(points), skipped=len(skipped), skipped_failed=sum(r["status"] != "ok" for r in skipped),
                            ran=0, failed=0)
-    client = cluster = None
+    cluster = None
     if todo:
-        remove_stale(private_folder("scratch"))  # left by a coordinator killed before it could clean up
-        scratch = scratch_name()  # each point's temporary folders, removed at the end
         private_folder("fmus")  # a cache folder others could write in is refused here, before any point
-        client, cluster = _client(scheduler, workers, scratch)  # unreachable: refused before the first line
+        cluster = open_client(scheduler, workers)  # unreachable: refused before the first line
     if listener is not None:
         listener.started(outcome)
     if todo:
-        futures = []
-        try:
-            from distributed import as_completed
+        futures: list = []
+        todo_by_key = {f"point-{p.index}-{k[:12]}-{cluster.scratch}": (p, k) for p, k in todo}
 
-            [shared] = client.scatter([blobs], broadcast=True, hash=False)
+        def done(future) -> None:
+            row = _row_of(future, todo_by_key[future.key])
+            store.add(row)
+            outcome.ran += 1
+            if listener is not None:
+                listener.finished(row)
+
+        try:
+            [shared] = cluster.client.scatter([blobs], broadcast=True, hash=False)
             base = {"time_limit": sweep.time_limit, "state_bound": sweep.state_bound, "record": record,
-                    "scratch": scratch}
-            todo_by_key = {f"point-{p.index}-{k[:12]}-{os.getpid()}-{time.time_ns()}": (p, k) for p, k in todo}
-            futures = [client.submit(run_point, {**base, "point": p, "key": k}, shared, pure=False, key=task_key)
-                       for task_key, (p, k) in todo_by_key.items()]
-            pending = as_completed(futures)
-            while not pending.is_empty():
-                if interrupt.requested():  # Ctrl-C under the CLI sets a flag (orchestration.run.interrupt)
-                    outcome.interrupted = True
-                    break
-                ready = pending.next_batch(block=False)
-                for future in ready:
-                    row = _row_of(future, todo_by_key[future.key])
-                    store.add(row)
-                    outcome.ran += 1
-                    if listener is not None:
-                        listener.finished(row)
-                if not ready:
-                    time.sleep(POLL_S)
+                    "scratch": cluster.scratch}
+            futures = [cluster.client.submit(run_point, {**base, "point": p, "key": k}, shared, pure=False,
+                                             key=task_key) for task_key, (p, k) in todo_by_key.items()]
+            outcome.interrupted = follow(futures, done)
         except KeyboardInterrupt:  # Ctrl-C where SIGINT is not deferred (a library caller)
             outcome.interrupted = True
         finally:
-            _shutdown(client, cluster, futures, outcome.interrupted)
-            shutil.rmtree(private_folder("scratch") / scratch, ignore_errors=True)  # a killed point's too
+            shutdown(cluster, futures, outcome.interrupted)  # a killed point's scratch goes too
     outcome.rows = store.rows()
     outcome.failed = sum(r["status"] != "ok" for r in outcome.rows)
     return outcome
@@ -317,44 +270,3 @@ def _row_of(future, point_and_key: tuple[Point, str]) -> dict[str, Any]:
     return {"index": point.index, "key": key, "settings": point.settings, "status": "failed",
             "reason": f"the task did not finish: {type(exc).__name__}: {exc}", "summary": {}, "wall_time_s": None,
             "trace": None, "rrd": None}
-
-
-class IgnoreSigint(WorkerPlugin):
-    """On local workers (also those the nanny restarts): the terminal's Ctrl-C reaches the whole
-    process group, but a worker must not be interrupted inside an FMU call; the client stops the
-    local workers itself."""
-
-    name = "sotc-cosim-ignore-sigint"
-
-    def setup(self, worker) -> None:
-        if threading.current_thread() is threading.main_thread():
-            signal.signal(signal.SIGINT, signal.SIG_IGN)
-
-
-def _shutdown(client, cluster, futures, interrupted: bool) -> None:
-    """Stop promptly: cancel what is pending and, after Ctrl-C, end the local workers' processes
-    (a point in the middle of a long run would otherwise finish first)."""
-    if client is None:
-        return
-    log = logging.getLogger("distributed")
-    level = log.level
-    if interrupted:
-        client.cancel(futures, force=True)
-        # the workers are killed on purpose: their connections closing mid-send is expected, and
-        # distributed would log each one with a traceback on the user's terminal
-        log.setLevel(logging.CRITICAL)
-        if cluster is not None:
-            for nanny in list(cluster.workers.values()):
-                process = getattr(nanny, "process", None)
-                pid = getattr(getattr(process, "process", None), "pid", None)
-                if pid:
-                    try:
-                        os.kill(pid, 9)  # a worker process this command started
-                    except ProcessLookupError:
-                        pass
-    try:
-        client.close(timeout=10)
-        if cluster is not None:
-            cluster.close(timeout=10)
-    finally:
-        log.setLevel(level)

@@ -42,11 +42,15 @@ like an FMU, so one FMU can run twice, e.g. with and without learning, paired on
 ``tuning = "best"`` takes them from the one tuning protocol every controller gets,
 ``orchestration.study.tuning`` (the same budget for the SOTC, CT, LQR and the OTC; the stored best
 point of one tuning seed, ``tuning_seed`` or the first, on the tuning's training set) under the point's
-own ``controller.limit_handling``: the tuning the README's results table reports. The parameters a point gets this way are part of its settings (and of its resume key). Random axes draw from
-``numpy.random.default_rng([seed, axis number])``: the same file and seed give the same points.
+own ``controller.limit_handling``: the tuning the results table reports (README, docs/results.md).
+The parameters a point gets this way are part of its settings (and of its resume key). Random axes
+draw from ``numpy.random.default_rng([seed, axis number])``: the same file and seed give the same points.
 
-Every value is checked before anything runs: a non-numeric or non-finite value is refused with the
-axis (or setting) named. Nothing here knows Dask or fmpy: ``orchestration.sweep.runner`` runs the points.
+Every value is checked before anything runs, the file's shape by a JSON schema
+(``orchestration.sweep.schema``: a non-numeric or non-finite value, an unknown key, a missing one),
+then what depends on the base scenario and the stored tuning; each refusal is one line naming the
+file, the axis or key and what is allowed. Nothing here knows Dask or fmpy:
+``orchestration.sweep.runner`` runs the points.
 """
 from __future__ import annotations
 
@@ -63,19 +67,12 @@ import numpy as np
 from fmu_controller.base import RENAMED_PARAMETERS
 from fmu_controller.catalog import CORES
 from orchestration.run.scenario import Instance, Scenario, ScenarioError, load_scenario
+from orchestration.sweep.schema import DISTRIBUTIONS, MAX_POINTS, check_sweep_schema
 from orchestration.toml_files import parse_toml, read_toml
 
 SETTINGS = ("controller", "step_size", "stop_time")  # axes that are not FMU parameters
-COMBINATIONS = ("grid", "paired", "one-at-a-time")
-DISTRIBUTIONS = {"uniform": ("low", "high"), "normal": ("mean", "std"), "loguniform": ("low", "high"),
-                 "choice": ("values",)}
-MAX_POINTS = 100_000
 DEFAULT_TIME_LIMIT = 600.0
 DEFAULT_STATE_BOUND = 1000.0
-_FILE_KEYS = {"name", "description", "scenario", "stop_time", "combine", "seed", "time_limit", "state_bound",
-              "set", "controller_settings", "axis"}
-TUNINGS = ("best",)  # values of controller_settings.<FMU>.tuning
-_AXIS_KEYS = {"name", "values", "range", "random", "scale", "group"}
 
 
 class SweepError(ScenarioError):
@@ -257,53 +254,38 @@ def load_sweep(name_or_path: str) -> Sweep:
 def parse_sweep(raw: dict[str, Any], label: str, folder: Path | None = None, default_name: str = "sweep") -> Sweep:
     """Validate a parsed sweep file completely (nothing has run yet) and return it."""
     where = f"sweep '{label}'"
-    unknown = set(raw) - _FILE_KEYS
-    if unknown:
-        raise SweepError(f"{where}: unknown keys {sorted(unknown)}; known: {sorted(_FILE_KEYS)}")
-    if "scenario" not in raw or not isinstance(raw["scenario"], str):
-        raise SweepError(f"{where}: 'scenario' (a scenario name or .toml path) is required")
+    check_sweep_schema(raw, where, SweepError)
     scenario_ref = raw["scenario"]
     if folder is not None and scenario_ref.endswith(".toml") and not Path(scenario_ref).is_absolute():
         scenario_ref = str(folder / scenario_ref)
     base = load_scenario(scenario_ref)
     if "stop_time" in raw:
-        base = base.with_stop_time(_number(raw["stop_time"], f"{where}: stop_time"))
-    combine = raw.get("combine", "grid")
-    if combine not in COMBINATIONS:
-        raise SweepError(f"{where}: combine = {combine!r}; choose one of {', '.join(COMBINATIONS)}")
+        base = base.with_stop_time(float(raw["stop_time"]))
     seed = raw.get("seed", 0)
-    if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
-        raise SweepError(f"{where}: seed must be a whole number >= 0, got {seed!r}")
-    fixed = raw.get("set", {})
-    if not isinstance(fixed, dict):
-        raise SweepError(f"{where}: 'set' must be a table of instance.parameter = number")
-    fixed = {k: _number(v, f"{where}: set.{k}") for k, v in fixed.items()}
+    fixed = {k: float(v) for k, v in raw.get("set", {}).items()}
     for key in fixed:
-        _check_parameter_name(base, key, f"{where}: set.{key}")
+        _check_parameter_name(base, key, f'{where}: set."{key}"')
     axes = tuple(_parse_axis(spec, i, seed, base, where) for i, spec in enumerate(raw.get("axis", [])))
     names = [a.name for a in axes]
     if len(set(names)) != len(names):
         raise SweepError(f"{where}: an axis is given twice: {sorted({n for n in names if names.count(n) > 1})}")
     per_controller = _controller_settings(raw.get("controller_settings", {}), base, axes, where)
     sweep = Sweep(
-        name=str(raw.get("name", default_name)), description=str(raw.get("description", "")), base=base,
-        axes=axes, combine=combine, seed=seed,
-        time_limit=_positive(raw.get("time_limit", DEFAULT_TIME_LIMIT), f"{where}: time_limit"),
-        state_bound=_positive(raw.get("state_bound", DEFAULT_STATE_BOUND), f"{where}: state_bound"),
-        fixed=fixed, per_controller=per_controller,
+        name=raw.get("name", default_name), description=raw.get("description", ""), base=base, axes=axes,
+        combine=raw.get("combine", "grid"), seed=seed, time_limit=float(raw.get("time_limit", DEFAULT_TIME_LIMIT)),
+        state_bound=float(raw.get("state_bound", DEFAULT_STATE_BOUND)), fixed=fixed, per_controller=per_controller,
     )
     _check_shape(sweep, where)
     sweep.points()  # every point's scenario is valid (whole number of steps, known instances)
     return sweep
 
 
-def _controller_settings(raw: Any, base: Scenario, axes: tuple[Axis, ...], where: str) -> dict[str, ControllerSettings]:
-    """``[controller_settings.<fmu>]`` tables: each FMU one that the sweep runs, every value a finite number
-    (or ``tuning``), no parameter that an axis varies or that the tuning search sets too."""
+def _controller_settings(raw: dict[str, Any], base: Scenario, axes: tuple[Axis, ...],
+                         where: str) -> dict[str, ControllerSettings]:
+    """``[controller_settings.<label>]`` tables (their shape checked by the schema): each one a controller
+    the sweep runs, no parameter that an axis varies or that the tuning search sets too."""
     from orchestration.study.tuning import CONTROLLERS, tuned_parameter_names
 
-    if not isinstance(raw, dict) or not all(isinstance(v, dict) for v in raw.values()):
-        raise SweepError(f"{where}: controller_settings must hold tables [controller_settings.<controller FMU>]")
     axis_fmus = [v for a in axes if a.name == "controller" for v in a.values]  # else: the base's controller
     runs = sorted(set(axis_fmus)) if axis_fmus else [f for f in [base.controller_fmu()] if f]
     swept = {a.name for a in axes}
@@ -316,21 +298,18 @@ def _controller_settings(raw: Any, base: Scenario, axes: tuple[Axis, ...], where
         fmu, tuning, learning = table.get("fmu", label), table.get("tuning", ""), table.get("learning", True)
         if fmu not in CORES:
             raise SweepError(f"{here}.fmu = {fmu!r}; choose a controller FMU: {', '.join(CORES)}")
-        values = {k: v for k, v in table.items() if k not in ("tuning", "fmu", "learning", "tuning_seed")}
+        values = {k: float(v) for k, v in table.items() if k not in ("tuning", "fmu", "learning", "tuning_seed")}
         tuning_seed = _tuning_seed(table, tuning, here)
-        if "tuning" in table and tuning not in TUNINGS:
-            raise SweepError(f"{here}.tuning = {tuning!r}; choose {' or '.join(repr(t) for t in TUNINGS)}")
         tuned = {f"controller.{p}" for p in tuned_parameter_names(fmu)}
         if tuning and not tuned:
             raise SweepError(f"{here}.tuning: {fmu} has no tuning search (orchestration.study.tuning tunes "
                              f"{', '.join(CONTROLLERS)}); give its parameters instead")
         specs = {s.name: s for s in CORES[fmu].PARAMETER_SPECS}
-        if not isinstance(learning, bool) or (not learning and not {"alpha1", "alpha2"} <= set(specs)):
+        if not learning and not {"alpha1", "alpha2"} <= set(specs):
             raise SweepError(f"{here}.learning = {learning!r}: true, or false for a controller with critic rates "
                              "alpha1, alpha2 (the SotcController)")
         for key, value in values.items():
             at = f'{here}."{key}"'
-            value = values[key] = _number(value, at)
             _check_parameter_name(base, key, at)
             if key in swept:
                 raise SweepError(f"{at}: an axis varies {key} already")
@@ -338,16 +317,20 @@ def _controller_settings(raw: Any, base: Scenario, axes: tuple[Axis, ...], where
                 raise SweepError(f"{at}: tuning = {tuning!r} sets {key} already")
             inst, _, pname = key.partition(".")
             if inst == "controller":
-                if pname not in specs:
-                    renamed = (f" ({pname!r} was renamed {RENAMED_PARAMETERS[pname]!r} in 0.2.0, see CHANGELOG.md)"
-                               if pname in RENAMED_PARAMETERS else "")
-                    raise SweepError(f"{at}: {fmu} has no parameter {pname!r}{renamed}; its parameters: {', '.join(specs)}")
-                try:
-                    specs[pname].check(value)
-                except ValueError as exc:
-                    raise SweepError(f"{at}: {exc}") from None
+                _check_controller_parameter(fmu, specs, pname, value, at)
         out[label] = ControllerSettings(fmu, values, tuning, learning, tuning_seed)
     return out
+
+
+def _check_controller_parameter(fmu: str, specs: dict[str, Any], pname: str, value: float, at: str) -> None:
+    if pname not in specs:
+        renamed = (f" ({pname!r} was renamed {RENAMED_PARAMETERS[pname]!r} in 0.2.0, see CHANGELOG.md)"
+                   if pname in RENAMED_PARAMETERS else "")
+        raise SweepError(f"{at}: {fmu} has no parameter {pname!r}{renamed}; its parameters: {', '.join(specs)}")
+    try:
+        specs[pname].check(value)
+    except ValueError as exc:
+        raise SweepError(f"{at}: {exc}") from None
 
 
 def _tuning_seed(table: dict[str, Any], tuning: str, here: str) -> int | None:
@@ -357,7 +340,7 @@ def _tuning_seed(table: dict[str, Any], tuning: str, here: str) -> int | None:
     from orchestration.study.tuning import stored
 
     seeds, value = stored()["seeds"], table["tuning_seed"]
-    if not tuning or isinstance(value, bool) or value not in seeds:
+    if not tuning or value not in seeds:
         raise SweepError(f"{here}.tuning_seed = {value!r}: with tuning = \"best\", one of the stored tuning seeds "
                          f"{', '.join(map(str, seeds))}")
     return int(value)
@@ -378,43 +361,29 @@ def _check_shape(sweep: Sweep, where: str) -> None:
         raise SweepError(f"{where}: {total} points; at most {MAX_POINTS} per sweep")
 
 
-def _parse_axis(spec: Any, number: int, seed: int, base: Scenario, where: str) -> Axis:
-    if not isinstance(spec, dict) or not isinstance(spec.get("name"), str):
-        raise SweepError(f"{where}: axis {number + 1} needs a name (instance.parameter or one of {', '.join(SETTINGS)})")
-    name = spec["name"]
+def _parse_axis(spec: dict[str, Any], number: int, seed: int, base: Scenario, where: str) -> Axis:
+    """One ``[[axis]]`` (its shape checked by the schema): its values, checked against the base scenario."""
+    name, scale = spec["name"], spec.get("scale", False)
     here = f"{where}: axis '{name}'"
-    unknown = set(spec) - _AXIS_KEYS
-    if unknown:
-        raise SweepError(f"{here}: unknown keys {sorted(unknown)}; known: {sorted(_AXIS_KEYS)}")
     kinds = [k for k in ("values", "range", "random") if k in spec]
-    if len(kinds) != 1:
-        raise SweepError(f"{here}: give exactly one of values, range or random")
-    scale = spec.get("scale", False)
-    if not isinstance(scale, bool):
-        raise SweepError(f"{here}: scale must be true or false")
+    if len(kinds) != 1 or (name == "controller" and kinds != ["values"]):
+        raise SweepError(f"{here}: give exactly one of values, range or random (values for a controller axis)")
     if name not in SETTINGS:
         _check_parameter_name(base, name, here)
         if scale and name.partition(".")[2] not in base.instances[name.partition(".")[0]].parameters:
             raise SweepError(f"{here}: scale = true multiplies the base scenario's value, but it does not set {name}")
     elif scale:
         raise SweepError(f"{here}: scale applies to FMU parameters only")
-    kind = kinds[0]
     if name == "controller":
-        if kind != "values" or not spec["values"] or not all(isinstance(v, str) and v for v in spec["values"]):
-            raise SweepError(f"{here}: values must be a list of controller FMU model identifiers or named entries")
         values: tuple[Any, ...] = tuple(spec["values"])
-    elif kind == "values":
-        if not isinstance(spec["values"], list) or not spec["values"]:
-            raise SweepError(f"{here}: values must be a non-empty list of numbers")
-        values = tuple(_number(v, here) for v in spec["values"])
-    elif kind == "range":
-        values = _range(spec["range"], here)
+    elif kinds == ["values"]:
+        values = tuple(float(v) for v in spec["values"])
+    elif kinds == ["range"]:
+        r = spec["range"]
+        values = tuple(float(v) for v in np.linspace(r["start"], r["stop"], r["num"]))
     else:
         values = _random(spec["random"], np.random.default_rng([seed, number]), here)
-    group = spec.get("group", "")
-    if not isinstance(group, str):
-        raise SweepError(f"{here}: group must be a name")
-    return Axis(name, values, scale, group)
+    return Axis(name, values, scale, spec.get("group", ""))
 
 
 def _check_parameter_name(base: Scenario, name: str, here: str) -> None:
@@ -424,56 +393,13 @@ def _check_parameter_name(base: Scenario, name: str, here: str) -> None:
                          f"({', '.join(sorted(base.instances))}) or a setting ({', '.join(SETTINGS)})")
 
 
-def _number(value: Any, here: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise SweepError(f"{here}: {value!r} is not a number")
-    if not math.isfinite(value):
-        raise SweepError(f"{here}: {value!r} is not finite")
-    return float(value)
-
-
-def _positive(value: Any, here: str) -> float:
-    value = _number(value, here)
-    if value <= 0:
-        raise SweepError(f"{here}: must be > 0, got {value:g}")
-    return value
-
-
-def _count(value: Any, here: str) -> int:
-    if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= MAX_POINTS:
-        raise SweepError(f"{here}: must be a whole number in [1, {MAX_POINTS}], got {value!r}")
-    return value
-
-
-def _table(spec: Any, keys: set[str], here: str) -> dict[str, Any]:
-    if not isinstance(spec, dict) or not keys <= set(spec):
-        raise SweepError(f"{here}: needs the keys {sorted(keys)}")
-    return spec
-
-
-def _range(spec: Any, here: str) -> tuple[float, ...]:
-    spec = _table(spec, {"start", "stop", "num"}, f"{here}: range")
-    start, stop = _number(spec["start"], f"{here}: range.start"), _number(spec["stop"], f"{here}: range.stop")
-    num = _count(spec["num"], f"{here}: range.num")
-    return tuple(float(v) for v in np.linspace(start, stop, num))
-
-
-def _random(spec: Any, rng: np.random.Generator, here: str) -> tuple[float, ...]:
-    spec = _table(spec, {"distribution", "count"}, f"{here}: random")
-    dist = spec["distribution"]
-    if dist not in DISTRIBUTIONS:
-        raise SweepError(f"{here}: distribution {dist!r}; choose one of {', '.join(DISTRIBUTIONS)}")
-    spec = _table(spec, set(DISTRIBUTIONS[dist]), f"{here}: random ({dist})")
-    count = _count(spec["count"], f"{here}: random.count")
+def _random(spec: dict[str, Any], rng: np.random.Generator, here: str) -> tuple[float, ...]:
+    """``count`` draws of ``distribution`` (its keys checked by the schema)."""
+    dist, count = spec["distribution"], spec["count"]
     if dist == "choice":
-        if not isinstance(spec["values"], list) or not spec["values"]:
-            raise SweepError(f"{here}: random.values must be a non-empty list of numbers")
-        choices = [_number(v, f"{here}: random.values") for v in spec["values"]]
-        return tuple(float(v) for v in rng.choice(choices, size=count))
-    a, b = (_number(spec[k], f"{here}: random.{k}") for k in DISTRIBUTIONS[dist])
+        return tuple(float(v) for v in rng.choice([float(v) for v in spec["values"]], size=count))
+    a, b = (float(spec[k]) for k in DISTRIBUTIONS[dist])
     if dist == "normal":
-        if b < 0:
-            raise SweepError(f"{here}: random.std must be >= 0")
         return tuple(float(v) for v in rng.normal(a, b, count))
     if not a < b or (dist == "loguniform" and a <= 0):
         raise SweepError(f"{here}: random needs 0 < low < high (loguniform) or low < high, got {a:g}, {b:g}")

@@ -7,16 +7,12 @@ resume."""
 from __future__ import annotations
 
 import json
-import os
-import shutil
-import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from orchestration.outputs import atomic_write, private_folder
-from orchestration.run import interrupt
+from orchestration.outputs import atomic_write
 from orchestration.study import optimize
-from orchestration.sweep.runner import _client, _shutdown
+from orchestration.sweep.cluster import follow, open_client, shutdown
 
 POLL_S = 1.0  # how often the client reads the journal for progress and looks for Ctrl-C
 
@@ -78,32 +74,27 @@ def tune(out: Path, controllers, handlings, seeds, budget: int, workers: int | N
 
 def _run(journal, todo, budget, workers, scheduler, names, before, listener) -> bool:
     """Submit the searches and follow them; True if Ctrl-C stopped them."""
-    client = cluster = None
-    futures: list = []
-    scratch = f"tune-{os.getpid()}-{time.time_ns()}"
-    seen, stopped, ended = dict(before), False, False
+    seen = dict(before)
+
+    def done(future) -> None:
+        if future.status == "error":
+            future.result()  # its error, raised here (a journal this code cannot resume)
+
+    def tick() -> None:
+        counts = _counts(journal, names)
+        if listener is not None:
+            for n in names:
+                for _ in range(min(counts[n], budget) - min(seen[n], budget)):
+                    listener.trial(n)
+        seen.update(counts)
+
+    cluster, futures, stopped = None, [], True  # anything but the end of every search stops the workers
     try:
-        client, cluster = _client(scheduler, workers, scratch)
-        futures = [client.submit(optimize.run_search, journal.resolve(), fmu, h, s, budget, pure=False,
-                                 key=f"tune-{optimize.study_name(fmu, h, s)}-{scratch}") for fmu, h, s in todo]
-        while not stopped:
-            stopped = interrupt.requested()
-            for future in futures:
-                if future.status == "error":
-                    future.result()  # its error, raised here (a journal this code cannot resume)
-            ended = all(f.status == "finished" for f in futures)
-            counts = _counts(journal, names)
-            if listener is not None:
-                for n in names:
-                    for _ in range(min(counts[n], budget) - min(seen[n], budget)):
-                        listener.trial(n)
-            seen = counts
-            if ended:
-                return False
-            time.sleep(0 if stopped else POLL_S)
-    except KeyboardInterrupt:
-        stopped = True
-    finally:  # anything but the end of every search (Ctrl-C, an error) stops the workers at once
-        _shutdown(client, cluster, futures, not ended)
-        shutil.rmtree(private_folder("scratch") / scratch, ignore_errors=True)
+        cluster = open_client(scheduler, workers)
+        futures = [cluster.client.submit(optimize.run_search, journal.resolve(), fmu, h, s, budget, pure=False,
+                                         key=f"tune-{optimize.study_name(fmu, h, s)}-{cluster.scratch}")
+                   for fmu, h, s in todo]
+        stopped = follow(futures, done, tick, POLL_S)
+    finally:
+        shutdown(cluster, futures, stopped)
     return stopped

@@ -101,7 +101,8 @@ def test_architecture_md_opens_with_the_tree_of_every_package_folder():
     tree = text.split("```")[1]  # the first code block
     assert text.index("```") < text.index("\n## "), "the tree comes before the first section"
     folders = {str(p.parent.relative_to(REPO)) for m, p in modules().items() if p.name == "__init__.py"}
-    folders |= {"tests/unit", "tests/fmu", "tests/orchestration", "tests/shipped", "tests/docs", "tests/support"}
+    folders |= {"tests/unit", "tests/fmu", "tests/orchestration", "tests/shipped", "tests/docs", "tests/support",
+                "tests/faults"}
     named = {line.split()[0].rstrip("/") for line in tree.splitlines() if line.strip()}
     leaves = {f.split("/")[-1] for f in folders if "scenarios" not in f and "presets" not in f}
     assert leaves <= {n.split("/")[-1] for n in named}, sorted(leaves - {n.split("/")[-1] for n in named})

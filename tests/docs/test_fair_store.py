@@ -31,7 +31,7 @@ def test_the_stored_search_is_the_protocol_the_code_states():
                 assert r["best"] != 0 or r["best_design"] == first  # trial 0 is the nominal design
 
 
-@pytest.mark.xfail(strict=True, reason="issue 29 stays open: at 64 trials 5 of 36 searches still improve by more than "
+@pytest.mark.xfail(strict=True, reason="the stored tuning's budget is not yet enough: at 64 trials 5 of 36 searches still improve by more than "
                    "2 % over their last half (docs/baselines.md names them); the store must be recomputed with a "
                    "larger budget on the current cores, hours of compute")
 def test_the_budget_is_enough_for_every_search_by_the_stated_rule():

@@ -1,4 +1,4 @@
-"""The stored optimum (docs/optimum/optimum.json, the source of docs/optimum.md and the README's sentence)
+"""The stored optimum (docs/optimum/optimum.json, the source of docs/optimum.md and its verdict)
 is what the code gives now: its optimal torques replay to its J*, its controllers' J are recomputed,
 and no controller is below J* anywhere. No CasADi needed: only the solve needs it."""
 from __future__ import annotations

@@ -16,3 +16,22 @@ def test_ci_runs_the_readme_test_command():
     assert "pytest" in test_cmd
     ci_lines = [l.strip() for l in (ROOT / ".ci" / "run").read_text().splitlines()]
     assert test_cmd in ci_lines
+
+
+MAX_LINES = 200
+MAX_LINE_CHARS = 200
+
+
+def test_the_readme_is_a_front_page():
+    """What it is, the two commands, a short generated summary, a table of commands and links: the rest
+    lives in docs/ (docs/commands.md, docs/fmus.md, docs/recordings.md, docs/sweeps.md, ...)."""
+    lines = (ROOT / "README.md").read_text().splitlines()
+    assert len(lines) <= MAX_LINES, f"README.md has {len(lines)} lines; at most {MAX_LINES}"
+    long = [n for n, line in enumerate(lines, start=1) if len(line) > MAX_LINE_CHARS]
+    assert not long, f"README.md lines over {MAX_LINE_CHARS} characters: {long}"
+
+
+def test_every_doc_the_readme_links_exists():
+    text = (ROOT / "README.md").read_text()
+    links = re.findall(r"\]\(([^)#]+)(?:#[^)]*)?\)", text)
+    assert links and all((ROOT / link).is_file() for link in links), [l for l in links if not (ROOT / l).is_file()]

@@ -11,6 +11,7 @@ from orchestration.run.master import run
 from orchestration.run.metrics import weight_total_variation
 from orchestration.run.scenario import load_scenario
 from orchestration.run.summary import summarize
+from orchestration.study.comparison import within_table1
 
 WEIGHTS = [f"W{k}" for k in range(1, 11)]
 
@@ -44,7 +45,7 @@ def _weights(result):
 def test_paper_run_meets_table_1_within_1_3x_and_the_torque_bound(paper):
     s = summarize(paper)
     assert s["samples"] == 10001 and s["controller"] == "SotcController"
-    assert s["mse"][0] <= 0.00325 and s["mse"][1] <= 0.0109  # paper Table 1: 0.0025, 0.0084
+    assert within_table1(s["mse"])  # paper Table 1 (0.0025, 0.0084), +30 %
     assert max(s["max_abs_error_last_half"]) <= 1.5e-3
     assert s["max_norm_tau"] <= 4.0 and s["samples_over_limit"] == 0
     assert len(s["final_weights"]) == 10 and s["final_weights"] == list(_weights(paper)[-1])

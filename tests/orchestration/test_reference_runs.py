@@ -1,7 +1,7 @@
 """The numbers do not change unnoticed: every shipped scenario's summary, and every output of the
 ``paper`` run at 401 stored samples, equal the stored reference run (``python
-tests/support/reference_runs.py``) bit for bit. The cores' arithmetic does not depend on the CPU (issue
-N, ``test_cpu_independence``), so no allowance is made for other machines. Both ways the cores run: as a
+tests/support/reference_runs.py``) bit for bit. The cores' arithmetic does not depend on the CPU (fixed-order
+loops, ``test_cpu_independence``), so no allowance is made for other machines. Both ways the cores run: as a
 default build makes them (compiled where Cython and a C compiler are found, as here in CI) and built
 with ``SOTC_COSIM_COMPILE=0``."""
 from __future__ import annotations

@@ -113,7 +113,7 @@ def test_reproduce_console_script_in_a_fresh_interpreter_outside_the_repo(tmp_pa
 
 
 def test_a_chaotic_reading_is_reported_as_not_tracking_with_its_sensitivity(monkeypatch):
-    """A chaotic reading is said as such (the README's results block and reproduce share chaos_text). Since
+    """A chaotic reading is said as such (the results blocks and reproduce share chaos_text). Since
     the cores decide only above rounding (issue N), no shipped reading is chaotic any more (`paper-literal`
     moves 0.03 % with the PE nudge, 1.8 % with 8 substeps): here its sensitivity is stood in for by the
     one measured before, 31 % and 27 %."""
@@ -136,6 +136,6 @@ def test_a_chaotic_reading_is_reported_as_not_tracking_with_its_sensitivity(monk
     assert full[-1][5] == repr(1.7)
 
 
-def test_readme_counts_the_runs_reproduce_makes():
-    readme = (Path(__file__).resolve().parents[2] / "README.md").read_text()
-    assert f"{len(REPRODUCE_RUNS)} runs;" in readme
+def test_the_commands_page_counts_the_runs_reproduce_makes():
+    commands = (Path(__file__).resolve().parents[2] / "docs" / "commands.md").read_text()
+    assert f"{len(REPRODUCE_RUNS)} runs;" in " ".join(commands.split())

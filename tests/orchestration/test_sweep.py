@@ -120,12 +120,12 @@ def test_tuning_best_asks_the_tuning_protocol_under_each_points_limit_handling(m
     ({"LqrController": {"nosuch.q": 1.0}}, '"nosuch.q": write instance.parameter'),
     ({"OtcController": {"tuning": "best", "controller.q": 2.0}}, "sets controller.q already"),
     ({"SotcController": {"tuning": "best", "controller.alpha1": 3.0}}, "sets controller.alpha1 already"),
-    ({"CtController": {"tuning": "fastest"}}, "tuning = 'fastest'; choose 'best'"),
+    ({"CtController": {"tuning": "fastest"}}, "CtController.tuning: 'fastest' is not one of ['best']"),
     ({"CtController": {"tuning": "best", "controller.kp": 9.0}}, "tuning = 'best' sets controller.kp already"),
-    ({"CtController": 3}, "must hold tables"),
+    ({"CtController": 3}, "controller_settings.CtController: 3 is not a table"),
     ({"CtController": {"tuning_seed": 0}}, 'tuning_seed = 0: with tuning = "best"'),
     ({"CtController": {"tuning": "best", "tuning_seed": 99}}, "one of the stored tuning seeds"),
-    ({"CtController": {"tuning": "best", "tuning_seed": True}}, "tuning_seed = True"),
+    ({"CtController": {"tuning": "best", "tuning_seed": True}}, "tuning_seed: True is not a whole number"),
 ])
 def test_bad_controller_settings_are_refused_with_the_key_named(settings, message):
     with pytest.raises(ValueError, match=message.replace("(", r"\(").replace("[", r"\[")):
@@ -159,13 +159,13 @@ def test_random_axes_are_seeded():
 
 
 @pytest.mark.parametrize("axis, message", [
-    ({"name": "plant.f1", "values": [1.0, math.nan]}, "axis 'plant.f1': nan is not finite"),
-    ({"name": "plant.f1", "values": [1.0, math.inf]}, "axis 'plant.f1': inf is not finite"),
-    ({"name": "plant.f1", "values": [1.0, "fast"]}, "axis 'plant.f1': 'fast' is not a number"),
-    ({"name": "plant.f1", "values": [True]}, "axis 'plant.f1': True is not a number"),
+    ({"name": "plant.f1", "values": [1.0, math.nan]}, "axis 'plant.f1': values[1]: nan is not finite"),
+    ({"name": "plant.f1", "values": [1.0, math.inf]}, "axis 'plant.f1': values[1]: inf is not finite"),
+    ({"name": "plant.f1", "values": [1.0, "fast"]}, "axis 'plant.f1': values[1]: 'fast' is not a number"),
+    ({"name": "plant.f1", "values": [True]}, "axis 'plant.f1': values[0]: True is not a number"),
     ({"name": "plant.f1", "range": {"start": 0, "stop": math.nan, "num": 3}}, "axis 'plant.f1': range.stop"),
     ({"name": "plant.f1", "random": {"distribution": "normal", "mean": 1, "std": math.inf, "count": 3}}, "random.std"),
-    ({"name": "plant.f1", "random": {"distribution": "cauchy", "count": 3}}, "distribution 'cauchy'"),
+    ({"name": "plant.f1", "random": {"distribution": "cauchy", "count": 3}}, "random.distribution: 'cauchy' is not one of ['uniform', 'normal', 'loguniform', 'choice']"),
     ({"name": "nosuch.kp", "values": [1.0]}, "axis 'nosuch.kp'"),
     ({"name": "controller", "values": [1.0]}, "axis 'controller'"),
     ({"name": "plant.f1", "values": [1.0], "scale": True}, "does not set plant.f1"),
@@ -180,7 +180,7 @@ def test_bad_axes_are_refused_before_anything_runs_with_the_axis_named(axis, mes
 def test_bad_files_are_refused(tmp_path):
     with pytest.raises(ValueError, match="paired"):
         sweep_of(combine="paired", axis=[{"name": "plant.f1", "values": [1.0, 2.0]}, {"name": "plant.f2", "values": [1.0]}])
-    with pytest.raises(ValueError, match="set.plant.f1"):
+    with pytest.raises(ValueError, match='set."plant.f1": nan is not finite'):
         sweep_of(set={"plant.f1": math.nan})
     with pytest.raises(ValueError, match="time_limit"):
         sweep_of(time_limit=-1)
@@ -400,3 +400,20 @@ def test_stop_time_option_sets_the_base_scenario(fmu_dir, tmp_path, monkeypatch,
     rows = [json.loads(line) for line in (out / "points.jsonl").read_text().splitlines()]
     assert len(rows) == 2 and {r["summary"]["stop_time"] for r in rows} == {0.2}
     assert {r["summary"]["steps"] for r in rows} == {20}
+
+
+@pytest.mark.parametrize("raw, message", [
+    ({"combine": "diagonal"}, "sweep 'test': combine: 'diagonal' is not one of ['grid', 'paired', 'one-at-a-time']"),
+    ({"seed": -1}, "sweep 'test': seed: -1 is less than the minimum of 0"),
+    ({"axes": []}, "sweep 'test': the file: unknown keys ['axes']; known: ['axis', 'combine', 'controller_settings'"),
+    ({"scenario": 3}, "sweep 'test': scenario: 3 is not a string"),
+    ({"axis": [{"name": "plant.f1", "range": {"start": 0, "stop": 1}}]},
+     "sweep 'test': axis 'plant.f1': range: 'num' is a required property"),
+    ({"axis": [{"name": "plant.f1", "random": {"distribution": "normal", "mean": 1, "count": 3}}]},
+     "sweep 'test': axis 'plant.f1': random: 'std' is a required property"),
+])
+def test_the_schema_names_the_file_the_key_and_what_is_allowed(raw, message):
+    """Sweep files are checked by a JSON schema (orchestration.sweep.schema), as scenarios are."""
+    with pytest.raises(ValueError) as refused:
+        parse_sweep({"scenario": "paper-ct", **raw}, "test")
+    assert str(refused.value).startswith(message) and "\n" not in str(refused.value)
