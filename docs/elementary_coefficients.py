@@ -99,7 +99,7 @@ def kernels() -> dict[str, list[float]]:
     return {
         "EXP": economize([1 / _fact(k + 2) for k in range(30)], F(-35, 100), F(35, 100)),  # (e^r-1-r)/r^2
         "LOG": economize([F(2, 2 * k + 3) for k in range(30)], F(0), F(295, 10000)),  # (2 atanh s - 2s)/s^3
-        "TANH": economize(_series_tanh(70)[1:], F(0), F(1)),  # (tanh x - x)/x^3, |x| <= 1
+        "TANH": economize(_series_tanh(70)[1:], F(0), F(1, 4)),  # (tanh x - x)/x^3, |x| <= 1/2
         "SINH": economize([1 / _fact(2 * k + 3) for k in range(30)], F(0), F(1)),  # (sinh x - x)/x^3, |x| <= 1
         "SIN": economize([(-1) ** (k + 1) / _fact(2 * k + 3) for k in range(30)], F(0), z_trig),
         "COS": economize([(-1) ** k / _fact(2 * k + 4) for k in range(30)], F(0), z_trig),  # (cos-1+x^2/2)/x^4

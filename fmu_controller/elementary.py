@@ -55,11 +55,9 @@ EXP_POLY = (0.5, 0.16666666666666666, 0.04166666666666668, 0.008333333333333335,
             2.505206170955696e-08, 2.0918952794979583e-09, 1.6089516810305506e-10)
 LOG_POLY = (0.6666666666666666, 0.3999999999999999, 0.2857142857143549, 0.22222222219819687, 0.18181818599241487,
             0.15384574700588732, 0.1333565708484895, 0.11687716114826899, 0.11885649365941608)
-TANH_POLY = (-0.3333333333333333, 0.1333333333333333, -0.05396825396825172, 0.021869488536057958,
-             -0.008863235527679883, 0.0035921280055986474, -0.0014558341004314579, 0.0005900255808317987,
-             -0.00023912032846655357, 9.688439916274554e-05, -3.919534314289839e-05, 1.574817362941565e-05,
-             -6.180106472303985e-06, 2.27978432397262e-06, -7.389409578734812e-07, 1.902845714564236e-07,
-             -3.341206466882119e-08, 2.9190562729579348e-09)
+TANH_POLY = (-0.3333333333333333, 0.1333333333333333, -0.05396825396824845, 0.021869488535740264,
+             -0.008863235513776472, 0.003592127666135216, -0.001455828978001023, 0.0005899752342757111,
+             -0.0002387907234366308, 9.544946606150478e-05, -3.51551948009112e-05, 8.864382149433776e-06)
 SINH_POLY = (0.16666666666666666, 0.008333333333333333, 0.00019841269841269773, 2.7557319224040352e-06,
              2.5052108364053986e-08, 1.6059048396945078e-10, 7.646625318417251e-13, 2.8445276524447325e-15)
 SIN_POLY = (-0.16666666666666666, 0.008333333333333331, -0.00019841269841264943, 2.7557319219244494e-06,
@@ -79,7 +77,7 @@ EXP_OVER = 709.782712893384  # the largest x with exp(x) finite
 EXP_UNDER = -745.1332191019412  # below it exp(x) rounds to 0
 SINH_OVER = 710.4758600739439  # the largest x with sinh(x), cosh(x) finite
 # where each function leaves its polynomial (measured: the largest error of either side stays under 1 ulp)
-TANH_POLY_MAX = 1.0
+TANH_POLY_MAX = 0.5
 SINH_POLY_MAX = 1.0
 COSH_HALF_MAX = 0.5
 MEDIUM = 1048576.0  # 2^20: sin and cos reduce up to here with the three-part pi/2
@@ -153,12 +151,14 @@ def _two_prod(a: float, b: float) -> tuple:
 
 
 def _exp_parts(x: float) -> tuple:
-    """(k, hi, lo) with e^x = 2^k (hi + lo), |lo| < ulp(hi), for |x| <= 746: x = k ln 2 + r with
+    """(k, hi, lo) with e^x = 2^k (hi + lo), |lo| <= ulp(hi) / 2, for |x| <= 746: x = k ln 2 + r with
     |r| <= ln(2)/2 (ln 2 in two parts, k ln2_hi exact), e^r = 1 + r + r^2 P(r), 1 + r kept exactly."""
     k = _nearest(x * INV_LN2)
     r = (x - k * LN2_HI) - k * LN2_LO
-    hi = 1.0 + r
-    return k, hi, ((1.0 - hi) + r) + r * r * _horner(r, EXP_POLY)
+    one_r = 1.0 + r
+    tail = ((1.0 - one_r) + r) + r * r * _horner(r, EXP_POLY)
+    hi = one_r + tail
+    return k, hi, (one_r - hi) + tail
 
 
 def exp(x: float) -> float:
@@ -172,7 +172,7 @@ def exp(x: float) -> float:
     if abs(x) < P2_M54:
         return 1.0 + x
     k, hi, lo = _exp_parts(x)
-    return _scale(hi + lo, k)
+    return _scale(hi, k)
 
 
 def _log_reduced(k: float, f: float, c: float) -> float:
@@ -216,7 +216,7 @@ def _log1p_parts(x: float, xl: float) -> float:
 
 def tanh(x: float) -> float:
     """tanh x: x + x^3 T(x^2) for |x| <= TANH_POLY_MAX, else 1 - 2 / (e^{2|x|} + 1) with e^{2|x|} + 1 from
-    ``_exp_parts`` before rounding (+-1 beyond 22)."""
+    ``_exp_parts`` before rounding and the quotient's error kept (``_two_prod``); +-1 beyond 22."""
     a = abs(x)
     if not a > TINY:
         return x
@@ -231,7 +231,12 @@ def tanh(x: float) -> float:
         k, hi, lo = _exp_parts(a + a)
         scale = _pow2(k)
         d = scale * hi + 1.0
-        t = 1.0 - 2.0 / (d + (((scale * hi - d) + 1.0) + scale * lo))
+        dl = ((scale * hi - d) + 1.0) + scale * lo
+        q = 2.0 / d  # 2 / (d + dl) = q + ql
+        p, pl = _two_prod(q, d)
+        ql = (((2.0 - p) - pl) - q * dl) / d
+        t = 1.0 - q
+        t = t + (((1.0 - t) - q) - ql)  # Fast2Sum: 1 > q
     return t if x > 0.0 else -t
 
 
@@ -346,7 +351,7 @@ def sin(x: float) -> float:
     """sin x: x reduced by n pi/2, then +-sin or +-cos of the remainder by quadrant."""
     a = abs(x)
     if not a > TINY or a == INF:
-        return x if a == a and a != INF else x - x
+        return NAN if a == INF else x
     if a <= QUARTER_PI_HI:
         return _sin_kernel(x, 0.0)
     n, hi, lo = _reduce(x)
@@ -358,7 +363,7 @@ def cos(x: float) -> float:
     """cos x: x reduced by n pi/2, then +-cos or +-sin of the remainder by quadrant."""
     a = abs(x)
     if a != a or a == INF:
-        return x - x
+        return NAN if a == INF else x
     if a < TINY:
         return 1.0
     if a <= QUARTER_PI_HI:

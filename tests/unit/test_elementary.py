@@ -77,6 +77,8 @@ def compiled_module(tmp_path: Path):
         pytest.skip(f"cannot compile: {reason}")
     lib = tmp_path / "lib" / "fmu_controller"
     lib.mkdir(parents=True)
+    for package in (lib.parent, lib):
+        (package / "__init__.py").write_text("")
     shutil.copy(ROOT / "fmu_controller/elementary.py", lib)
     pxd = {"fmu_controller/elementary.pxd": (ROOT / "fmu_controller/elementary.pxd").read_text()}
     original = compiled.HOT
@@ -86,7 +88,7 @@ def compiled_module(tmp_path: Path):
     finally:
         compiled.HOT = original
     so = next(lib.glob("elementary.*.so"), None) or next(lib.glob("elementary.*.pyd"))
-    spec = importlib.util.spec_from_file_location("elementary", so)
+    spec = importlib.util.spec_from_file_location("lib.fmu_controller.elementary", so)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
