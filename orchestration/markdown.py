@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 import re
+from decimal import ROUND_CEILING, ROUND_FLOOR, Decimal
 from typing import Any, Sequence
 
 MISSING = "-"  # a number that is absent or undefined (None, NaN, infinity)
@@ -74,13 +75,13 @@ def stable(value: Any, others: Sequence[Any], spec: str = ".4g") -> str:
 
 
 def _outward(v: float, up: bool) -> str:
-    """v to two significant digits, rounded away from the inside of a range (up for its top)."""
-    if v == 0.0:
+    """v (as its shortest decimal) to two significant digits, rounded away from the inside of a range (up
+    for its top)."""
+    d = Decimal(repr(v))
+    if d == 0:
         return "0"
-    unit = 10.0 ** (math.floor(math.log10(abs(v))) - 1)
-    q = v / unit
-    q = round(q) if abs(q - round(q)) < 1e-9 * abs(q) else q  # 0.9 / 0.01 is 90.00000000000001
-    return format((math.ceil(q) if up else math.floor(q)) * unit, ".2g")
+    q = d.quantize(Decimal(1).scaleb(d.adjusted() - 1), rounding=ROUND_CEILING if up else ROUND_FLOOR)
+    return format(float(q), ".2g")
 
 
 def stable_pair(values: Sequence[Any] | None, others: Sequence[Sequence[Any] | None], spec: str = ".4g") -> str:
