@@ -5,7 +5,11 @@ from __future__ import annotations
 
 import importlib.util
 import math
+import os
+import platform
 import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -109,6 +113,31 @@ def test_compiled_gives_the_same_bits_and_a_million_points_within_one_ulp(tmp_pa
     errors = largest_errors(c, 1_000_000)
     print("largest error (ulp) over 10^6 points per range:", {k: round(v, 3) for k, v in errors.items()})
     assert max(errors.values()) <= 1.0, errors
+
+
+DIGEST = """
+import hashlib, struct, sys
+from fmu_controller import elementary as el
+x = [-20.0 + 40.0 * ((i * 0.6180339887498949) % 1.0) for i in range(1, 20001)]
+d = hashlib.sha256()
+for name in ("exp", "log1p", "tanh", "sinh", "cosh", "sin", "cos", "atanh", "acos"):
+    f = getattr(el, name)
+    d.update(struct.pack("20000d", *[f(v / 20.0 if name in ("atanh", "acos") else abs(v) if name == "log1p" else v)
+                                       for v in x]))
+d.update(struct.pack("20000d", *[el.atan2(v, 1.5) + el.hypot(v, 0.3) for v in x]))
+print(d.hexdigest())
+"""
+
+
+@pytest.mark.skipif(platform.libc_ver()[0] != "glibc", reason="GLIBC_TUNABLES selects glibc's code paths only")
+def test_the_same_bits_when_glibc_takes_its_paths_without_fma():
+    """glibc's own exp, sin ... change bits under these tunables (docs/paper-notes.md 2.10b); ours must not."""
+    def digest(extra: dict[str, str]) -> str:
+        env = {**os.environ, "PYTHONPATH": str(ROOT), **extra}
+        return subprocess.run([sys.executable, "-c", DIGEST], env=env, capture_output=True, text=True,
+                              check=True, timeout=300).stdout.strip()
+
+    assert digest({}) == digest({"GLIBC_TUNABLES": "glibc.cpu.hwcaps=-AVX2,-FMA,-AVX,-AVX512F"})
 
 
 SPECIAL = [
