@@ -2,19 +2,29 @@
 # stays the one source of the algorithms and runs as it is wherever the cores are not compiled.
 cimport cython
 
-cdef double INF, NAN, SHIFT, TINY, P2_M1000, P2_M900, P2_M600, P2_M500, P2_M54, P2_60, P2_200, P2_500, P2_600
-cdef double P2_1020, SPLIT, SQRT2, SQRT_HALF, LN2_HI, LN2_LO, INV_LN2, PIO2_1, PIO2_2, PIO2_3, INV_PIO2
+cdef double INF, NAN, SHIFT, TINY, P2_M1000, P2_M900, P2_M600, P2_M500, P2_M200, P2_M54, P2_60, P2_200, P2_500
+cdef double P2_600, P2_900, SPLIT, SQRT2, SQRT_HALF, LN2_HI, LN2_LO, INV_LN2, PIO2_1, PIO2_2, PIO2_3, INV_PIO2
 cdef double PI_HI, PI_LO, HALF_PI_HI, HALF_PI_LO, QUARTER_PI_HI, QUARTER_PI_LO, ATAN_HALF_HI, ATAN_HALF_LO
 cdef double EXP_OVER, EXP_UNDER, SINH_OVER, TANH_POLY_MAX, SINH_POLY_MAX, COSH_HALF_MAX, MEDIUM
-cdef tuple EXP_POLY, LOG_POLY, TANH_POLY, SINH_POLY, SIN_POLY, COS_POLY, ATAN_POLY, POW2_STEPS
+# C arrays (the .py's tuples, of these lengths)
+cdef double EXP_POLY[12]
+cdef double LOG_POLY[9]
+cdef double TANH_POLY[12]
+cdef double SINH_POLY[8]
+cdef double SIN_POLY[7]
+cdef double COS_POLY[7]
+cdef double ATAN_POLY[13]
+cdef double POW2_E[10]
+cdef double POW2_UP[10]
+cdef double POW2_DOWN[10]
 
-@cython.locals(acc=double, i=Py_ssize_t)
-cdef double _horner(double x, tuple coeffs)
+@cython.locals(acc=double, i=int)
+cdef double _horner(double x, const double* coeffs, int n)
 cdef double _nearest(double v)
-@cython.locals(a=double, p=double, e=double, up=double)
+@cython.locals(a=double, p=double, i=int)
 cdef double _pow2(double k)
 cdef double _scale(double y, double k)
-@cython.locals(e=double, up=double, down=double)
+@cython.locals(i=int)
 cdef (double, double) _normalize(double u)
 @cython.locals(p=double, t=double, ah=double, al=double, bh=double, bl=double)
 cdef (double, double) _two_prod(double a, double b)
@@ -60,7 +70,7 @@ cdef (double, double) _atan_ratio(double n, double d, double extra)
 cdef double _atan2_special(double y, double x)
 @cython.locals(t=double)
 cpdef double atan2(double y, double x)
-@cython.locals(d=double, swap=bint, sign=double, c_hi=double, rest=double)
+@cython.locals(d=double, swap=bint, sign=double, c_hi=double, rest=double, scale=double)
 cdef double _angle(double n, double x, double extra)
 @cython.locals(a=double, al=double, b=double, bl=double, p=double, pl=double, y=double, sq=double, sql=double)
 cpdef double acos(double x)

@@ -28,8 +28,9 @@ INF = float("inf")
 NAN = float("nan")
 SHIFT = 6755399441055744.0  # 1.5 * 2^52: (v + SHIFT) - SHIFT rounds v (|v| < 2^51) to the nearest integer
 TINY = float.fromhex("0x1p-27")  # below this |x|, sin x = tanh x = sinh x = x and cos x = cosh x = 1 after rounding
-P2_M1000, P2_M900, P2_M600, P2_M500, P2_M54 = (float.fromhex(f"0x1p{e}") for e in (-1000, -900, -600, -500, -54))
-P2_60, P2_200, P2_500, P2_600, P2_1020 = (float.fromhex(f"0x1p{e}") for e in (60, 200, 500, 600, 1020))
+P2_M1000, P2_M900, P2_M600, P2_M500, P2_M200, P2_M54 = (float.fromhex(f"0x1p{e}")
+                                                          for e in (-1000, -900, -600, -500, -200, -54))
+P2_60, P2_200, P2_500, P2_600, P2_900 = (float.fromhex(f"0x1p{e}") for e in (60, 200, 500, 600, 900))
 SPLIT = 134217729.0  # 2^27 + 1, Veltkamp's splitting constant
 SQRT2 = 1.4142135623730951
 SQRT_HALF = 0.7071067811865476
@@ -70,9 +71,10 @@ ATAN_POLY = (-0.3333333333333333, 0.19999999999999973, -0.14285714285706191, 0.1
              -0.012531151601365812)
 # ----------------------------------------------------------------------------------------------------
 
-# (e, 2^e, 2^-e) for the exact power-of-two scalings, largest first
-POW2_STEPS = tuple((float(1 << i), float.fromhex(f"0x1p{1 << i}"), float.fromhex(f"0x1p-{1 << i}"))
-                   for i in range(9, -1, -1))
+# e, 2^e and 2^-e for the exact power-of-two scalings, largest first
+POW2_E = tuple(float(1 << i) for i in range(9, -1, -1))
+POW2_UP = tuple(float.fromhex(f"0x1p{1 << i}") for i in range(9, -1, -1))
+POW2_DOWN = tuple(float.fromhex(f"0x1p-{1 << i}") for i in range(9, -1, -1))
 EXP_OVER = 709.782712893384  # the largest x with exp(x) finite
 EXP_UNDER = -745.1332191019412  # below it exp(x) rounds to 0
 SINH_OVER = 710.4758600739439  # the largest x with sinh(x), cosh(x) finite
@@ -84,10 +86,10 @@ MEDIUM = 1048576.0  # 2^20: sin and cos reduce up to here with the three-part pi
 BIG_BITS = 1300  # bits of pi for the reduction beyond MEDIUM (covers every finite double)
 
 
-def _horner(x: float, coeffs: tuple) -> float:
-    """coeffs[0] + coeffs[1] x + ... evaluated from the highest power (fixed order)."""
+def _horner(x: float, coeffs: tuple, n: int) -> float:
+    """coeffs[0] + coeffs[1] x + ... + coeffs[n-1] x^(n-1) evaluated from the highest power (fixed order)."""
     acc = 0.0
-    for i in range(len(coeffs) - 1, -1, -1):
+    for i in range(n - 1, -1, -1):
         acc = acc * x + coeffs[i]
     return acc
 
@@ -101,10 +103,10 @@ def _pow2(k: float) -> float:
     """2^k for an integer-valued k in [-1022, 1023], by exact products."""
     a = abs(k)
     p = 1.0
-    for e, up, _ in POW2_STEPS:
-        if a >= e:
-            a -= e
-            p *= up
+    for i in range(len(POW2_E)):
+        if a >= POW2_E[i]:
+            a -= POW2_E[i]
+            p *= POW2_UP[i]
     return p if k >= 0.0 else 1.0 / p
 
 
@@ -124,13 +126,13 @@ def _normalize(u: float) -> tuple:
     if u < P2_M1000:
         u *= P2_200
         k = -200.0
-    for e, up, down in POW2_STEPS:
-        if u >= up:
-            u *= down
-            k += e
-        elif u * up < 1.0:
-            u *= up
-            k -= e
+    for i in range(len(POW2_E)):
+        if u >= POW2_UP[i]:
+            u *= POW2_DOWN[i]
+            k += POW2_E[i]
+        elif u * POW2_UP[i] < 1.0:
+            u *= POW2_UP[i]
+            k -= POW2_E[i]
     if u >= SQRT2:
         return k + 1.0, u * 0.5
     if u < SQRT_HALF:
@@ -156,7 +158,7 @@ def _exp_parts(x: float) -> tuple:
     k = _nearest(x * INV_LN2)
     r = (x - k * LN2_HI) - k * LN2_LO
     one_r = 1.0 + r
-    tail = ((1.0 - one_r) + r) + r * r * _horner(r, EXP_POLY)
+    tail = ((1.0 - one_r) + r) + r * r * _horner(r, EXP_POLY, len(EXP_POLY))
     hi = one_r + tail
     return k, hi, (one_r - hi) + tail
 
@@ -181,7 +183,7 @@ def _log_reduced(k: float, f: float, c: float) -> float:
     s = f / (2.0 + f)
     z = s * s
     hfsq = 0.5 * f * f
-    return k * LN2_HI + (f - (hfsq - (s * (hfsq + z * _horner(z, LOG_POLY)) + (k * LN2_LO + c))))
+    return k * LN2_HI + (f - (hfsq - (s * (hfsq + z * _horner(z, LOG_POLY, len(LOG_POLY))) + (k * LN2_LO + c))))
 
 
 def log(x: float) -> float:
@@ -222,7 +224,7 @@ def tanh(x: float) -> float:
         return x
     if a <= TANH_POLY_MAX:
         z, zl = _two_prod(x, x)
-        p, pl = _two_prod(x, z * _horner(z, TANH_POLY) + zl * TANH_POLY[0])
+        p, pl = _two_prod(x, z * _horner(z, TANH_POLY, len(TANH_POLY)) + zl * TANH_POLY[0])
         t = x + p
         return t + ((p - (t - x)) + pl)  # Fast2Sum: |x| > |p|
     if a > 22.0:
@@ -254,7 +256,7 @@ def sinh(x: float) -> float:
         return x
     if a <= SINH_POLY_MAX:
         z = x * x
-        return x + x * (z * _horner(z, SINH_POLY))
+        return x + x * (z * _horner(z, SINH_POLY, len(SINH_POLY)))
     h = _exp_pair(a, -1.0) if a <= SINH_OVER else INF
     return h if x > 0.0 else -h
 
@@ -289,7 +291,7 @@ def atanh(x: float) -> float:
 def _sin_kernel(hi: float, lo: float) -> float:
     """sin(hi + lo) for |hi| <= pi/4 (+ rounding), |lo| <= ulp(hi): hi + hi^3 S(hi^2) + lo (1 - hi^2/2)."""
     z = hi * hi
-    return hi + ((hi * z) * _horner(z, SIN_POLY) + (lo - 0.5 * z * lo))
+    return hi + ((hi * z) * _horner(z, SIN_POLY, len(SIN_POLY)) + (lo - 0.5 * z * lo))
 
 
 def _cos_kernel(hi: float, lo: float) -> float:
@@ -297,7 +299,7 @@ def _cos_kernel(hi: float, lo: float) -> float:
     z = hi * hi
     hz = 0.5 * z
     w = 1.0 - hz
-    return w + (((1.0 - w) - hz) + (z * z * _horner(z, COS_POLY) - hi * lo))
+    return w + (((1.0 - w) - hz) + (z * z * _horner(z, COS_POLY, len(COS_POLY)) - hi * lo))
 
 
 def _pi_scaled(bits: int) -> int:
@@ -384,7 +386,7 @@ def _two_sum_plus(a_hi: float, a_lo: float, sign: float, b_hi: float, b_lo: floa
 
 def _atan_ratio(n: float, d: float, extra: float) -> tuple:
     """(c_hi, rest) with atan(n / d) + extra = c_hi + rest (a tiny ``extra`` added before rounding) for
-    0 < n <= d (both normal, d < 2^1020): atan(n/d) = atan(c) + atan(r), c in {0, 1/2, 1},
+    0 < n <= d (2^-1000 d < n, d < 2^900): atan(n/d) = atan(c) + atan(r), c in {0, 1/2, 1},
     r = (n - c d) / (d + c n) (numerator exact, the denominator's and the quotient's rounding errors kept
     in rl), atan(r + rl) = r + r^3 A(r^2) + rl / (1 + r^2)."""
     if n < 0.4375 * d:
@@ -399,7 +401,7 @@ def _atan_ratio(n: float, d: float, extra: float) -> tuple:
     p, pl = _two_prod(r, den)
     rl = (((num - p) - pl) - r * den_lo) / den
     z = r * r
-    return c_hi, c_lo + (r + (r * (z * _horner(z, ATAN_POLY)) + (rl / (1.0 + z) + extra)))
+    return c_hi, c_lo + (r + (r * (z * _horner(z, ATAN_POLY, len(ATAN_POLY))) + (rl / (1.0 + z) + extra)))
 
 
 def _atan2_special(y: float, x: float) -> float:
@@ -431,12 +433,12 @@ def _angle(n: float, x: float, extra: float) -> float:
     swap = n > d
     if swap:
         n, d = d, n
-    if d > P2_1020:
-        n, d = n * 0.25, d * 0.25
-    elif d < P2_M900:
-        n, d = n * P2_200, d * P2_200
     sign = -1.0 if swap == (x > 0.0) else 1.0
-    c_hi, rest = _atan_ratio(n, d, sign * extra) if n > P2_M1000 * d else (0.0, n / d + sign * extra)
+    if n <= P2_M1000 * d:
+        c_hi, rest = 0.0, n / d + sign * extra
+    else:  # exact scalings into the range where Veltkamp's split cannot overflow (n > 2^-1000 d)
+        scale = P2_M200 if d > P2_900 else P2_600 if d < P2_M900 else 1.0
+        c_hi, rest = _atan_ratio(n * scale, d * scale, sign * extra)
     if swap:
         return _two_sum_plus(HALF_PI_HI, HALF_PI_LO, sign, c_hi, rest)
     if x > 0.0:
