@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 import re
+from decimal import ROUND_CEILING, ROUND_FLOOR, Decimal
 from typing import Any, Sequence
 
 MISSING = "-"  # a number that is absent or undefined (None, NaN, infinity)
@@ -48,24 +49,43 @@ def replace_block(text: str, name: str, content: str) -> str:
     return block_pattern(name).sub(lambda m: m.group(1) + content + m.group(3), text)
 
 
-def stable(value: Any, other: Any, spec: str = ".4g") -> str:
-    """``value`` to at most ``spec``'s significant digits, and to no more than it shares with ``other``,
-    the same figure after a tiny change of the initial state (``comparison.NUDGE``): only the digits
-    that reproduce. A figure whose first digit already moves is printed as '~' and that digit."""
-    if other is None or value is None or isinstance(value, (bool, int)) or type(value).__name__.startswith(("int", "uint")):
-        return number(value, spec) if value == other else f"{number(value, spec)} (or {number(other, spec)})"
-    a, b = float(value), float(other)
-    if not (math.isfinite(a) and math.isfinite(b)):
-        return number(a, spec)
+def _is_int(value: Any) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool) or type(value).__name__.startswith(("int", "uint"))
+
+
+def stable(value: Any, others: Sequence[Any], spec: str = ".4g") -> str:
+    """``value`` to at most ``spec``'s significant digits, and to no more than every one of ``others``
+    (the same figure after each perturbation of the initial state, ``comparison.PERTURBATIONS``) shares
+    with it: only the digits that reproduce. A figure whose first digit already moves is printed as
+    'chaotic: ' and the range of all of them; counts that differ as their range; a figure that some runs
+    do not have, as each distinct value."""
+    values = [value, *others]
+    if any(v is None or isinstance(v, bool) or not _is_int(v) and not math.isfinite(float(v)) for v in values):
+        distinct = list(dict.fromkeys(number(v, spec) for v in values))
+        return distinct[0] + (f" (or {', '.join(distinct[1:])})" if len(distinct) > 1 else "")
+    if all(_is_int(v) for v in values):
+        low, high = min(values), max(values)
+        return number(value) if low == high else f"{number(low)}–{number(high)}"
     digits = int(spec.strip(".g"))
     for d in range(digits, 0, -1):
-        if format(a, f".{d}g") == format(b, f".{d}g"):
-            return format(a, f".{d}g")
-    return "~" + format(a, ".1g")
+        text = format(float(value), f".{d}g")
+        if all(format(float(v), f".{d}g") == text for v in others):
+            return text
+    return f"chaotic: {_outward(float(min(values)), False)}–{_outward(float(max(values)), True)}"
 
 
-def stable_pair(values: Sequence[Any] | None, others: Sequence[Any] | None, spec: str = ".4g") -> str:
-    """Two joints' values as 'a / b', each to its reproducible digits (``stable``)."""
-    if values is None or others is None:
+def _outward(v: float, up: bool) -> str:
+    """v (as its shortest decimal) to two significant digits, rounded away from the inside of a range (up
+    for its top)."""
+    d = Decimal(repr(v))
+    if d == 0:
+        return "0"
+    q = d.quantize(Decimal(1).scaleb(d.adjusted() - 1), rounding=ROUND_CEILING if up else ROUND_FLOOR)
+    return format(float(q), ".2g")
+
+
+def stable_pair(values: Sequence[Any] | None, others: Sequence[Sequence[Any] | None], spec: str = ".4g") -> str:
+    """Two joints' values as 'a / b', each to the digits it shares with every one of ``others`` (``stable``)."""
+    if values is None:
         return pair(values, spec)
-    return f"{stable(values[0], others[0], spec)} / {stable(values[1], others[1], spec)}"
+    return " / ".join(stable(values[j], [None if o is None else o[j] for o in others], spec) for j in (0, 1))

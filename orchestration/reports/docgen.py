@@ -32,7 +32,6 @@ from orchestration.markdown import block_pattern, number, replace_block, stable,
 from orchestration.reports import fair_tables, numerics_tables, optimum_tables
 from orchestration.study.comparison import (
     COMPARED,
-    NUDGE,
     OTC_VARIANTS,
     PAPER_TABLE1,
     TABLE1_MARGIN,
@@ -40,8 +39,9 @@ from orchestration.study.comparison import (
     controller_of,
     handling_name,
     mse_sum,
-    run_pair,
+    run_perturbed,
     tuned_metrics,
+    tuned_perturbed,
     within_table1,
 )
 from orchestration.study import tuning
@@ -62,15 +62,18 @@ METRIC_HEADER = ["MSE j1 / j2", "MSE t >= 5 s", "MSE after last limit sample (t)
                  "samples over 4 N.m", "max ‖tau‖"]
 
 
-def metric_cells(m: dict[str, Any], n: dict[str, Any]) -> list[str]:
-    """Table cells of the metrics m of a run, each figure to the digits it shares with the metrics n of
-    the same run from initial angles changed by ``comparison.NUDGE`` (``run_pair``)."""
+def metric_cells(m: dict[str, Any], ns: list[dict[str, Any]]) -> list[str]:
+    """Table cells of the metrics m of a run, each figure to the digits it shares with the metrics in ns of
+    the same run under every perturbation of the initial state (``run_perturbed``)."""
+    def of(key: str) -> list[Any]:
+        return [n[key] for n in ns]
+
     last = m["last_limit_time"]
-    when = "limit never acts" if last is None else stable(last, n["last_limit_time"], ".3g") + " s"
-    after = f"{stable_pair(m['mse_after_limit'], n['mse_after_limit'], '.3g')} ({when})"
-    return [stable_pair(m["mse"], n["mse"]), stable_pair(m["mse_after_5s"], n["mse_after_5s"], ".3g"), after,
-            stable(m["tracking_cost"], n["tracking_cost"]), stable(m["samples_over_limit"], n["samples_over_limit"]),
-            stable(m["max_tau_norm"], n["max_tau_norm"])]
+    when = "limit never acts" if last is None else stable(last, of("last_limit_time"), ".3g") + " s"
+    after = f"{stable_pair(m['mse_after_limit'], of('mse_after_limit'), '.3g')} ({when})"
+    return [stable_pair(m["mse"], of("mse")), stable_pair(m["mse_after_5s"], of("mse_after_5s"), ".3g"), after,
+            stable(m["tracking_cost"], of("tracking_cost")), stable(m["samples_over_limit"], of("samples_over_limit")),
+            stable(m["max_tau_norm"], of("max_tau_norm"))]
 
 
 # --- the blocks -------------------------------------------------------------------------------------
@@ -86,7 +89,7 @@ def handlings_table() -> str:
         fmu, _ = controller_of(scenario)
         for code in codes:
             rows.append([LABELS[fmu], f"`{scenario}`", handling_name(scenario, limit_handling=code),
-                         *metric_cells(*run_pair(scenario, limit_handling=code))])
+                         *metric_cells(*run_perturbed(scenario, limit_handling=code))])
     return table(["controller", "scenario", "limit handling", *METRIC_HEADER], rows)
 
 
@@ -94,7 +97,7 @@ def reading_cells(scenario: str, **overrides: float) -> list[str]:
     """``metric_cells`` of an SOTC reading, or, for a chaotic one (Table 1's metric moves by more than
     ``CHAOS_THRESHOLD`` when the PE amplitude moves by ``PE_NUDGE`` or the RK4 substeps double), what is
     reproducible about it: the lower bound of its MSE and the sensitivity."""
-    cells = metric_cells(*run_pair(scenario, **overrides))
+    cells = metric_cells(*run_perturbed(scenario, **overrides))
     chaos = chaos_text(scenario, **overrides)
     if chaos is not None:
         cells[:4] = [chaos, "-", "-", "-"]
@@ -132,14 +135,14 @@ def results_rows() -> tuple[list[str], list[list[str]]]:
         label = "SOTC, chosen reading" if sotc else f"{LABELS[fmu]} (scenario defaults)"
         for code in codes:
             cells = reading_cells(scenario, limit_handling=code) if sotc else metric_cells(
-                *run_pair(scenario, limit_handling=code))
+                *run_perturbed(scenario, limit_handling=code))
             rows.append([label, f"`{scenario}`", handling_name(scenario, limit_handling=code), *cells])
     for fmu in CONTROLLERS:
         for code in (2, 0):
             design, m = tuned_metrics(fmu, code)
             rows.append([f"{LABELS[fmu]}, tuned (seed {tuning.stored()['seeds'][0]}: {fair_tables.design_text(design)})",
                          f"`{NOMINAL_SCENARIO[fmu]}`",
-                         LIMIT_HANDLINGS[code], *metric_cells(m, tuned_metrics(fmu, code, nudge=NUDGE)[1])])
+                         LIMIT_HANDLINGS[code], *metric_cells(m, tuned_perturbed(fmu, code))])
     return ["controller / reading", "scenario", "limit handling", *METRIC_HEADER], rows
 
 
@@ -152,12 +155,12 @@ def _reading_label(scenario: str, overrides: dict[str, float]) -> str:
     return f"`{scenario}` ({h}{_ADDED.get(h, '')}{learning})"
 
 
-def mse(m: dict[str, Any], n: dict[str, Any]) -> str:
-    return stable_pair(m["mse"], n["mse"])
+def mse(m: dict[str, Any], ns: list[dict[str, Any]]) -> str:
+    return stable_pair(m["mse"], [n["mse"] for n in ns])
 
 
-def cost(m: dict[str, Any], n: dict[str, Any]) -> str:
-    return stable(m["tracking_cost"], n["tracking_cost"])
+def cost(m: dict[str, Any], ns: list[dict[str, Any]]) -> str:
+    return stable(m["tracking_cost"], [n["tracking_cost"] for n in ns])
 
 
 def results_verdict() -> str:
@@ -168,7 +171,7 @@ def results_verdict() -> str:
     sotc_codes = next(codes for scenario, codes in COMPARED if scenario == "paper")
     candidates = [(s, {}) for s in LITERAL_SCENARIOS] + [("paper", {"limit_handling": c}) for c in sotc_codes]
     candidates.append(("paper", dict(NO_LEARNING)))
-    measured = [(s, o, *run_pair(s, **o)) for s, o in candidates]
+    measured = [(s, o, *run_perturbed(s, **o)) for s, o in candidates]
 
     def text(s, o, m, n):
         chaos = chaos_text(s, **o)
@@ -178,8 +181,8 @@ def results_verdict() -> str:
 
     reach = [text(s, o, m, n) for s, o, m, n in measured if within_table1(m["mse"])]
     miss = [text(s, o, m, n) for s, o, m, n in measured if not within_table1(m["mse"])]
-    chosen, chosen_n = run_pair("paper")
-    learned_off, off_n = run_pair("paper", **NO_LEARNING)
+    chosen, chosen_n = run_perturbed("paper")
+    learned_off, off_n = run_perturbed("paper", **NO_LEARNING)
     lines = [
         f"Within {100 * (TABLE1_MARGIN - 1):.0f} % of Table 1's {paper[0]} / {paper[1]}: {'; '.join(reach) or 'none'}. "
         f"Not within: {'; '.join(miss) or 'none'}.",
@@ -194,7 +197,7 @@ def results_verdict() -> str:
     lines.append("On the paper's nominal `paper` loop (100 s, not in the tuning's training set; accel for every "
                  "controller, each at the best design of the first tuning seed), Table 1's metric ranks them: " + "; ".join(
                      f"{LABELS[fmu]} {mse(m, n)} (cost {cost(m, n)})" for fmu, _, m in tuned
-                     for n in [tuned_metrics(fmu, 2, nudge=NUDGE)[1]])
+                     for n in [tuned_perturbed(fmu, 2)])
                  + ". Judged on points the tuning never saw, across the tuning seeds, see the paired statistics below.")
     return "\n".join(f"- {line}" for line in lines)
 
@@ -211,21 +214,21 @@ def nominal_tuned_table() -> str:
                 variants += [(f"{d}, learning off", {**ov, **NO_LEARNING}) for d, ov in variants]
             for what, overrides in variants:
                 rows.append([LIMIT_HANDLINGS[code], LABELS[fmu], what,
-                             *metric_cells(*run_pair(scenario, limit_handling=code, **overrides))])
+                             *metric_cells(*run_perturbed(scenario, limit_handling=code, **overrides))])
     return table(["limit handling", "controller", "design", *METRIC_HEADER], rows)
 
 
 def settings_table() -> str:
     from orchestration.study.sotc_study import sotc_settings
 
-    rows = [[f"`{s}`", handling_name(s), *metric_cells(*run_pair(s))] for s in sotc_settings()]
+    rows = [[f"`{s}`", handling_name(s), *metric_cells(*run_perturbed(s))] for s in sotc_settings()]
     return table(["setting", "limit handling", *METRIC_HEADER], rows)
 
 
 def readings_table() -> str:
     from orchestration.study.sotc_study import READINGS
 
-    rows = [[label, _params_text("paper", ov), *metric_cells(*run_pair("paper", **ov))] for label, ov in READINGS]
+    rows = [[label, _params_text("paper", ov), *metric_cells(*run_perturbed("paper", **ov))] for label, ov in READINGS]
     return table(["reading", "parameters", *METRIC_HEADER], rows)
 
 
@@ -261,7 +264,7 @@ def learned_w_table() -> str:
 
 
 def otc_table() -> str:
-    rows = [[label, *metric_cells(*run_pair("paper-otc", **ov))] for label, ov in OTC_VARIANTS]
+    rows = [[label, *metric_cells(*run_perturbed("paper-otc", **ov))] for label, ov in OTC_VARIANTS]
     return table(["OTC variant", *METRIC_HEADER], rows)
 
 
@@ -318,7 +321,7 @@ def controllers_verdict() -> str:
 class Block:
     file: str
     make: Callable[[], str]
-    slow: bool  # needs more than a few dozen 100 s runs
+    slow: bool  # needs more than a few dozen 100 s runs (every figure of run_perturbed costs nine)
 
 
 def integrator_table() -> str:
@@ -333,10 +336,10 @@ def integrator_table() -> str:
 
 BLOCKS: dict[str, Block] = {
     "integrator": Block("docs/integration.md", integrator_table, False),
-    "results": Block("docs/results.md", results_table, False),
-    "results-summary": Block("README.md", results_summary, False),
-    "results-verdict": Block("docs/results.md", results_verdict, False),
-    "handlings": Block("docs/baselines.md", handlings_table, False),
+    "results": Block("docs/results.md", results_table, True),
+    "results-summary": Block("README.md", results_summary, True),
+    "results-verdict": Block("docs/results.md", results_verdict, True),
+    "handlings": Block("docs/baselines.md", handlings_table, True),
     "tuning": Block("docs/baselines.md", fair_tables.tuning_table, False),
     "tuning-summary": Block("docs/baselines.md", fair_tables.tuning_summary, False),
     "nominal-tuned": Block("docs/baselines.md", nominal_tuned_table, True),
@@ -350,7 +353,7 @@ BLOCKS: dict[str, Block] = {
     "optimum-b": Block("docs/optimum.md",
                        lambda: optimum_tables.report(optimum_tables.stored(ROOT, optimum_tables.STORE_B)), False),
     "otc-variants": Block("docs/baselines.md", otc_table, True),
-    "settings": Block("docs/paper-notes.md", settings_table, False),
+    "settings": Block("docs/paper-notes.md", settings_table, True),
     "readings": Block("docs/paper-notes.md", readings_table, True),
     "value": Block("docs/paper-notes.md", value_table, True),
     "learned-w": Block("docs/paper-notes.md", learned_w_table, True),

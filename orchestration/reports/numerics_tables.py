@@ -5,7 +5,7 @@ from __future__ import annotations
 from fmu_controller.saturation import ACCEL, LIMIT_HANDLINGS, RADIAL
 from fmu_controller.sotc_stack import SELECTIONS
 from orchestration.markdown import stable, stable_pair, table
-from orchestration.study.comparison import handling_code, run_pair
+from orchestration.study.comparison import handling_code, run_perturbed
 from orchestration.study.sotc_study import run, setting_params, sotc_settings
 from orchestration.study.tuning import tuned_parameters
 
@@ -19,10 +19,10 @@ def cl_rule_table() -> str:
     for code in (ACCEL, RADIAL):
         for rule in RULES:
             overrides = {"limit_handling": float(code), "cl_selection": float(SELECTIONS.index(rule))}
-            m, n = run_pair("paper", **overrides)
+            m, ns = run_perturbed("paper", **overrides)
             ctrl, _ = run("paper", **overrides)
-            rows.append([LIMIT_HANDLINGS[code], f"`{rule}`", stable_pair(m["mse"], n["mse"]),
-                         stable(m["tracking_cost"], n["tracking_cost"]), str(ctrl.stack.swaps),
+            rows.append([LIMIT_HANDLINGS[code], f"`{rule}`", stable_pair(m["mse"], [n["mse"] for n in ns]),
+                         stable(m["tracking_cost"], [n["tracking_cost"] for n in ns]), str(ctrl.stack.swaps),
                          f"{ctrl.stack.min_eig_at(list(ctrl.W)):.2g}"])
     return table(["limit handling", "cl_selection", "MSE j1 / j2", "realised cost", "swaps in 100 s",
                   "lambda_min(M) at 100 s"], rows)

@@ -59,30 +59,43 @@ def controller_of(scenario: str, **overrides: float) -> tuple[str, dict[str, flo
     return inst.fmu, {**inst.parameters, **overrides}
 
 
-NUDGE = 1e-12  # relative change of the initial angles that decides how many digits of a figure are printed
+# the changes of the initial state a printed figure is judged over (issue 33): (relative change of phi1_0,
+# of phi2_0, initial dphi1 and dphi2 in rad/s); a table prints only the digits the nominal run shares with
+# every one of them (``orchestration.markdown.stable``)
+NOMINAL = (0.0, 0.0, 0.0, 0.0)
+PERTURBATIONS: tuple[tuple[float, float, float, float], ...] = (
+    (1e-12, 1e-12, 0.0, 0.0), (-1e-12, -1e-12, 0.0, 0.0),
+    (1e-10, 1e-10, 0.0, 0.0), (-1e-10, -1e-10, 0.0, 0.0),
+    (1e-14, 1e-14, 0.0, 0.0),
+    (1e-12, 0.0, 0.0, 0.0), (0.0, 1e-12, 0.0, 0.0),  # one angle alone
+    (0.0, 0.0, 1e-12, -1e-12),  # the velocities
+)
 
 
 @functools.lru_cache(maxsize=None)
 def _cached(fmu: str, params: tuple[tuple[str, float], ...], stop_time: float, substeps: int,
-            nudge: float = 0.0) -> dict[str, Any]:
+            perturbation: tuple[float, float, float, float] = NOMINAL) -> dict[str, Any]:
     p = dict(params)
     limit = float(p.get("rho", TORQUE_LIMIT))
-    phi0 = (INITIAL_ANGLES[0] * (1.0 + nudge), INITIAL_ANGLES[1] * (1.0 + nudge))
-    return loop_metrics(simulate(CORES[fmu](**p), stop_time=stop_time, substeps=substeps, phi0=phi0), limit)
+    phi0 = (INITIAL_ANGLES[0] * (1.0 + perturbation[0]), INITIAL_ANGLES[1] * (1.0 + perturbation[1]))
+    return loop_metrics(simulate(CORES[fmu](**p), stop_time=stop_time, substeps=substeps, phi0=phi0,
+                                 dphi0=perturbation[2:]), limit)
 
 
-def run_metrics(scenario: str, stop_time: float = 100.0, substeps: int = SUBSTEPS, nudge: float = 0.0,
-                **overrides: float) -> dict[str, Any]:
-    """Metrics of a scenario's controller (with overrides) in the pure loop, its initial angles scaled by
-    1 + nudge; cached per process."""
+def run_metrics(scenario: str, stop_time: float = 100.0, substeps: int = SUBSTEPS,
+                perturbation: tuple[float, float, float, float] = NOMINAL, **overrides: float) -> dict[str, Any]:
+    """Metrics of a scenario's controller (with overrides) in the pure loop, its initial state changed by
+    ``perturbation`` (one of ``PERTURBATIONS``); cached per process."""
     fmu, params = controller_of(scenario, **overrides)
-    return _cached(fmu, tuple(sorted(params.items())), stop_time, substeps, nudge)
+    return _cached(fmu, tuple(sorted(params.items())), stop_time, substeps, perturbation)
 
 
-def run_pair(scenario: str, stop_time: float = 100.0, **overrides: float) -> tuple[dict[str, Any], dict[str, Any]]:
-    """``run_metrics`` as it is and with the initial angles changed by ``NUDGE`` (relative): a table prints
-    each figure only to the digits the two share (``orchestration.markdown.stable``)."""
-    return run_metrics(scenario, stop_time, **overrides), run_metrics(scenario, stop_time, nudge=NUDGE, **overrides)
+def run_perturbed(scenario: str, stop_time: float = 100.0,
+                  **overrides: float) -> tuple[dict[str, Any], list[dict[str, Any]]]:
+    """``run_metrics`` as it is, and under every one of ``PERTURBATIONS``: a table prints each figure only
+    to the digits all of them share (``orchestration.markdown.stable``)."""
+    return run_metrics(scenario, stop_time, **overrides), [
+        run_metrics(scenario, stop_time, perturbation=p, **overrides) for p in PERTURBATIONS]
 
 
 # Table 1 of the paper (MSE, eq. (50)); no other metric is reported there.
@@ -142,9 +155,14 @@ def mse_sum(m: dict[str, Any]) -> float:
 
 
 def tuned_metrics(fmu: str, handling: int, stop_time: float = 100.0,
-                  nudge: float = 0.0) -> tuple[dict[str, float], dict[str, Any]]:
+                  perturbation: tuple[float, float, float, float] = NOMINAL) -> tuple[dict[str, float], dict[str, Any]]:
     """(design point, metrics of the nominal `paper` loop) of ``fmu`` tuned under a handling by the
     protocol of ``orchestration.study.tuning`` (its stored result)."""
     design = best_design(fmu, handling)
-    return design, run_metrics(NOMINAL_SCENARIO[fmu], stop_time, nudge=nudge, limit_handling=handling,
-                               **tuned_parameters(fmu, handling))
+    return design, run_metrics(NOMINAL_SCENARIO[fmu], stop_time, perturbation=perturbation,
+                               limit_handling=handling, **tuned_parameters(fmu, handling))
+
+
+def tuned_perturbed(fmu: str, handling: int, stop_time: float = 100.0) -> list[dict[str, Any]]:
+    """``tuned_metrics``' metrics under every one of ``PERTURBATIONS``."""
+    return [tuned_metrics(fmu, handling, stop_time, p)[1] for p in PERTURBATIONS]

@@ -1,0 +1,79 @@
+# Declarations for the compiled cores (orchestration/fmu_build/compiled.py): C types for elementary.py, which
+# stays the one source of the algorithms and runs as it is wherever the cores are not compiled.
+cimport cython
+
+cdef double INF, NAN, SHIFT, TINY, P2_M1000, P2_M900, P2_M600, P2_M500, P2_M200, P2_M54, P2_60, P2_200, P2_500
+cdef double P2_600, P2_900, SPLIT, SQRT2, SQRT_HALF, LN2_HI, LN2_LO, INV_LN2, PIO2_1, PIO2_2, PIO2_3, INV_PIO2
+cdef double PI_HI, PI_LO, HALF_PI_HI, HALF_PI_LO, QUARTER_PI_HI, QUARTER_PI_LO, ATAN_HALF_HI, ATAN_HALF_LO
+cdef double EXP_OVER, EXP_UNDER, SINH_OVER, TANH_POLY_MAX, SINH_POLY_MAX, COSH_HALF_MAX, MEDIUM
+# C arrays (the .py's tuples, of these lengths)
+cdef double EXP_POLY[12]
+cdef double LOG_POLY[9]
+cdef double TANH_POLY[12]
+cdef double SINH_POLY[8]
+cdef double SIN_POLY[7]
+cdef double COS_POLY[7]
+cdef double ATAN_POLY[13]
+cdef double POW2_E[10]
+cdef double POW2_UP[10]
+cdef double POW2_DOWN[10]
+
+@cython.locals(acc=double, i=int)
+cdef double _horner(double x, const double* coeffs, int n)
+cdef double _nearest(double v)
+@cython.locals(a=double, p=double, i=int)
+cdef double _pow2(double k)
+cdef double _scale(double y, double k)
+@cython.locals(i=int)
+cdef (double, double) _normalize(double u)
+@cython.locals(p=double, t=double, ah=double, al=double, bh=double, bl=double)
+cdef (double, double) _two_prod(double a, double b)
+@cython.locals(k=double, r=double, one_r=double, tail=double, hi=double)
+cdef (double, double, double) _exp_parts(double x)
+@cython.locals(k=double, hi=double, lo=double)
+cpdef double exp(double x)
+@cython.locals(s=double, z=double, hfsq=double)
+cdef double _log_reduced(double k, double f, double c)
+@cython.locals(k=double, m=double)
+cpdef double log(double x)
+cpdef double log1p(double x)
+@cython.locals(u=double, err=double, k=double, m=double)
+cdef double _log1p_parts(double x, double xl)
+@cython.locals(a=double, z=double, zl=double, p=double, pl=double, t=double, k=double, hi=double, lo=double,
+               scale=double, d=double, dl=double, q=double, ql=double)
+cpdef double tanh(double x)
+@cython.locals(k=double, hi=double, lo=double, inv=double)
+cdef double _exp_pair(double a, double sign)
+@cython.locals(a=double, z=double, h=double)
+cpdef double sinh(double x)
+@cython.locals(a=double, h=double)
+cpdef double cosh(double x)
+@cython.locals(a=double, d=double, dl=double, y=double, p=double, pl=double, r=double)
+cpdef double atanh(double x)
+@cython.locals(z=double)
+cdef double _sin_kernel(double hi, double lo)
+@cython.locals(z=double, hz=double, w=double)
+cdef double _cos_kernel(double hi, double lo)
+@cython.locals(k=double, a=double, b=double, r=double, bv=double, err=double, tail=double, hi=double, q=double,
+               n=double)
+cdef (double, double, double) _reduce(double x)
+@cython.locals(a=double, n=double, hi=double, lo=double, v=double)
+cpdef double sin(double x)
+@cython.locals(a=double, n=double, hi=double, lo=double, v=double)
+cpdef double cos(double x)
+@cython.locals(b=double, s=double, bv=double, err=double)
+cdef double _two_sum_plus(double a_hi, double a_lo, double sign, double b_hi, double b_lo)
+@cython.locals(num=double, den=double, den_lo=double, c_hi=double, c_lo=double, r=double, p=double, pl=double,
+               rl=double, z=double)
+cdef (double, double) _atan_ratio(double n, double d, double extra)
+@cython.locals(neg_x=bint, t=double)
+cdef double _atan2_special(double y, double x)
+@cython.locals(t=double)
+cpdef double atan2(double y, double x)
+@cython.locals(d=double, swap=bint, sign=double, c_hi=double, rest=double, scale=double)
+cdef double _angle(double n, double x, double extra)
+@cython.locals(a=double, al=double, b=double, bl=double, p=double, pl=double, y=double, sq=double, sql=double)
+cpdef double acos(double x)
+@cython.locals(a=double, b=double, scale=double, p=double, pl=double, q=double, ql=double, t=double, tl=double,
+               h=double, sq=double, sql=double)
+cpdef double hypot(double x, double y)

@@ -1,0 +1,74 @@
+"""The digit rule of the generated tables (orchestration.markdown.stable, stable_pair): a figure is printed
+only to the digits it shares with every perturbed run; a figure whose first digit moves is printed as
+chaotic with the range of all runs (issue 33). Constructed values only."""
+from __future__ import annotations
+
+import math
+
+import pytest
+from hypothesis import given, strategies as st
+
+from orchestration.markdown import stable, stable_pair
+from orchestration.study.comparison import PERTURBATIONS
+
+
+def test_all_digits_when_every_run_agrees():
+    assert stable(0.0123456, [0.0123456] * 8) == "0.01235"
+    assert stable(0.0123456, [0.0123456] * 8, ".3g") == "0.0123"
+
+
+def test_only_the_digits_every_run_shares():
+    # one run of eight differs in the third digit: two digits are printed, not the three the others share
+    others = [0.012345] * 7 + [0.01241]
+    assert stable(0.012345, others) == "0.012"
+    assert stable(0.012345, others[:7]) == format(0.012345, ".4g")
+
+
+def test_a_moving_first_digit_is_chaotic_with_the_range_of_all_runs():
+    text = stable(0.02, [0.0075, 0.125, 0.03, 0.02, 0.02, 0.02, 0.02, 0.02])
+    assert text == "chaotic: 0.0075–0.13"  # the range rounded outwards, the nominal 0.02 inside it
+
+
+def test_the_range_includes_the_nominal_run():
+    assert stable(0.9, [0.1] * 8) == "chaotic: 0.1–0.9"
+    assert stable(0.05, [0.5, 0.2]) == "chaotic: 0.05–0.5"
+
+
+def test_counts_and_missing_figures():
+    assert stable(12, [12] * 8) == "12"
+    assert stable(12, [12, 13, 11]) == "11–13"
+    assert stable(None, [None] * 8) == "-"
+    assert stable(None, [None, 3.5]) == "- (or 3.5)"
+    assert stable(2.5, [2.5, None, float("nan")]) == "2.5 (or -)"
+
+
+def test_pairs_are_judged_joint_by_joint():
+    others = [(0.0027, 0.0084)] * 7 + [(0.0026, 0.0084)]
+    assert stable_pair((0.0027, 0.0084), others) == "0.003 / 0.0084"
+    assert stable_pair((0.0027, 0.0084), [None] + [(0.0027, 0.0084)] * 7) == "0.0027 (or -) / 0.0084 (or -)"
+    assert stable_pair(None, others) == "-"
+
+
+@given(st.floats(1e-6, 1e6), st.lists(st.floats(-0.4, 0.4), min_size=1, max_size=8))
+def test_printed_digits_are_shared_by_every_run(value, changes):
+    others = [value * (1.0 + c) for c in changes]
+    text = stable(value, others)
+    if text.startswith("chaotic: "):
+        low, high = (float(t) for t in text.removeprefix("chaotic: ").split("–"))
+        assert low <= min(value, *others) and max(value, *others) <= high
+        assert any(format(o, ".1g") != format(value, ".1g") for o in others)
+    else:
+        digits = len(text.replace("-", "").replace(".", "").split("e")[0].lstrip("0")) or 1
+        assert all(format(o, f".{digits}g") == format(value, f".{digits}g") for o in others)
+        assert math.isclose(float(text), value, rel_tol=10.0 ** (1 - digits))
+
+
+def test_the_perturbation_set():
+    """At least 8 perturbations: the initial angles by +-1e-12 and +-1e-10 and 1e-14 (relative), one angle
+    alone, and the velocities; none is the nominal run and none repeats."""
+    assert len(PERTURBATIONS) >= 8 and len(set(PERTURBATIONS)) == len(PERTURBATIONS)
+    angles = {p[0] for p in PERTURBATIONS if p[0] == p[1]}
+    assert {1e-12, -1e-12, 1e-10, -1e-10, 1e-14} <= angles
+    assert any(p[0] != 0.0 and p[1] == 0.0 for p in PERTURBATIONS)
+    assert any(p[2] != 0.0 or p[3] != 0.0 for p in PERTURBATIONS)
+    assert (0.0, 0.0, 0.0, 0.0) not in PERTURBATIONS
