@@ -2,9 +2,12 @@
 # stays the one source of the loops and runs as it is wherever the cores are not compiled. Every vector and
 # flat matrix is a contiguous float64 buffer (array('d')), a C array here.
 cimport cython
+from libc cimport math
 
 @cython.locals(acc=double, k=int)
 cpdef double dot(double[::1] a, double[::1] b, int n)
+@cython.locals(acc=double, k=int)
+cpdef double dot_sequence(object a, object b)
 @cython.locals(acc=double, k=int)
 cpdef double trace(double[::1] A, int n)
 @cython.locals(acc=double, djj=double, i=int, j=int, k=int)
