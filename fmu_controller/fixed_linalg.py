@@ -1,12 +1,19 @@
 """Fixed-order linear algebra for the small symmetric problems of the SOTC critic (n = 10).
 
 Every sum here runs in one written order over flat float64 buffers (``array('d')``; matrices row-major,
-n * n),
-so a result does not depend on the CPU: no BLAS or LAPACK kernel, no SIMD reduction of numpy, whose
-blocking and instruction choice change the last bits from one processor to the next (issue N,
-``docs/paper-notes.md``). The ``.pxd`` beside this file types the buffers as C arrays (memoryviews) and
-compiles the same loops to C (``-ffp-contract=off``), so the compiled and the Python cores give the same
-bits. ``buffer(n)`` makes one.
+n * n), so a result does not depend on the CPU: no BLAS or LAPACK kernel, no SIMD reduction of numpy, whose
+blocking and instruction choice change the last bits from one processor to the next (where that changed
+which CL row the SOTC swapped: ``docs/paper-notes.md``; the bits are pinned by
+``tests/orchestration/test_cpu_independence.py``). The ``.pxd`` beside this file types the buffers as C
+arrays (memoryviews) and compiles the same loops to C (``-ffp-contract=off``), so the compiled and the
+Python cores give the same bits. ``buffer(n)`` makes one, ``as_buffer`` turns a list into one.
+
+This is the one home of the controllers' numerical kernels: dot products, Cholesky factorisation and
+solves, the symmetric eigenvalue bisection. (The Riccati solver's Gaussian elimination on nested lists
+stays in ``riccati``: it runs once per construction, on 16 x 16 Kronecker systems, with partial
+pivoting the kernels here do not need; ``orchestration/run/metrics.py`` sums with numpy and
+``math.fsum``, outside the FMUs. The z_v solver's bisections are in ``sotc_zv``: they bisect on a
+nonlinear scalar function, not a matrix.)
 
 - ``cholesky`` / ``cholesky_solve``: the weight update (I + dt alpha1 Gamma) W+ = rhs of (30)/(31)
   (symmetric positive definite) and the positive-definiteness test of the CL stack's swap rule;

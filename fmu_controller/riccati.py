@@ -13,9 +13,13 @@ LAPACK eigen-solver rounds differently per BLAS kernel, and the OTC's initial we
 """
 from __future__ import annotations
 
+import math
+from array import array
 from typing import Sequence
 
 import numpy as np
+
+from fmu_controller.fixed_linalg import buffer, cholesky
 
 MAX_STEPS = 60
 CONVERGED = 1e-12  # relative change of P between the last two iterates that still counts as converged
@@ -88,22 +92,11 @@ def lyapunov(a: Matrix, c: Matrix) -> Matrix:
 
 
 def _positive_definite(p: Matrix) -> bool:
-    """Cholesky succeeds (every pivot positive and finite)."""
+    """Cholesky succeeds (``fixed_linalg.cholesky``: every pivot positive) with finite pivots."""
     n = len(p)
-    low = [[0.0] * n for _ in range(n)]
-    for j in range(n):
-        acc = p[j][j]
-        for k in range(j):
-            acc -= low[j][k] * low[j][k]
-        if not (acc > 0.0 and acc < float("inf")):
-            return False
-        low[j][j] = acc ** 0.5
-        for i in range(j + 1, n):
-            acc = p[i][j]
-            for k in range(j):
-                acc -= low[i][k] * low[j][k]
-            low[i][j] = acc / low[j][j]
-    return True
+    low = buffer(n * n)
+    return cholesky(array("d", [v for row in p for v in row]), n, low) and all(
+        math.isfinite(low[j * n + j]) for j in range(n))
 
 
 def solve_care(a, b, q, r, k0) -> np.ndarray:
