@@ -84,10 +84,10 @@ def cholesky(A: array, n: int, L: array) -> bool:
     return True
 
 
-def forward_substitute(L: array, b: array, n: int, y: array) -> None:
-    """y with L y = b (L lower triangular, from ``cholesky``)."""
+def forward_substitute(L: array, b: array, n: int, y: array, o: int = 0) -> None:
+    """y with L y = b[o:o + n] (L lower triangular, from ``cholesky``)."""
     for i in range(n):
-        acc = b[i]
+        acc = b[o + i]
         for k in range(i):
             acc -= L[i * n + k] * y[k]
         y[i] = acc / L[i * n + i]

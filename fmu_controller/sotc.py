@@ -283,8 +283,8 @@ class SotcCore(ControllerCore):
 
     def evaluate(self, t: float, y: Sequence[float], r: Sequence[float]) -> None:
         """Steps 1-4 of the module docstring at time t: the outputs, and what ``advance`` needs."""
-        phi1, phi2, dphi1, dphi2 = (float(v) for v in y[:4])
-        ref = tuple(float(v) for v in r[:6])
+        phi1, phi2, dphi1, dphi2 = float(y[0]), float(y[1]), float(y[2]), float(y[3])
+        ref = (float(r[0]), float(r[1]), float(r[2]), float(r[3]), float(r[4]), float(r[5]))
         W, s = self.W, self.s
         hess = value_hessian(W)  # d^2 J_hat / dz^2: constant in z (quadratic basis)
         zp1, zp2, dzp1, dzp2, zv1, zv2, zv_res, ca1, ca2, chi_a_bounded = self._error(

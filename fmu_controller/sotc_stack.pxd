@@ -14,6 +14,8 @@ cpdef void cl_rate(double[::1] M, double[::1] b, double[::1] W, double[::1] out)
                x1=double, x2=double, x3=double, x4=double)
 cpdef void replay_current(CriticConstants K, int n, double[::1] W, double[::1] z, double[::1] dinv, double[::1] fe,
                           double[::1] E, double[::1] rew)
+@cython.locals(N=int, count=int, j=int, k=int, yy=double, within=bint)
+cpdef int rows_within(double[::1] L, double[::1] E, double[::1] sc, int P, double[::1] y, double[::1] inside)
 @cython.locals(N=int, o=int, a=int, c=int, xa=double, ya=double)
 cpdef void trial_matrix(double[::1] M, double sc_j, double[::1] E, int j, double c_sc, double[::1] eta,
                         double[::1] out)

@@ -97,6 +97,22 @@ def replay_current(K: CriticConstants, n: int, W: array, z: array, dinv: array, 
                             E, i * N_BASIS)[4]
 
 
+def rows_within(L: array, E: array, sc: array, P: int, y: array, inside: array) -> int:
+    """inside[j] = 1 for each row j of E with sc_j |L^-1 eta_j|^2 < 1, else 0 (y is scratch); how many.
+    These are the swaps that can pass ``CLStack._swap_full``'s threshold."""
+    N = N_BASIS
+    count = 0
+    for j in range(P):
+        forward_substitute(L, E, N, y, j * N)
+        yy = 0.0
+        for k in range(N):
+            yy += y[k] * y[k]
+        within = sc[j] * yy < 1.0
+        inside[j] = 1.0 if within else 0.0
+        count += within
+    return count
+
+
 def trial_matrix(M: array, sc_j: float, E: array, j: int, c_sc: float, eta: array, out: array) -> None:
     """out = M - sc_j eta_j eta_j^T + c_sc eta eta^T: the CL matrix with row j swapped for eta."""
     N = N_BASIS
@@ -123,6 +139,7 @@ class CLStack:
         self._W, self._rate, self._c = buffer(N), buffer(N), buffer(N)
         self._d, self._e, self._v, self._p, self._y = buffer(N), buffer(N), buffer(N), buffer(N), buffer(N)
         self._work, self._A, self._L = buffer(N * N), buffer(N * N), buffer(N * N)
+        self._inside = buffer(P)
         self.clear()
 
     # --- contents --------------------------------------------------------------------------------
@@ -270,15 +287,11 @@ class CLStack:
         trial_matrix(self.M, 0.0, self.E, 0, c_sc, c, B)  # M + c c^T (row 0 taken with weight 0)
         for a in range(N):
             B[a * N + a] -= thr
-        if not cholesky(B, N, L):
+        if not cholesky(B, N, L) or not rows_within(L, self.E, self.sc, self.P, y, self._inside):
             return -1
         found = []
         for j in range(self.P):
-            forward_substitute(L, self.E[j * N:(j + 1) * N], N, y)
-            yy = 0.0
-            for k in range(N):
-                yy += y[k] * y[k]
-            if self.sc[j] * yy < 1.0:
+            if self._inside[j]:
                 trial_matrix(self.M, self.sc[j], self.E, j, c_sc, c, B)
                 found.append((j, N, self._smallest(B)))
         return self._oldest_best(found, tol)
