@@ -58,6 +58,18 @@ def dot_sequence(a: Sequence[float], b: Sequence[float]) -> float:
     return acc
 
 
+def scale_into(out: array, a: float, x: array, n: int) -> None:
+    """out_k = x_k a for the first n entries."""
+    for k in range(n):
+        out[k] = x[k] * a
+
+
+def add_scaled(out: array, a: float, x: array, n: int) -> None:
+    """out_k += a x_k for the first n entries."""
+    for k in range(n):
+        out[k] += a * x[k]
+
+
 def trace(A: array, n: int) -> float:
     acc = 0.0
     for k in range(n):

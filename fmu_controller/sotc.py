@@ -25,6 +25,7 @@ from __future__ import annotations
 import math
 import operator
 from array import array
+from math import fsum, hypot, nan  # Python's own (math.f is C's libm f in the compiled core; C's hypot rounds differently)
 from typing import Any, ClassVar, Sequence
 
 from fmi_slave.parameters import ParameterError, ParameterSpec, nonnegative, positive
@@ -39,7 +40,7 @@ from fmu_controller.saturation import (
     limit_without_metric,
     saturate_norm,
 )
-from fmu_controller.fixed_linalg import buffer, cholesky, cholesky_solve, dot
+from fmu_controller.fixed_linalg import add_scaled, buffer, cholesky, cholesky_solve, dot, scale_into
 from fmu_controller.sotc_math import (N_BASIS, CriticConstants, basis, critic_row, directional_into, gradient,
                                       implicit_system, normalisation, policy_arguments, probing_signal, value_hessian)
 from fmu_controller.sotc_stack import REPLAYS as CL_REPLAYS
@@ -319,12 +320,12 @@ class SotcCore(ControllerCore):
             "dinv": dinv, "fe": fe, "cl": cl, "chi": (ca1 + cs1, ca2 + cs2),
         }
         self._last_inputs = {"t": float(t), "y": [phi1, phi2, dphi1, dphi2], "r": list(ref)}
-        J = math.fsum(map(operator.mul, W, basis(z)))
+        J = fsum(map(operator.mul, W, basis(z)))
         self.outputs = [
             tau1, tau2, ts1, ts2, ta1, ta2, cs1, cs2, ca1, ca2, zp1, zp2, zv1, zv2, *W,
             J, e1, omega, rew, 31.0 if law31 else 30.0, float(self.stack.count), self.stack.min_eig,
             1.0 if pe_active else 0.0, pe, float(tau_a_bounded), float(chi_a_bounded), float(tau_limited),
-            math.hypot(tau1, tau2), tr1, tr2, dchi1, dchi2, math.sqrt(dot(wdot, wdot, N_BASIS)), zv_res,
+            hypot(tau1, tau2), tr1, tr2, dchi1, dchi2, math.sqrt(dot(wdot, wdot, N_BASIS)), zv_res,
         ]
 
     def _error(self, phi1: float, phi2: float, dphi1: float, dphi2: float, ref: tuple[float, ...],
@@ -371,24 +372,18 @@ class SotcCore(ControllerCore):
         e1 = dot(W, eta, N) + rew
         # eqs. (30)/(31): dW/dt = -alpha1 xi e1 - alpha1 sum_i xi_i (eta_i^T W + r_i) [+ alpha2/2 grad(zeta) G z],
         # xi = eta / (eta^T eta + 1)^2; the CL sum is M W + b (sotc_stack)
-        sc = 1.0 / normalisation(dot(eta, eta, N))
-        g = -self.alpha1 * e1
-        for k in range(N):
-            xi[k] = eta[k] * sc
-            wdot[k] = xi[k] * g
+        scale_into(xi, 1.0 / normalisation(dot(eta, eta, N)), eta, N)
+        scale_into(wdot, -self.alpha1 * e1, xi, N)
         cl = self.cl_enabled and self.stack.count > 0 and t >= self.cl_start_time
         if cl:
-            rate = self.stack.terms(W)  # M W + b
-            for k in range(N):
-                wdot[k] -= self.alpha1 * rate[k]
+            add_scaled(wdot, -self.alpha1, self.stack.terms(W), N)  # - alpha1 (M W + b)
         law31 = zp1 * zd1 + zp2 * zd2 + zv1 * zd3 + zv2 * zd4 >= 0.0  # z^T zdot >= 0: eq. (31)
         if law31:  # + alpha2/2 grad(zeta) G z with G = g R^-1 g^T = diag(R_phi^-1, D^-1 R_v^-1 D^-1)
             u1, u2 = (i11 * zv1 + i12 * zv2) / K.r3, (i12 * zv1 + i22 * zv2) / K.r4
             gz = self._gz
             directional_into(gz, 0, zp1, zp2, zv1, zv2, zp1 / K.r1, zp2 / K.r2, i11 * u1 + i12 * u2,
                              i12 * u1 + i22 * u2)
-            for k in range(N):
-                wdot[k] += (0.5 * self.alpha2) * gz[k]
+            add_scaled(wdot, 0.5 * self.alpha2, gz, N)
         return (zd1, zd2, zd3, zd4), rew, omega, e1, cl, law31
 
     def _chi_dot(self, t: float, ref: tuple[float, ...], dzp: tuple[float, float], zd: tuple[float, ...],
@@ -476,7 +471,7 @@ class SotcCore(ControllerCore):
         implicit_system(W, wdot, pend["xi"], pend["eta"], self.stack.M, pend["cl"], dt, dt * self.alpha1,
                         self._G, self._rhs)
         if not cholesky(self._G, N, self._L):  # I + (symmetric >= 0) fails only on non-finite or overflowing
-            return array("d", [math.nan] * N)  # entries: non-finite weights, which the next sample's outputs report as such
+            return array("d", [nan] * N)  # entries: non-finite weights, which the next sample's outputs report as such
         cholesky_solve(self._L, self._rhs, N, self._Wn)
         return array("d", self._Wn)
 

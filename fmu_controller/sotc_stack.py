@@ -38,8 +38,8 @@ import math
 from array import array
 from typing import Any, Sequence
 
-from fmu_controller.fixed_linalg import (EPS, buffer, cholesky, forward_substitute, smallest_eigenvalue, sturm_count,
-                                         trace)
+from fmu_controller.fixed_linalg import (EPS, as_buffer, buffer, cholesky, dot, forward_substitute,
+                                         smallest_eigenvalue, sturm_count, trace)
 from fmu_controller.sotc_math import N_BASIS, CriticConstants, critic_row, normalisation, policy_arguments
 
 SELECTIONS = ("maxeig", "fill", "fifo", "maxeig-raw")
@@ -136,7 +136,7 @@ class CLStack:
         N = N_BASIS
         self.M, self.b, self.sc = buffer(N * N), buffer(N), buffer(P)  # the CL sum at the last terms()
         self.E, self.rew_now = buffer(P * N), buffer(P)  # eta_i, r_i at the last terms()
-        self._W, self._rate, self._c = buffer(N), buffer(N), buffer(N)
+        self._rate, self._c = buffer(N), buffer(N)
         self._d, self._e, self._v, self._p, self._y = buffer(N), buffer(N), buffer(N), buffer(N), buffer(N)
         self._work, self._A, self._L = buffer(N * N), buffer(N * N), buffer(N * N)
         self._inside = buffer(P)
@@ -196,9 +196,7 @@ class CLStack:
         """The CL sum M W + b of (30)/(31) at the weights W (a buffer kept by the stack, overwritten by
         the next call); M, b stay as ``self.M``, ``self.b``, with the rows ``self.E`` and their scales
         ``self.sc``."""
-        Wb = self._W
-        for k in range(N_BASIS):
-            Wb[k] = W[k]
+        Wb = as_buffer(W)
         if self.replay_form == "current":
             rows = self.rows
             replay_current(self.constants, self.count, Wb, rows["z"], rows["dinv"], rows["fe"], self.E, self.rew_now)
@@ -265,10 +263,8 @@ class CLStack:
         Weyl's inequality a swap raises lambda_min(M) by at most |eta|^2 / (1 + |eta|^2)^2, so small
         samples are refused at once."""
         c = self._c
-        ee = 0.0
-        for k in range(N_BASIS):
-            c[k] = eta[k]
-            ee += eta[k] * eta[k]
+        c[:] = as_buffer(eta)
+        ee = dot(c, c, N_BASIS)
         c_sc = 1.0 / normalisation(ee)
         lam, rank, tol = spectrum
         if self.selection == "maxeig-raw":
