@@ -2,15 +2,22 @@
 # stays the one source of the loops and runs as it is wherever the cores are not compiled. Every vector and
 # flat matrix is a contiguous float64 buffer (array('d')), a C array here.
 cimport cython
+from libc cimport math
 
 @cython.locals(acc=double, k=int)
 cpdef double dot(double[::1] a, double[::1] b, int n)
+@cython.locals(acc=double, k=int)
+cpdef double dot_sequence(object a, object b)
+@cython.locals(k=int)
+cpdef void scale_into(double[::1] out, double a, double[::1] x, int n)
+@cython.locals(k=int)
+cpdef void add_scaled(double[::1] out, double a, double[::1] x, int n)
 @cython.locals(acc=double, k=int)
 cpdef double trace(double[::1] A, int n)
 @cython.locals(acc=double, djj=double, i=int, j=int, k=int)
 cpdef bint cholesky(double[::1] A, int n, double[::1] L)
 @cython.locals(acc=double, i=int, k=int)
-cpdef void forward_substitute(double[::1] L, double[::1] b, int n, double[::1] y)
+cpdef void forward_substitute(double[::1] L, double[::1] b, int n, double[::1] y, int o=*)
 @cython.locals(acc=double, i=int, k=int)
 cpdef void cholesky_solve(double[::1] L, double[::1] b, int n, double[::1] x)
 @cython.locals(m0=int, scale=double, x0=double, alpha=double, vv=double, acc=double, kk=double, i=int, j=int)

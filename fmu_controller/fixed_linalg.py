@@ -1,12 +1,19 @@
 """Fixed-order linear algebra for the small symmetric problems of the SOTC critic (n = 10).
 
 Every sum here runs in one written order over flat float64 buffers (``array('d')``; matrices row-major,
-n * n),
-so a result does not depend on the CPU: no BLAS or LAPACK kernel, no SIMD reduction of numpy, whose
-blocking and instruction choice change the last bits from one processor to the next (issue N,
-``docs/paper-notes.md``). The ``.pxd`` beside this file types the buffers as C arrays (memoryviews) and
-compiles the same loops to C (``-ffp-contract=off``), so the compiled and the Python cores give the same
-bits. ``buffer(n)`` makes one.
+n * n), so a result does not depend on the CPU: no BLAS or LAPACK kernel, no SIMD reduction of numpy, whose
+blocking and instruction choice change the last bits from one processor to the next (where that changed
+which CL row the SOTC swapped: ``docs/paper-notes.md``; the bits are pinned by
+``tests/orchestration/test_cpu_independence.py``). The ``.pxd`` beside this file types the buffers as C
+arrays (memoryviews) and compiles the same loops to C (``-ffp-contract=off``), so the compiled and the
+Python cores give the same bits. ``buffer(n)`` makes one, ``as_buffer`` turns a list into one.
+
+This is the one home of the controllers' numerical kernels: dot products, Cholesky factorisation and
+solves, the symmetric eigenvalue bisection. (The Riccati solver's Gaussian elimination on nested lists
+stays in ``riccati``: it runs once per construction, on 16 x 16 Kronecker systems, with partial
+pivoting the kernels here do not need; ``orchestration/run/metrics.py`` sums with numpy and
+``math.fsum``, outside the FMUs. The z_v solver's bisections are in ``sotc_zv``: they bisect on a
+nonlinear scalar function, not a matrix.)
 
 - ``cholesky`` / ``cholesky_solve``: the weight update (I + dt alpha1 Gamma) W+ = rhs of (30)/(31)
   (symmetric positive definite) and the positive-definiteness test of the CL stack's swap rule;
@@ -18,6 +25,7 @@ from __future__ import annotations
 
 import math
 from array import array
+from typing import Sequence
 
 EPS = 2.220446049250313e-16  # the unit roundoff of float64, 2^-52
 MAX_HALVINGS = 200  # bisection stops when the interval stops shrinking, or after this many halvings
@@ -28,22 +36,48 @@ def buffer(n: int) -> array:
     return array("d", bytes(8 * n))
 
 
-def dot(a: list, b: list, n: int) -> float:
-    """sum_k a_k b_k, left to right."""
+def as_buffer(values) -> array:
+    """``values`` as a float64 buffer: itself if it is one, else a copy (for callers holding lists)."""
+    return values if type(values) is array else array("d", values)
+
+
+def dot(a: array, b: array, n: int) -> float:
+    """sum_k a_k b_k over the first n entries, left to right."""
     acc = 0.0
     for k in range(n):
         acc += a[k] * b[k]
     return acc
 
 
-def trace(A: list, n: int) -> float:
+def dot_sequence(a: Sequence[float], b: Sequence[float]) -> float:
+    """sum_k a_k b_k over the shorter of two sequences, left to right (``sum`` rounds differently from
+    Python 3.12 on, numpy's ``dot`` per BLAS kernel)."""
+    acc = 0.0
+    for k in range(min(len(a), len(b))):
+        acc += a[k] * b[k]
+    return acc
+
+
+def scale_into(out: array, a: float, x: array, n: int) -> None:
+    """out_k = x_k a for the first n entries."""
+    for k in range(n):
+        out[k] = x[k] * a
+
+
+def add_scaled(out: array, a: float, x: array, n: int) -> None:
+    """out_k += a x_k for the first n entries."""
+    for k in range(n):
+        out[k] += a * x[k]
+
+
+def trace(A: array, n: int) -> float:
     acc = 0.0
     for k in range(n):
         acc += A[k * n + k]
     return acc
 
 
-def cholesky(A: list, n: int, L: list) -> bool:
+def cholesky(A: array, n: int, L: array) -> bool:
     """L (flat, lower triangle filled, upper left as it was) with A = L L^T, reading A's lower
     triangle. False, with L unfinished, if a pivot is not positive (A not positive definite)."""
     for j in range(n):
@@ -62,16 +96,16 @@ def cholesky(A: list, n: int, L: list) -> bool:
     return True
 
 
-def forward_substitute(L: list, b: list, n: int, y: list) -> None:
-    """y with L y = b (L lower triangular, from ``cholesky``)."""
+def forward_substitute(L: array, b: array, n: int, y: array, o: int = 0) -> None:
+    """y with L y = b[o:o + n] (L lower triangular, from ``cholesky``)."""
     for i in range(n):
-        acc = b[i]
+        acc = b[o + i]
         for k in range(i):
             acc -= L[i * n + k] * y[k]
         y[i] = acc / L[i * n + i]
 
 
-def cholesky_solve(L: list, b: list, n: int, x: list) -> None:
+def cholesky_solve(L: array, b: array, n: int, x: array) -> None:
     """x with L L^T x = b."""
     forward_substitute(L, b, n, x)
     for i in range(n - 1, -1, -1):
@@ -81,7 +115,7 @@ def cholesky_solve(L: list, b: list, n: int, x: list) -> None:
         x[i] = acc / L[i * n + i]
 
 
-def _reflect(A: list, n: int, k: int, v: list, p: list) -> float:
+def _reflect(A: array, n: int, k: int, v: array, p: array) -> float:
     """One Householder step on the work copy A: zero column k below its subdiagonal and return the
     new subdiagonal entry; v, p are scratch of length n."""
     m0 = k + 1
@@ -115,7 +149,7 @@ def _reflect(A: list, n: int, k: int, v: list, p: list) -> float:
     return alpha
 
 
-def tridiagonalize(M: list, n: int, d: list, e: list, A: list, v: list, p: list) -> None:
+def tridiagonalize(M: array, n: int, d: array, e: array, A: array, v: array, p: array) -> None:
     """Diagonal d (n) and subdiagonal e (n - 1) of a tridiagonal matrix similar to the symmetric M
     (Householder reflections; M is read, not changed; A (n * n), v, p (n) are scratch)."""
     for k in range(n * n):
@@ -129,7 +163,7 @@ def tridiagonalize(M: list, n: int, d: list, e: list, A: list, v: list, p: list)
     d[n - 1] = A[n * n - 1]
 
 
-def sturm_count(d: list, e: list, n: int, x: float) -> int:
+def sturm_count(d: array, e: array, n: int, x: float) -> int:
     """How many eigenvalues of the tridiagonal (d, e) are smaller than x (the negative terms of the
     Sturm sequence; an exact zero is replaced by a tiny negative number, so the count is defined)."""
     count = 0
@@ -144,7 +178,7 @@ def sturm_count(d: list, e: list, n: int, x: float) -> int:
     return count
 
 
-def gershgorin(d: list, e: list, n: int) -> tuple[float, float]:
+def gershgorin(d: array, e: array, n: int) -> tuple[float, float]:
     """An interval [lo, hi] holding every eigenvalue of the tridiagonal (d, e)."""
     lo, hi = d[0], d[0]
     for i in range(n):
@@ -154,7 +188,7 @@ def gershgorin(d: list, e: list, n: int) -> tuple[float, float]:
     return lo, hi
 
 
-def smallest_of_tridiagonal(d: list, e: list, n: int, resolution: float) -> float:
+def smallest_of_tridiagonal(d: array, e: array, n: int, resolution: float) -> float:
     """lambda_min of the tridiagonal (d, e) by bisection, to within ``resolution`` (or one ulp)."""
     lo, hi = gershgorin(d, e, n)
     for it in range(MAX_HALVINGS):
@@ -170,7 +204,7 @@ def smallest_of_tridiagonal(d: list, e: list, n: int, resolution: float) -> floa
     return 0.5 * (lo + hi)
 
 
-def smallest_eigenvalue(M: list, n: int, d: list, e: list, A: list, v: list, p: list) -> float:
+def smallest_eigenvalue(M: array, n: int, d: array, e: array, A: array, v: array, p: array) -> float:
     """lambda_min of the symmetric M, to within eps trace(M) (the rounding level of its entries);
     d (n) and e (n - 1) receive M's tridiagonal form, for ``sturm_count``; A, v, p are scratch."""
     tridiagonalize(M, n, d, e, A, v, p)

@@ -74,14 +74,15 @@ from fmi_slave.parameters import (
     positive,
 )
 from fmu_controller.base import ControllerCore, OutputSpec
+from fmu_controller.fixed_linalg import dot_sequence
 from fmu_controller.riccati import solve_care
 from fmu_controller.saturation import NONE, limit_handling_spec, limit_torque
 from fmu_controller.sotc_math import (
     N_BASIS,
     basis,
     basis_directional,
-    dot_sequence,
     matrix_to_weights,
+    normalisation,
     probing_signal,
     value_gradient,
 )
@@ -234,7 +235,7 @@ class OtcCore(ControllerCore):
             # exact solution of (OTC-8) for a held regressor: the residual omega'Wc + cost decays
             # as exp(-alpha_c ww/(ww+1)^2 t); only the component of Wc along omega moves.
             s0 = dot_sequence(omega, self.wc.tolist()) + last["cost_rate"]
-            decay = math.exp(-pr["alpha_c"] * ww / (ww + 1.0) ** 2 * dt)
+            decay = math.exp(-pr["alpha_c"] * ww / normalisation(ww) * dt)
             self.wc = self.wc - np.array(omega) * (s0 * (1.0 - decay) / ww)
         decay_a = math.exp(-pr["alpha_a"] * dt)
         wa = self.wc + (self.wa - self.wc) * decay_a

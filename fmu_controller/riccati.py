@@ -4,7 +4,8 @@
 
 Newton-Kleinman iteration (Kleinman 1968) from a stabilising gain K_0 the caller knows: with
 A_K = A - B K, solve the Lyapunov equation A_K'P + P A_K = -(Q + K'RK) for P, then K = R^-1 B'P, until
-P repeats (quadratic convergence; at most MAX_STEPS). The controllers here solve 4 x 4 problems once
+P repeats (quadratic convergence; at most MAX_STEPS, else RiccatiError unless the
+last iterates differ only at the rounding level, ``CONVERGED``). The controllers here solve 4 x 4 problems once
 at construction, so each Lyapunov equation is solved through its Kronecker form by Gaussian
 elimination with partial pivoting, written out: every operation runs in one order on every CPU (a
 LAPACK eigen-solver rounds differently per BLAS kernel, and the OTC's initial weights with it).
@@ -12,11 +13,16 @@ LAPACK eigen-solver rounds differently per BLAS kernel, and the OTC's initial we
 """
 from __future__ import annotations
 
+import math
+from array import array
 from typing import Sequence
 
 import numpy as np
 
+from fmu_controller.fixed_linalg import buffer, cholesky
+
 MAX_STEPS = 60
+CONVERGED = 1e-12  # relative change of P between the last two iterates that still counts as converged
 
 
 class RiccatiError(ValueError):
@@ -86,22 +92,11 @@ def lyapunov(a: Matrix, c: Matrix) -> Matrix:
 
 
 def _positive_definite(p: Matrix) -> bool:
-    """Cholesky succeeds (every pivot positive and finite)."""
+    """Cholesky succeeds (``fixed_linalg.cholesky``: every pivot positive) with finite pivots."""
     n = len(p)
-    low = [[0.0] * n for _ in range(n)]
-    for j in range(n):
-        acc = p[j][j]
-        for k in range(j):
-            acc -= low[j][k] * low[j][k]
-        if not (acc > 0.0 and acc < float("inf")):
-            return False
-        low[j][j] = acc ** 0.5
-        for i in range(j + 1, n):
-            acc = p[i][j]
-            for k in range(j):
-                acc -= low[i][k] * low[j][k]
-            low[i][j] = acc / low[j][j]
-    return True
+    low = buffer(n * n)
+    return cholesky(array("d", [v for row in p for v in row]), n, low) and all(
+        math.isfinite(low[j * n + j]) for j in range(n))
 
 
 def solve_care(a, b, q, r, k0) -> np.ndarray:
@@ -109,7 +104,7 @@ def solve_care(a, b, q, r, k0) -> np.ndarray:
     an iterate is not positive definite (k0 not stabilising, or no stabilising solution)."""
     A, B, Q, R, K = _rows(a), _rows(b), _rows(q), _rows(r), _rows(k0)
     r_inv_bt = _r_inv_bt(B, R)
-    previous = None
+    previous = before = None
     for _ in range(MAX_STEPS):
         bk = _mul(B, K)
         ak = [[A[i][j] - bk[i][j] for j in range(len(A))] for i in range(len(A))]
@@ -118,9 +113,21 @@ def solve_care(a, b, q, r, k0) -> np.ndarray:
         if not _positive_definite(p):
             raise RiccatiError("no stabilising solution: a Newton-Kleinman iterate is not positive definite")
         if p == previous:
-            break
-        previous, K = p, _mul(r_inv_bt, p)
-    return np.array(previous)
+            return np.array(previous)
+        before, previous, K = previous, p, _mul(r_inv_bt, p)
+    change = _relative_change(before, previous)
+    if not change <= CONVERGED:
+        raise RiccatiError(f"the Newton-Kleinman iteration did not converge in {MAX_STEPS} steps: its last step "
+                           f"changed P by {change:.3g} (relative; converged means <= {CONVERGED:g})")
+    return np.array(previous)  # the iterates alternate at the rounding level
+
+
+def _relative_change(before: Matrix | None, p: Matrix) -> float:
+    """max |p - before| / max |p| (inf without a previous iterate)."""
+    if before is None:
+        return float("inf")
+    scale = max(abs(v) for row in p for v in row)
+    return max(abs(x - y) for rx, ry in zip(p, before) for x, y in zip(rx, ry)) / scale
 
 
 def _r_inv_bt(B: Matrix, R: Matrix) -> Matrix:

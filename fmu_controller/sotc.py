@@ -24,6 +24,8 @@ from __future__ import annotations
 
 import math
 import operator
+from array import array
+from math import fsum, hypot, nan  # Python's own (math.f is C's libm f in the compiled core; C's hypot rounds differently)
 from typing import Any, ClassVar, Sequence
 
 from fmi_slave.parameters import ParameterError, ParameterSpec, nonnegative, positive
@@ -38,10 +40,9 @@ from fmu_controller.saturation import (
     limit_without_metric,
     saturate_norm,
 )
-from fmu_controller.fixed_linalg import buffer, cholesky, cholesky_solve
-from fmu_controller.sotc_math import (N_BASIS, basis, basis_directional, dot_sequence, error_rate, implicit_system,
-                                      policy_arguments, printed_rate, probing_signal, reward, value_gradient,
-                                      value_hessian)
+from fmu_controller.fixed_linalg import add_scaled, buffer, cholesky, cholesky_solve, dot, scale_into
+from fmu_controller.sotc_math import (N_BASIS, CriticConstants, basis, critic_row, directional_into, gradient,
+                                      implicit_system, normalisation, policy_arguments, probing_signal, value_hessian)
 from fmu_controller.sotc_stack import REPLAYS as CL_REPLAYS
 from fmu_controller.sotc_stack import SELECTIONS as CL_SELECTIONS
 from fmu_controller.sotc_stack import CLStack
@@ -230,17 +231,19 @@ class SotcCore(ControllerCore):
         # saturation level s of (13) and (28): Remark 2 asks ||tau*|| <= sigma so that tau* + tau^a respects rho
         self.s = self.sigma if forms["saturation_form"] == "sigma" else self.rho
         self.bound5 = self.rho - self.sigma * TANH1  # eq. (5)
-        self._G, self._L, self._rhs, self._Wn = buffer(N_BASIS * N_BASIS), buffer(N_BASIS * N_BASIS), buffer(N_BASIS), \
-            buffer(N_BASIS)  # the implicit weight step's work space
-        self.stack = CLStack(self.P, forms["cl_selection"], forms["cl_replay"], self.s, self.r, self.theta,
-                             self.lam1, self.lam2, self.backstepping, self.eta_coupled)
+        self.constants = CriticConstants(self.s, self.r, self.theta, self.lam1, self.lam2, self.backstepping,
+                                         self.eta_coupled)
+        N = N_BASIS
+        self._G, self._L, self._rhs, self._Wn = buffer(N * N), buffer(N * N), buffer(N), buffer(N)  # weight step
+        self._eta, self._xi, self._wdot, self._gz = buffer(N), buffer(N), buffer(N), buffer(N)  # of the last sample
+        self.stack = CLStack(self.P, forms["cl_selection"], forms["cl_replay"], self.constants)
         self.reset()
 
     # --- learning state ----------------------------------------------------------------------------
 
     def reset(self) -> None:
         """Back to t = 0: W = W(0), empty CL stack, nothing pending."""
-        self.W = [self.params[f"W0_{k}"] for k in range(1, N_BASIS + 1)]
+        self.W = array("d", [self.params[f"W0_{k}"] for k in range(1, N_BASIS + 1)])
         self.stack.clear()
         self.next_record_t = 0.0
         self.prev_chi: list[float] | None = None  # (t, chi_vd1, chi_vd2) of the last step ("difference")
@@ -259,7 +262,7 @@ class SotcCore(ControllerCore):
         }
 
     def set_state(self, state: dict[str, Any]) -> None:
-        W = [float(w) for w in state["W"]]
+        W = array("d", [float(w) for w in state["W"]])
         if len(W) != N_BASIS:
             raise ValueError(f"state has {len(W)} weights, the SOTC critic has {N_BASIS}")
         self.stack.from_state(state["stack"])
@@ -281,8 +284,8 @@ class SotcCore(ControllerCore):
 
     def evaluate(self, t: float, y: Sequence[float], r: Sequence[float]) -> None:
         """Steps 1-4 of the module docstring at time t: the outputs, and what ``advance`` needs."""
-        phi1, phi2, dphi1, dphi2 = (float(v) for v in y[:4])
-        ref = tuple(float(v) for v in r[:6])
+        phi1, phi2, dphi1, dphi2 = float(y[0]), float(y[1]), float(y[2]), float(y[3])
+        ref = (float(r[0]), float(r[1]), float(r[2]), float(r[3]), float(r[4]), float(r[5]))
         W, s = self.W, self.s
         hess = value_hessian(W)  # d^2 J_hat / dz^2: constant in z (quadratic basis)
         zp1, zp2, dzp1, dzp2, zv1, zv2, zv_res, ca1, ca2, chi_a_bounded = self._error(
@@ -301,8 +304,11 @@ class SotcCore(ControllerCore):
         pe_active = t < self.pe_duration
         pe = probing_signal(t, self.pe_amplitude) if pe_active else 0.0
         tc = (ts1 + pe, ts2 + pe) if self.pe_in_critic else (ts1, ts2)
-        fe, zd = self._error_rate(z, (cs1, cs2), tc, dinv)
-        eta, rew, omega, e1, xi, wdot, cl, law31 = self._critic(t, z, zd, x, dinv)
+        fe = (0.0, 0.0)
+        if self.fv_drift:  # F_v(z_phi, z_v) of (4)/(6): the drift -D^-1 (H v + G) of (2) at the error coordinates
+            fe = forward_dynamics(zp2, zv1, zv2, 0.0, 0.0, self.model)
+        zd, rew, omega, e1, cl, law31 = self._critic(t, z, (cs1, cs2, tc[0], tc[1]), fe, x, dinv)
+        eta, xi, wdot = self._eta, self._xi, self._wdot
         dchi1, dchi2 = self._chi_dot(t, ref, (dzp1, dzp2), zd, z, (t1, t2), wdot, hess, (ca1 + cs1, ca2 + cs2),
                                      chi_a_bounded)
         ta1, ta2, tau_a_bounded, tr1, tr2 = self._feedforward(phi2, dphi1, dphi2, z, fe, (dchi1, dchi2),
@@ -314,12 +320,12 @@ class SotcCore(ControllerCore):
             "dinv": dinv, "fe": fe, "cl": cl, "chi": (ca1 + cs1, ca2 + cs2),
         }
         self._last_inputs = {"t": float(t), "y": [phi1, phi2, dphi1, dphi2], "r": list(ref)}
-        J = math.fsum(map(operator.mul, W, basis(z)))
+        J = fsum(map(operator.mul, W, basis(z)))
         self.outputs = [
             tau1, tau2, ts1, ts2, ta1, ta2, cs1, cs2, ca1, ca2, zp1, zp2, zv1, zv2, *W,
             J, e1, omega, rew, 31.0 if law31 else 30.0, float(self.stack.count), self.stack.min_eig,
             1.0 if pe_active else 0.0, pe, float(tau_a_bounded), float(chi_a_bounded), float(tau_limited),
-            math.hypot(tau1, tau2), tr1, tr2, dchi1, dchi2, math.sqrt(dot_sequence(wdot, wdot)), zv_res,
+            hypot(tau1, tau2), tr1, tr2, dchi1, dchi2, math.sqrt(dot(wdot, wdot, N_BASIS)), zv_res,
         ]
 
     def _error(self, phi1: float, phi2: float, dphi1: float, dphi2: float, ref: tuple[float, ...],
@@ -327,21 +333,24 @@ class SotcCore(ControllerCore):
         """Step 1: z_phi, its measured rate, z_v (solved jointly with (28)) and chi_vd^a under (5)."""
         phi1_d, phi2_d, dphi1_d, dphi2_d = ref[:4]
         (lam11, lam12), code, W = self.lam1, self.limit_code, self.W
+        h13, h14, h23, h24 = hess[0][2], hess[0][3], hess[1][2], hess[1][3]  # the z_phi z_v block of the Hessian
         # tracking error z_phi = chi_phi - chi_phi_d (section 2.1) and its measured rate
         zp1, zp2 = phi1 - phi1_d, phi2 - phi2_d
         dzp1, dzp2 = dphi1 - dphi1_d, dphi2 - dphi2_d
         # eq. (4), first line, with the bound (5); z_v = dphi - chi_vd* - chi_vd^a solved jointly with (28)
         if self.backstepping:  # chi_vd^a = dphi_d - Lambda1 z_phi, so F_bar_phi = -Lambda1 z_phi in (6)
             ca1, ca2, chi_a_bounded = limit_without_metric(dphi1_d - lam11 * zp1, dphi2_d - lam12 * zp2, self.bound5, code)
-            zv1, zv2, zv_res = solve_zv(self.s, self.r, zp1, zp2, dphi1 - ca1, dphi2 - ca2, 1.0, 1.0, W, hess)
+            zv1, zv2, zv_res = solve_zv(self.constants, zp1, zp2, dphi1 - ca1, dphi2 - ca2, 1.0, 1.0, W, h13, h14,
+                                        h23, h24)
         else:  # as printed, chi_vd^a = dphi_d + Lambda1 z_v: (I + Lambda1) z_v = dphi - dphi_d - chi_vd*
-            zv1, zv2, zv_res = solve_zv(self.s, self.r, zp1, zp2, dzp1, dzp2, 1.0 + lam11, 1.0 + lam12, W, hess)
+            zv1, zv2, zv_res = solve_zv(self.constants, zp1, zp2, dzp1, dzp2, 1.0 + lam11, 1.0 + lam12, W, h13, h14,
+                                        h23, h24)
             ca1, ca2, chi_a_bounded = limit_without_metric(dphi1_d + lam11 * zv1, dphi2_d + lam12 * zv2, self.bound5, code)
         return zp1, zp2, dzp1, dzp2, zv1, zv2, zv_res, ca1, ca2, chi_a_bounded
 
     def _policy_arguments(self, z: tuple[float, ...], dinv: tuple[float, float, float]) -> tuple:
         """Step 2, eq. (28): the tanh arguments x of mu_hat = -s tanh(x), and their tanh."""
-        x = policy_arguments(z, self.W, dinv, self.s, self.r)
+        x = policy_arguments(self.constants, z[0], z[1], z[2], z[3], self.W, dinv[0], dinv[1], dinv[2])
         return x, (math.tanh(x[0]), math.tanh(x[1]), math.tanh(x[2]), math.tanh(x[3]))
 
     def optimal_virtual_velocity(self, z: tuple[float, ...]) -> tuple[float, float]:
@@ -349,48 +358,36 @@ class SotcCore(ControllerCore):
         _, (t1, t2, _, _) = self._policy_arguments(z, (1.0, 0.0, 1.0))
         return -self.s * t1, -self.s * t2
 
-    def _error_rate(self, z: tuple[float, ...], cs: tuple[float, float], tc: tuple[float, float],
-                    dinv: tuple[float, float, float]) -> tuple:
-        """Step 3, eqs. (6)/(7): zdot = F_bar(z) + g mu_hat; F_v(z_phi, z_v) of (4)/(6) is the drift
-        -D^-1 (H v + G) of (2) at the error coordinates."""
-        fe1 = fe2 = 0.0
-        if self.fv_drift:
-            fe1, fe2 = forward_dynamics(z[1], z[2], z[3], 0.0, 0.0, self.model)
-        fe = (fe1, fe2)
-        return fe, error_rate(z, (cs[0], cs[1], tc[0], tc[1]), fe, dinv, self.lam1, self.lam2, self.backstepping)
-
-    def _critic(self, t: float, z: tuple[float, ...], zd: tuple[float, ...], x: tuple[float, ...],
-                dinv: tuple[float, float, float]) -> tuple:
-        """Step 3, eqs. (29)-(31): eta, the reward, the Bellman residual e1 and dW/dt (with the CL sum),
-        every sum in a fixed order."""
+    def _critic(self, t: float, z: tuple[float, ...], mu: tuple[float, ...], fe: tuple[float, float],
+                x: tuple[float, ...], dinv: tuple[float, float, float]) -> tuple:
+        """Step 3, eqs. (6)/(7) and (29)-(31): zdot = F_bar(z) + g mu_hat (F_v(z_phi, z_v) = fe, the drift
+        -D^-1 (H v + G) of (2) at the error coordinates), eta, the reward, the Bellman residual e1 and
+        dW/dt (with the CL sum), every sum in a fixed order; eta, xi and dW/dt go to their buffers."""
         zp1, zp2, zv1, zv2 = z
-        N, W, rr, (i11, i12, i22) = N_BASIS, self.W, self.r, dinv
-        # eq. (29): eta = grad(zeta) zdot, e1 = W^T eta + z^T Theta z + Omega(mu_hat), Omega of eq. (17);
-        # eta_form = printed: (7)'s F_bar without the coupling terms, in eta and (29) only
-        eta = basis_directional(z, zd if self.eta_coupled else printed_rate(z, zd))
-        rew, omega = reward(z, x, self.theta, self.s, rr)
-        e1 = dot_sequence(W, eta) + rew
+        N, W, K, (i11, i12, i22) = N_BASIS, self.W, self.constants, dinv
+        eta, xi, wdot = self._eta, self._xi, self._wdot
+        # eq. (29): eta = grad(zeta) zdot, e1 = W^T eta + z^T Theta z + Omega(mu_hat), Omega of eq. (17)
+        zd1, zd2, zd3, zd4, rew, omega = critic_row(K, zp1, zp2, zv1, zv2, x[0], x[1], x[2], x[3], mu[0], mu[1],
+                                                    mu[2], mu[3], fe[0], fe[1], i11, i12, i22, eta, 0)
+        e1 = dot(W, eta, N) + rew
         # eqs. (30)/(31): dW/dt = -alpha1 xi e1 - alpha1 sum_i xi_i (eta_i^T W + r_i) [+ alpha2/2 grad(zeta) G z],
         # xi = eta / (eta^T eta + 1)^2; the CL sum is M W + b (sotc_stack)
-        ee = dot_sequence(eta, eta)
-        sc = 1.0 / ((ee + 1.0) * (ee + 1.0))
-        xi = [eta[k] * sc for k in range(N)]
-        wdot = [xi[k] * (-self.alpha1 * e1) for k in range(N)]
+        scale_into(xi, 1.0 / normalisation(dot(eta, eta, N)), eta, N)
+        scale_into(wdot, -self.alpha1 * e1, xi, N)
         cl = self.cl_enabled and self.stack.count > 0 and t >= self.cl_start_time
         if cl:
-            rate = self.stack.terms(W)  # M W + b
-            for k in range(N):
-                wdot[k] -= self.alpha1 * rate[k]
-        law31 = zp1 * zd[0] + zp2 * zd[1] + zv1 * zd[2] + zv2 * zd[3] >= 0.0  # z^T zdot >= 0: eq. (31)
+            add_scaled(wdot, -self.alpha1, self.stack.terms(W), N)  # - alpha1 (M W + b)
+        law31 = zp1 * zd1 + zp2 * zd2 + zv1 * zd3 + zv2 * zd4 >= 0.0  # z^T zdot >= 0: eq. (31)
         if law31:  # + alpha2/2 grad(zeta) G z with G = g R^-1 g^T = diag(R_phi^-1, D^-1 R_v^-1 D^-1)
-            u1, u2 = (i11 * zv1 + i12 * zv2) / rr[2], (i12 * zv1 + i22 * zv2) / rr[3]
-            gz = basis_directional(z, (zp1 / rr[0], zp2 / rr[1], i11 * u1 + i12 * u2, i12 * u1 + i22 * u2))
-            for k in range(N):
-                wdot[k] += (0.5 * self.alpha2) * gz[k]
-        return eta, rew, omega, e1, xi, wdot, cl, law31
+            u1, u2 = (i11 * zv1 + i12 * zv2) / K.r3, (i12 * zv1 + i22 * zv2) / K.r4
+            gz = self._gz
+            directional_into(gz, 0, zp1, zp2, zv1, zv2, zp1 / K.r1, zp2 / K.r2, i11 * u1 + i12 * u2,
+                             i12 * u1 + i22 * u2)
+            add_scaled(wdot, 0.5 * self.alpha2, gz, N)
+        return (zd1, zd2, zd3, zd4), rew, omega, e1, cl, law31
 
     def _chi_dot(self, t: float, ref: tuple[float, ...], dzp: tuple[float, float], zd: tuple[float, ...],
-                 z: tuple[float, ...], tanh_phi: tuple[float, float], wdot: list,
+                 z: tuple[float, ...], tanh_phi: tuple[float, float], wdot: array,
                  hess: tuple[tuple[float, ...], ...], chi: tuple[float, float], chi_a_bounded: bool) -> tuple:
         """dchi_vd/dt for tau^a of (4), as ``chi_dot_form`` reads it."""
         (lam11, lam12), rr = self.lam1, self.r
@@ -406,7 +403,7 @@ class SotcCore(ControllerCore):
             # chi_vd* = -s tanh(x_phi), x_phi = grad_phi J_hat / (2 s r): the chain rule gives
             # dx_phi/dt = (Hess(J_hat) zdot + grad(zeta)^T dW/dt)_phi / (2 s r), zdot from (6)
             h, (t1, t2) = hess, tanh_phi
-            gd1, gd2, _, _ = value_gradient(z, wdot)
+            gd1, gd2, _, _ = gradient(z[0], z[1], z[2], z[3], wdot)
             hz1 = h[0][0] * zd1 + h[0][1] * zd2 + h[0][2] * zd3 + h[0][3] * zd4
             hz2 = h[1][0] * zd1 + h[1][1] * zd2 + h[1][2] * zd3 + h[1][3] * zd4
             return (dca1 - (1.0 - t1 * t1) * (hz1 + gd1) / (2.0 * rr[0]),
@@ -465,16 +462,16 @@ class SotcCore(ControllerCore):
             self.stack.record(pend["eta"], pend["r"], pend["z"], pend["dinv"], pend["fe"], t, pend["cl"])
         self._pending = None
 
-    def _weight_step(self, pend: dict[str, Any], dt: float) -> list:
+    def _weight_step(self, pend: dict[str, Any], dt: float) -> array:
         """W after one step of (30)/(31); see ``advance``. (I + dt alpha1 Gamma) is symmetric positive
         definite, so a Cholesky solve in fixed order (``fixed_linalg``) gives W+."""
         N, W, wdot = N_BASIS, self.W, pend["wdot"]
         if not self.implicit:
-            return [W[k] + dt * wdot[k] for k in range(N)]
+            return array("d", [W[k] + dt * wdot[k] for k in range(N)])
         implicit_system(W, wdot, pend["xi"], pend["eta"], self.stack.M, pend["cl"], dt, dt * self.alpha1,
                         self._G, self._rhs)
         if not cholesky(self._G, N, self._L):  # I + (symmetric >= 0) fails only on non-finite or overflowing
-            return [math.nan] * N  # entries: non-finite weights, which the next sample's outputs report as such
+            return array("d", [nan] * N)  # entries: non-finite weights, which the next sample's outputs report as such
         cholesky_solve(self._L, self._rhs, N, self._Wn)
-        return list(self._Wn)
+        return array("d", self._Wn)
 

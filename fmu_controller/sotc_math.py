@@ -1,5 +1,5 @@
-"""Closed-form maths of the SOTC paper: saturated cost, quadratic critic basis, probing signal, and
-the guess-free solver of the implicit z_v (``solve_tanh_system``).
+"""Closed-form maths of the SOTC paper: saturated cost, quadratic critic basis, the critic's sample
+(error rate, eta, reward; ``critic_row``), probing signal.
 
 Reference: N. D. Dien, N. T. Luy, L. K. Lai, T. T. Hai, "Optimal tracking control for robot
 manipulators with input constraint based reinforcement learning", J. Computer Science and
@@ -7,7 +7,10 @@ Cybernetics, 2023. Equation numbers below are the paper's.
 
 Everything is plain float code on 4-vectors ``z = (z_phi1, z_phi2, z_v1, z_v2)``: for vectors this
 small, ``math`` on floats is several times faster than numpy, and the controller calls these
-functions 10,000 times per simulated run. Array versions for tests are thin wrappers.
+functions 10,000 times per simulated run. The kernels take scalars and float64 buffers (typed as C
+doubles by ``sotc_math.pxd`` when compiled, so a sample creates no Python object); the versions on
+sequences (``basis_directional``, ``value_gradient``, ``omega_of_arg``) are thin wrappers for tests and
+the other controllers.
 
 Symbols: ``s`` is the saturation level of the optimal input (sigma in the chosen reading, see
 ``docs/paper-notes.md``), ``x`` the *pre-saturation argument* of the control law (28), i.e.
@@ -16,9 +19,12 @@ Symbols: ``s`` is the saturation level of the optimal input (sigma in the chosen
 from __future__ import annotations
 
 import math
+from array import array
 from typing import Sequence
 
 import numpy as np
+
+from fmu_controller.fixed_linalg import as_buffer, buffer
 
 LN2 = math.log(2.0)
 
@@ -64,19 +70,24 @@ def omega_term_of_arg(x: float, s: float, r: float) -> float:
     return 2.0 * s * s * r * _x_tanh_minus_log_cosh(x)
 
 
-def omega_of_arg(x: Sequence[float], s: float, r: Sequence[float]) -> float:
+def omega4(x1: float, x2: float, x3: float, x4: float, s: float, r1: float, r2: float, r3: float,
+           r4: float) -> float:
     """Omega(mu) of eq. (17) for mu = -s tanh(x) (componentwise), R = diag(r), summed in order."""
-    return (omega_term_of_arg(x[0], s, r[0]) + omega_term_of_arg(x[1], s, r[1])
-            + omega_term_of_arg(x[2], s, r[2]) + omega_term_of_arg(x[3], s, r[3]))
+    return (omega_term_of_arg(x1, s, r1) + omega_term_of_arg(x2, s, r2)
+            + omega_term_of_arg(x3, s, r3) + omega_term_of_arg(x4, s, r4))
 
 
-def reward(z: Sequence[float], x: Sequence[float], theta: Sequence[float], s: float,
-           r: Sequence[float]) -> tuple[float, float]:
+def omega_of_arg(x: Sequence[float], s: float, r: Sequence[float]) -> float:
+    """``omega4`` on sequences."""
+    return omega4(x[0], x[1], x[2], x[3], s, r[0], r[1], r[2], r[3])
+
+
+def reward(K: CriticConstants, zp1: float, zp2: float, zv1: float, zv2: float, x1: float, x2: float, x3: float,
+           x4: float) -> tuple[float, float]:
     """(r, Omega): the cost rate r = z^T Theta z + Omega(mu_hat) of eq. (12) with Omega of (17) at the
     pre-saturation arguments x of (28), Theta = diag(theta)."""
-    zp1, zp2, zv1, zv2 = z
-    omega = omega_of_arg(x, s, r)
-    return (theta[0] * zp1 * zp1 + theta[1] * zp2 * zp2 + theta[2] * zv1 * zv1 + theta[3] * zv2 * zv2) + omega, omega
+    omega = omega4(x1, x2, x3, x4, K.s, K.r1, K.r2, K.r3, K.r4)
+    return (K.theta1 * zp1 * zp1 + K.theta2 * zp2 * zp2 + K.theta3 * zv1 * zv1 + K.theta4 * zv2 * zv2) + omega, omega
 
 
 def omega_of_mu(mu: Sequence[float], s: float, r: Sequence[float]) -> float:
@@ -125,72 +136,108 @@ def basis_jacobian(z: Sequence[float]) -> np.ndarray:
     ], dtype=float)
 
 
+def directional_into(out, o: int, a: float, b: float, c: float, d: float, p: float, q: float, u: float,
+                     w: float) -> None:
+    """out[o:o + 10] = (d zeta / d z) v at z = (a, b, c, d), v = (p, q, u, w): the 10-vector
+    eta = grad(zeta) zdot of eqs. (29)-(31) when v = zdot, and the stabilising direction grad(zeta) G z
+    of eq. (31) when v = G z; ``out`` is a float64 buffer (``fixed_linalg.buffer``)."""
+    out[o] = 2.0 * a * p
+    out[o + 1] = a * q + b * p
+    out[o + 2] = a * u + c * p
+    out[o + 3] = a * w + d * p
+    out[o + 4] = 2.0 * b * q
+    out[o + 5] = b * u + c * q
+    out[o + 6] = b * w + d * q
+    out[o + 7] = 2.0 * c * u
+    out[o + 8] = c * w + d * u
+    out[o + 9] = 2.0 * d * w
+
+
 def basis_directional(z: Sequence[float], v: Sequence[float]) -> list[float]:
-    """(d zeta / d z) v: the 10-vector eta = grad(zeta) zdot of eqs. (29)-(31) when v = zdot, and
-    the stabilising direction grad(zeta) G z of eq. (31) when v = G z."""
-    a, b, c, d = z
-    p, q, u, w = v
-    return [
-        2.0 * a * p,
-        a * q + b * p,
-        a * u + c * p,
-        a * w + d * p,
-        2.0 * b * q,
-        b * u + c * q,
-        b * w + d * q,
-        2.0 * c * u,
-        c * w + d * u,
-        2.0 * d * w,
-    ]
+    """``directional_into`` on sequences, as a list."""
+    out = buffer(N_BASIS)
+    directional_into(out, 0, z[0], z[1], z[2], z[3], v[0], v[1], v[2], v[3])
+    return out.tolist()
 
 
-def value_gradient(z: Sequence[float], W: Sequence[float]) -> tuple[float, float, float, float]:
-    """grad J_hat(z) = (d zeta / d z)^T W for the critic J_hat = W^T zeta(z) of eq. (27)."""
-    a, b, c, d = z
-    w1, w2, w3, w4, w5, w6, w7, w8, w9, w10 = W
+def gradient(a: float, b: float, c: float, d: float, W: array) -> tuple[float, float, float, float]:
+    """grad J_hat(z) = (d zeta / d z)^T W at z = (a, b, c, d) for the critic J_hat = W^T zeta(z) of
+    eq. (27); W is a float64 buffer."""
     return (
-        2.0 * a * w1 + b * w2 + c * w3 + d * w4,
-        a * w2 + 2.0 * b * w5 + c * w6 + d * w7,
-        a * w3 + b * w6 + 2.0 * c * w8 + d * w9,
-        a * w4 + b * w7 + c * w9 + 2.0 * d * w10,
+        2.0 * a * W[0] + b * W[1] + c * W[2] + d * W[3],
+        a * W[1] + 2.0 * b * W[4] + c * W[5] + d * W[6],
+        a * W[2] + b * W[5] + 2.0 * c * W[7] + d * W[8],
+        a * W[3] + b * W[6] + c * W[8] + 2.0 * d * W[9],
     )
 
 
-def policy_arguments(z: Sequence[float], W: Sequence[float], dinv: Sequence[float], s: float,
-                     r: Sequence[float]) -> tuple[float, float, float, float]:
+def value_gradient(z: Sequence[float], W: Sequence[float]) -> tuple[float, float, float, float]:
+    """``gradient`` on sequences."""
+    return gradient(z[0], z[1], z[2], z[3], as_buffer(W))
+
+
+class CriticConstants:
+    """The SOTC's constants that its critic formulas read, in one place (the controller and its CL
+    replay share one instance): saturation level s, R = diag(r1..r4) of (13), Theta = diag(theta1..theta4)
+    of (12), Lambda_1, Lambda_2 of (4), the reading of chi_vd^a (``backstepping``) and the form of zdot
+    in eta (``coupled``: with the coupling terms +z_v, -z_phi of (6), else F_bar of (7) as printed)."""
+
+    def __init__(self, s: float, r: Sequence[float], theta: Sequence[float], lam1: Sequence[float],
+                 lam2: Sequence[float], backstepping: bool, coupled: bool):
+        self.s = s
+        self.r1, self.r2, self.r3, self.r4 = r
+        self.theta1, self.theta2, self.theta3, self.theta4 = theta
+        self.lam11, self.lam12 = lam1
+        self.lam21, self.lam22 = lam2
+        self.backstepping, self.coupled = backstepping, coupled
+
+
+def policy_arguments(K: CriticConstants, zp1: float, zp2: float, zv1: float, zv2: float, W: array, i11: float,
+                     i12: float, i22: float) -> tuple[float, float, float, float]:
     """The arguments x of the saturated law (28), mu_hat = -s tanh(x) with
-    x = R^-1 g^T grad(zeta)^T W / (2 s), g = diag(I, D^-1); dinv = (D^-1_11, D^-1_12, D^-1_22)."""
-    i11, i12, i22 = dinv
-    g1, g2, g3, g4 = value_gradient(z, W)
-    return (g1 / (2.0 * s * r[0]), g2 / (2.0 * s * r[1]),
-            (i11 * g3 + i12 * g4) / (2.0 * s * r[2]), (i12 * g3 + i22 * g4) / (2.0 * s * r[3]))
+    x = R^-1 g^T grad(zeta)^T W / (2 s), g = diag(I, D^-1); (i11, i12, i22) = (D^-1_11, D^-1_12, D^-1_22)."""
+    s = K.s
+    g1, g2, g3, g4 = gradient(zp1, zp2, zv1, zv2, W)
+    return (g1 / (2.0 * s * K.r1), g2 / (2.0 * s * K.r2),
+            (i11 * g3 + i12 * g4) / (2.0 * s * K.r3), (i12 * g3 + i22 * g4) / (2.0 * s * K.r4))
 
 
-def tanh_law(x: Sequence[float], s: float) -> tuple[float, float, float, float]:
-    """The saturated law (28): mu_hat = -s tanh(x) componentwise."""
-    return -s * math.tanh(x[0]), -s * math.tanh(x[1]), -s * math.tanh(x[2]), -s * math.tanh(x[3])
-
-
-def error_rate(z: Sequence[float], mu: Sequence[float], fe: Sequence[float], dinv: Sequence[float],
-               lam1: Sequence[float], lam2: Sequence[float], backstepping: bool) -> tuple[float, float, float, float]:
+def error_rate(K: CriticConstants, zp1: float, zp2: float, zv1: float, zv2: float, mu1: float, mu2: float,
+               mu3: float, mu4: float, fe1: float, fe2: float, i11: float, i12: float,
+               i22: float) -> tuple[float, float, float, float]:
     """zdot = F_bar(z) + g mu of eqs. (6)/(7) with the coupling terms +z_v, -z_phi of (6):
-    mu = (chi_vd*_1, chi_vd*_2, tau_1, tau_2), fe = F_v(z_phi, z_v), g_v = D^-1 (dinv as above);
-    ``backstepping``: chi_vd^a = dphi_d - Lambda1 z_phi (else dphi_d + Lambda1 z_v, as printed)."""
-    zp1, zp2, zv1, zv2 = z
-    i11, i12, i22 = dinv
-    if backstepping:
-        zd1 = -lam1[0] * zp1 + mu[0] + zv1
-        zd2 = -lam1[1] * zp2 + mu[1] + zv2
+    mu = (chi_vd*_1, chi_vd*_2, tau_1, tau_2), fe = F_v(z_phi, z_v), g_v = D^-1 (entries as above);
+    ``K.backstepping``: chi_vd^a = dphi_d - Lambda1 z_phi (else dphi_d + Lambda1 z_v, as printed)."""
+    if K.backstepping:
+        zd1 = -K.lam11 * zp1 + mu1 + zv1
+        zd2 = -K.lam12 * zp2 + mu2 + zv2
     else:
-        zd1 = lam1[0] * zv1 + mu[0] + zv1
-        zd2 = lam1[1] * zv2 + mu[1] + zv2
-    return (zd1, zd2, fe[0] - lam2[0] * zv1 - zp1 + i11 * mu[2] + i12 * mu[3],
-            fe[1] - lam2[1] * zv2 - zp2 + i12 * mu[2] + i22 * mu[3])
+        zd1 = K.lam11 * zv1 + mu1 + zv1
+        zd2 = K.lam12 * zv2 + mu2 + zv2
+    return (zd1, zd2, fe1 - K.lam21 * zv1 - zp1 + i11 * mu3 + i12 * mu4,
+            fe2 - K.lam22 * zv2 - zp2 + i12 * mu3 + i22 * mu4)
 
 
-def printed_rate(z: Sequence[float], zd: Sequence[float]) -> tuple[float, float, float, float]:
-    """F_bar of (7) as printed: zdot of (6) without the coupling terms +z_v and -z_phi."""
-    return zd[0] - z[2], zd[1] - z[3], zd[2] + z[0], zd[3] + z[1]
+def critic_row(K: CriticConstants, zp1: float, zp2: float, zv1: float, zv2: float, x1: float, x2: float,
+               x3: float, x4: float, mu1: float, mu2: float, mu3: float, mu4: float, fe1: float, fe2: float,
+               i11: float, i12: float, i22: float, eta, o: int) -> tuple[float, float, float, float, float, float]:
+    """One sample of the critic, for the controller and for each row of its CL replay alike: the error
+    rate zdot of (6)/(7) (``error_rate``), eta = grad(zeta) zdot of (29) into eta[o:o + 10] (with zdot as
+    ``K.coupled`` says: (6), or F_bar of (7) as printed, without +z_v, -z_phi), and the reward of (12)/(17)
+    at the tanh arguments x of (28). Returns (zdot_1..4, r, Omega)."""
+    zd1, zd2, zd3, zd4 = error_rate(K, zp1, zp2, zv1, zv2, mu1, mu2, mu3, mu4, fe1, fe2, i11, i12, i22)
+    if K.coupled:
+        directional_into(eta, o, zp1, zp2, zv1, zv2, zd1, zd2, zd3, zd4)
+    else:  # F_bar of (7) as printed: zdot of (6) without the coupling terms +z_v and -z_phi
+        directional_into(eta, o, zp1, zp2, zv1, zv2, zd1 - zv1, zd2 - zv2, zd3 + zp1, zd4 + zp2)
+    rew, omega = reward(K, zp1, zp2, zv1, zv2, x1, x2, x3, x4)
+    return zd1, zd2, zd3, zd4, rew, omega
+
+
+def normalisation(ee: float) -> float:
+    """(1 + eta^T eta)^2 for ee = eta^T eta: the normaliser of the tuning laws (30)/(31),
+    xi = eta / (1 + eta^T eta)^2 (and of each CL row)."""
+    return (ee + 1.0) * (ee + 1.0)
 
 
 def value_hessian(W: Sequence[float]) -> tuple[tuple[float, ...], ...]:
@@ -221,104 +268,6 @@ def matrix_to_weights(S: np.ndarray) -> np.ndarray:
     return np.array([S[i, i] if i == j else 2.0 * S[i, j] for i, j in BASIS_PAIRS])
 
 
-# --- the implicit z_v of (6)/(28): x = x0 + K tanh(x) without a starting guess ---------------------------
-
-
-def _bisect(f, lo: float, hi: float, f_lo: float) -> float:
-    """A point of [lo, hi] where the continuous f changes sign (f(lo) = f_lo and f(hi) of opposite
-    signs, zeros allowed), to about one ulp; at most 200 halvings, so it ends for any input."""
-    neg = f_lo < 0.0
-    for _ in range(200):
-        mid = 0.5 * (lo + hi)
-        if not lo < mid < hi or hi - lo <= 1e-16 * (abs(lo) + abs(hi)) + 1e-300:
-            break
-        f_mid = f(mid)
-        if f_mid == 0.0:
-            return mid
-        if (f_mid < 0.0) == neg:
-            lo = mid
-        else:
-            hi = mid
-    return 0.5 * (lo + hi)
-
-
-def _solve_tanh_1d(c: float, k: float) -> float:
-    """A root of x - k tanh(x) - c (one exists: the sign changes on [-b, b], b = |c| + |k| + 1)."""
-    b = abs(c) + abs(k) + 1.0
-    return _bisect(lambda x: x - k * math.tanh(x) - c, -b, b, -1.0)
-
-
-def _along_curve(a0: float, b0: float, kaa: float, kab: float, kba: float, kbb: float) -> tuple[float, float] | None:
-    """(tanh x_a, tanh x_b) solving x_a = a0 + kaa tanh x_a + kab tanh x_b and x_b = b0 + kba tanh x_a +
-    kbb tanh x_b, kab != 0, found on the curve where the first equation holds.
-
-    On that curve tanh x_b = h(x_a) / kab with h(x) = x - a0 - kaa tanh x, and the second equation becomes
-    phi(x_a) = t_b - tanh(b0 + kba tanh x_a + kbb t_b) = 0 with t_b in [-1, 1]. h is monotone on at
-    most three pieces (split where h' = 1 - kaa (1 - tanh^2 x) changes sign), so on each piece the part
-    of the curve inside |t_b| <= 1 is one interval, found by bisection. phi <= 0 where t_b = -1 and
-    phi >= 0 where t_b = +1, and the first stretch of the curve from t_b = -1 to t_b = +1 (it exists:
-    h runs from -inf to +inf) is a chain of such intervals, so one of them has a sign change of phi:
-    bisection on it gives a solution. None if rounding hides every sign change."""
-    K = abs(kab)
-
-    def h(x: float) -> float:
-        return x - a0 - kaa * math.tanh(x)
-
-    def t_b(x: float) -> float:
-        return min(1.0, max(-1.0, h(x) / kab))
-
-    def phi(x: float) -> float:
-        tb = t_b(x)
-        return tb - math.tanh(b0 + kba * math.tanh(x) + kbb * tb)
-
-    L = abs(a0) + abs(kaa) + K + 1.0  # |h(x)| > K for |x| >= L
-    if kaa > 1.0:
-        xs = math.atanh(math.sqrt(1.0 - 1.0 / kaa))
-        pieces = ((-L, -xs, 1.0), (-xs, xs, -1.0), (xs, L, 1.0))  # (from, to, direction of h)
-    else:
-        pieces = ((-L, L, 1.0),)
-    for p, q, direction in pieces:
-        hp, hq = direction * h(p), direction * h(q)  # increasing after the sign flip
-        if hp > K or hq < -K:
-            continue  # the curve leaves the box on this whole piece
-        lo = p if hp >= -K else _bisect(lambda x: direction * h(x) + K, p, q, hp + K)
-        hi = q if hq <= K else _bisect(lambda x: direction * h(x) - K, p, q, hp - K)
-        f_lo, f_hi = phi(lo), phi(hi)
-        if f_lo == 0.0:
-            return math.tanh(lo), t_b(lo)
-        if f_hi == 0.0:
-            return math.tanh(hi), t_b(hi)
-        if (f_lo < 0.0) != (f_hi < 0.0):
-            x = _bisect(phi, lo, hi, f_lo)
-            return math.tanh(x), t_b(x)
-    return None
-
-
-def solve_tanh_system(x01: float, x02: float, k11: float, k12: float, k21: float, k22: float) -> tuple[float, float]:
-    """(tanh x1, tanh x2) for a solution x of the 2x2 system x = x0 + K tanh(x), K = [[k11, k12], [k21, k22]].
-
-    This is the implicit definition of z_v in (6)/(28) written in the tanh arguments x of chi_vd*. A
-    solution exists for every x0 and K (u -> tanh(x0 + K u) maps [-1, 1]^2 into itself: Brouwer), but it
-    need not be unique, and Newton's method can stall for large K. This finds one without a starting
-    guess by bisection (``_along_curve``, eliminating the unknown with the larger coupling); for a
-    negligible coupling it solves the two equations one after the other, twice. Accuracy is that of
-    bisection (the elimination divides by the coupling): polish the result with Newton's method."""
-    scale = abs(x01) + abs(x02) + abs(k11) + abs(k22) + 1.0
-    if abs(k12) >= abs(k21) and abs(k12) > 1e-9 * scale:
-        sol = _along_curve(x01, x02, k11, k12, k21, k22)
-        if sol is not None:
-            return sol
-    elif abs(k21) > 1e-9 * scale:
-        sol = _along_curve(x02, x01, k22, k21, k12, k11)
-        if sol is not None:
-            return sol[1], sol[0]
-    t1 = t2 = 0.0
-    for _ in range(2):  # nearly decoupled: one equation at a time (Gauss-Seidel)
-        t1 = math.tanh(_solve_tanh_1d(x01 + k12 * t2, k11))
-        t2 = math.tanh(_solve_tanh_1d(x02 + k21 * t1, k22))
-    return t1, t2
-
-
 # --- probing signal of section 4 ------------------------------------------------------------------
 
 
@@ -343,8 +292,8 @@ def probing_signal(t: float, amplitude: float = 0.5) -> float:
     )
 
 
-def implicit_system(W: list, wdot: list, xi: list, eta: list, M: list, with_cl: bool, dt: float, c: float,
-                    G: list, rhs: list) -> None:
+def implicit_system(W: array, wdot: array, xi: array, eta: array, M: array, with_cl: bool, dt: float, c: float,
+                    G: array, rhs: array) -> None:
     """The linear system (I + c Gamma) W+ = W + dt dW/dt + c Gamma W of ``advance``, c = dt alpha1,
     Gamma = xi eta^T (+ M, the CL matrix, when the CL sum entered dW/dt); G (flat) and rhs receive it."""
     N = N_BASIS
@@ -360,12 +309,3 @@ def implicit_system(W: list, wdot: list, xi: list, eta: list, M: list, with_cl: 
         rhs[a] = W[a] + dt * wdot[a] + acc
     for a in range(N):
         G[a * N + a] += 1.0
-
-
-def dot_sequence(a: Sequence[float], b: Sequence[float]) -> float:
-    """sum_k a_k b_k over the shorter of the two, left to right (``sum`` rounds differently from
-    Python 3.12 on, numpy's ``dot`` per BLAS kernel)."""
-    acc = 0.0
-    for k in range(min(len(a), len(b))):
-        acc += a[k] * b[k]
-    return acc

@@ -34,12 +34,13 @@ Every sum runs in a fixed order over float64 buffers (``fixed_linalg``): the bit
 """
 from __future__ import annotations
 
+import math
+from array import array
 from typing import Any, Sequence
 
-from fmu_controller.fixed_linalg import (EPS, buffer, cholesky, forward_substitute, smallest_eigenvalue, sturm_count,
-                                         trace)
-from fmu_controller.sotc_math import (N_BASIS, basis_directional, error_rate, policy_arguments, printed_rate,
-                                      reward, tanh_law)
+from fmu_controller.fixed_linalg import (EPS, as_buffer, buffer, cholesky, dot, forward_substitute,
+                                         smallest_eigenvalue, sturm_count, trace)
+from fmu_controller.sotc_math import N_BASIS, CriticConstants, critic_row, normalisation, policy_arguments
 
 SELECTIONS = ("maxeig", "fill", "fifo", "maxeig-raw")
 REPLAYS = ("current", "stored")
@@ -48,7 +49,7 @@ RANK_TOL = N_BASIS * EPS  # ... and by more than RANK_TOL trace(M), the rounding
 _WIDTHS = {"eta": N_BASIS, "z": 4, "dinv": 3, "fe": 2}
 
 
-def cl_matrix(n: int, E: list, rew: list, M: list, b: list, sc: list) -> None:
+def cl_matrix(n: int, E: array, rew: array, M: array, b: array, sc: array) -> None:
     """M = sum_i sc_i eta_i eta_i^T and b = sum_i sc_i r_i eta_i over the first n rows of E (flat,
     n x 10), sc_i = 1 / (1 + |eta_i|^2)^2; rows in order, M's lower triangle mirrored."""
     N = N_BASIS
@@ -61,7 +62,7 @@ def cl_matrix(n: int, E: list, rew: list, M: list, b: list, sc: list) -> None:
         ee = 0.0
         for k in range(N):
             ee += E[o + k] * E[o + k]
-        sc[i] = 1.0 / ((1.0 + ee) * (1.0 + ee))
+        sc[i] = 1.0 / normalisation(ee)
         for a in range(N):
             xa = E[o + a] * sc[i]
             b[a] += xa * rew[i]
@@ -72,7 +73,7 @@ def cl_matrix(n: int, E: list, rew: list, M: list, b: list, sc: list) -> None:
             M[c * N + a] = M[a * N + c]
 
 
-def cl_rate(M: list, b: list, W: list, out: list) -> None:
+def cl_rate(M: array, b: array, W: array, out: array) -> None:
     """out = M W + b (rows of M in order)."""
     N = N_BASIS
     for a in range(N):
@@ -82,21 +83,37 @@ def cl_rate(M: list, b: list, W: list, out: list) -> None:
         out[a] = acc + b[a]
 
 
-def replay_current(n: int, W: list, z: list, dinv: list, fe: list, s: float, r: tuple, theta: tuple,
-                   lam1: tuple, lam2: tuple, backstepping: bool, coupled: bool, E: list, rew: list) -> None:
-    """eta_i and r_i of the first n rows re-evaluated at the weights W (the ``current`` replay)."""
+def replay_current(K: CriticConstants, n: int, W: array, z: array, dinv: array, fe: array, E: array,
+                   rew: array) -> None:
+    """eta_i and r_i of the first n rows re-evaluated at the weights W (the ``current`` replay): the
+    policy (28) the critic W implies at z_i, and the controller's own ``critic_row``."""
+    s = K.s
     for i in range(n):
-        zi = (z[4 * i], z[4 * i + 1], z[4 * i + 2], z[4 * i + 3])
-        di = (dinv[3 * i], dinv[3 * i + 1], dinv[3 * i + 2])
-        x = policy_arguments(zi, W, di, s, r)
-        zd = error_rate(zi, tanh_law(x, s), (fe[2 * i], fe[2 * i + 1]), di, lam1, lam2, backstepping)
-        eta = basis_directional(zi, zd if coupled else printed_rate(zi, zd))
-        for k in range(N_BASIS):
-            E[i * N_BASIS + k] = eta[k]
-        rew[i] = reward(zi, x, theta, s, r)[0]
+        zp1, zp2, zv1, zv2 = z[4 * i], z[4 * i + 1], z[4 * i + 2], z[4 * i + 3]
+        i11, i12, i22 = dinv[3 * i], dinv[3 * i + 1], dinv[3 * i + 2]
+        x1, x2, x3, x4 = policy_arguments(K, zp1, zp2, zv1, zv2, W, i11, i12, i22)
+        rew[i] = critic_row(K, zp1, zp2, zv1, zv2, x1, x2, x3, x4, -s * math.tanh(x1), -s * math.tanh(x2),
+                            -s * math.tanh(x3), -s * math.tanh(x4), fe[2 * i], fe[2 * i + 1], i11, i12, i22,
+                            E, i * N_BASIS)[4]
 
 
-def trial_matrix(M: list, sc_j: float, E: list, j: int, c_sc: float, eta: list, out: list) -> None:
+def rows_within(L: array, E: array, sc: array, P: int, y: array, inside: array) -> int:
+    """inside[j] = 1 for each row j of E with sc_j |L^-1 eta_j|^2 < 1, else 0 (y is scratch); how many.
+    These are the swaps that can pass ``CLStack._swap_full``'s threshold."""
+    N = N_BASIS
+    count = 0
+    for j in range(P):
+        forward_substitute(L, E, N, y, j * N)
+        yy = 0.0
+        for k in range(N):
+            yy += y[k] * y[k]
+        within = sc[j] * yy < 1.0
+        inside[j] = 1.0 if within else 0.0
+        count += within
+    return count
+
+
+def trial_matrix(M: array, sc_j: float, E: array, j: int, c_sc: float, eta: array, out: array) -> None:
     """out = M - sc_j eta_j eta_j^T + c_sc eta eta^T: the CL matrix with row j swapped for eta."""
     N = N_BASIS
     o = j * N
@@ -110,23 +127,19 @@ def trial_matrix(M: list, sc_j: float, E: list, j: int, c_sc: float, eta: list, 
 class CLStack:
     """P recorded samples and the CL sum M W + b of (30)/(31).
 
-    ``s, r, theta, lam1, lam2, backstepping, coupled`` are the controller constants the ``current``
-    replay needs to re-evaluate eta_i and r_i (saturation level, R, Theta, Lambda_1, Lambda_2, reading
-    of chi_vd^a, form of zdot in eta)."""
+    ``constants`` are the controller's own (``sotc_math.CriticConstants``): the ``current`` replay
+    re-evaluates eta_i and r_i with them."""
 
-    def __init__(self, P: int, selection: str, replay: str, s: float, r: Sequence[float],
-                 theta: Sequence[float], lam1: Sequence[float], lam2: Sequence[float], backstepping: bool,
-                 coupled: bool = True):
+    def __init__(self, P: int, selection: str, replay: str, constants: CriticConstants):
         self.P, self.selection, self.replay_form = P, selection, replay
-        self.s, self.r, self.theta = s, tuple(r), tuple(theta)
-        self.lam1, self.lam2, self.backstepping = tuple(lam1), tuple(lam2), backstepping
-        self.coupled = coupled  # eta_i with the coupling terms +z_v, -z_phi of (6) (else (7) as printed)
+        self.constants = constants
         N = N_BASIS
         self.M, self.b, self.sc = buffer(N * N), buffer(N), buffer(P)  # the CL sum at the last terms()
         self.E, self.rew_now = buffer(P * N), buffer(P)  # eta_i, r_i at the last terms()
-        self._W, self._rate, self._c = buffer(N), buffer(N), buffer(N)
+        self._rate, self._c = buffer(N), buffer(N)
         self._d, self._e, self._v, self._p, self._y = buffer(N), buffer(N), buffer(N), buffer(N), buffer(N)
         self._work, self._A, self._L = buffer(N * N), buffer(N * N), buffer(N * N)
+        self._inside = buffer(P)
         self.clear()
 
     # --- contents --------------------------------------------------------------------------------
@@ -179,18 +192,17 @@ class CLStack:
             self.rew_now[:] = self.rew
             cl_matrix(self.count, self.E, self.rew_now, self.M, self.b, self.sc)
 
-    def terms(self, W: Sequence[float]) -> list:
-        """The CL sum M W + b of (30)/(31) at the weights W; M, b stay as ``self.M``, ``self.b``, with
-        the rows ``self.E`` and their scales ``self.sc``."""
+    def terms(self, W: Sequence[float]) -> array:
+        """The CL sum M W + b of (30)/(31) at the weights W (a buffer kept by the stack, overwritten by
+        the next call); M, b stay as ``self.M``, ``self.b``, with the rows ``self.E`` and their scales
+        ``self.sc``."""
+        Wb = as_buffer(W)
         if self.replay_form == "current":
             rows = self.rows
-            replay_current(self.count, W, rows["z"], rows["dinv"], rows["fe"], self.s, self.r, self.theta,
-                           self.lam1, self.lam2, self.backstepping, self.coupled, self.E, self.rew_now)
+            replay_current(self.constants, self.count, Wb, rows["z"], rows["dinv"], rows["fe"], self.E, self.rew_now)
             cl_matrix(self.count, self.E, self.rew_now, self.M, self.b, self.sc)
-        for k in range(N_BASIS):
-            self._W[k] = W[k]
-        cl_rate(self.M, self.b, self._W, self._rate)
-        return list(self._rate)
+        cl_rate(self.M, self.b, Wb, self._rate)
+        return self._rate
 
     def spectrum(self) -> tuple[float, int, float]:
         """(lambda_min, numerical rank, tol) of the CL matrix of the last ``terms``; lambda_min is 0
@@ -251,11 +263,9 @@ class CLStack:
         Weyl's inequality a swap raises lambda_min(M) by at most |eta|^2 / (1 + |eta|^2)^2, so small
         samples are refused at once."""
         c = self._c
-        ee = 0.0
-        for k in range(N_BASIS):
-            c[k] = eta[k]
-            ee += eta[k] * eta[k]
-        c_sc = 1.0 / ((1.0 + ee) * (1.0 + ee))
+        c[:] = as_buffer(eta)
+        ee = dot(c, c, N_BASIS)
+        c_sc = 1.0 / normalisation(ee)
         lam, rank, tol = spectrum
         if self.selection == "maxeig-raw":
             lam = self._smallest(self.M)
@@ -273,15 +283,11 @@ class CLStack:
         trial_matrix(self.M, 0.0, self.E, 0, c_sc, c, B)  # M + c c^T (row 0 taken with weight 0)
         for a in range(N):
             B[a * N + a] -= thr
-        if not cholesky(B, N, L):
+        if not cholesky(B, N, L) or not rows_within(L, self.E, self.sc, self.P, y, self._inside):
             return -1
         found = []
         for j in range(self.P):
-            forward_substitute(L, self.E[j * N:(j + 1) * N], N, y)
-            yy = 0.0
-            for k in range(N):
-                yy += y[k] * y[k]
-            if self.sc[j] * yy < 1.0:
+            if self._inside[j]:
                 trial_matrix(self.M, self.sc[j], self.E, j, c_sc, c, B)
                 found.append((j, N, self._smallest(B)))
         return self._oldest_best(found, tol)

@@ -1,6 +1,8 @@
 # Declarations for the compiled cores (orchestration/fmu_build/compiled.py): C types for dynamics.py, which
-# stays the one source of the formulas and runs as it is wherever the cores are not compiled.
+# stays the one source of the formulas and runs as it is wherever the cores are not compiled. ``math.f`` is
+# C's libm f here (what Python's math calls: same bits; hypot is imported by name, Python's own).
 cimport cython
+from libc cimport math
 
 ctypedef (double, double, double, double, double, double, double) coef_t  # ArmParameters.coefficients
 
@@ -25,7 +27,8 @@ cdef (double, double) _accel(double phi2, double dphi1, double dphi2, double tau
 
 @cython.locals(d11=double, d12=double, d22=double, c1=double, c2=double)
 cpdef (double, double) inverse_dynamics(double phi2, double dphi1, double dphi2, double ddphi1, double ddphi2, object p)
-@cython.locals(k=double, w=double, friction=double, damping=double, bias=double, position=double, n=double)
+@cython.locals(c=coef_t, p3=double, k=double, w=double, friction=double, damping=double, bias=double,
+               position=double, n=double)
 cpdef int substeps_needed(double phi2, double dphi1, double dphi2, double dt, object p, double tau_norm=*)
 @cython.locals(d11=double, d12=double, d22=double)
 cpdef double kinetic_energy(double phi2, double dphi1, double dphi2, object p)

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, fields
+from math import hypot  # Python's hypot (math.f is C's libm f in the compiled core, and C's hypot rounds differently)
 
 import numpy as np
 
@@ -196,11 +197,12 @@ def substeps_needed(phi2: float, dphi1: float, dphi2: float, dt: float, p: ArmPa
     - position coupling: sqrt(J) with J bounding d ddphi / d phi2 (D and H vary with phi2 through p3).
 
     ``p.inv_inertia`` bounds ||D(phi)^-1|` for every phi. Returns a count (possibly > MAX_SUBSTEPS)."""
-    k, w = p.inv_inertia, abs(dphi1) + abs(dphi2)
-    friction = max(p.f1 + p.b1, p.f2 + p.b2)
-    damping = k * (friction + 4.0 * p.p3 * w)
-    bias = friction + max(p.b1, p.b2) * w + 3.0 * p.p3 * w * w  # bound on |H dphi + G|
-    position = math.sqrt(2.0 * p.p3 * k * k * (tau_norm + bias) + 3.0 * p.p3 * k * w * w)
+    c, k, w = p.coefficients, p.inv_inertia, abs(dphi1) + abs(dphi2)  # c = (p1, p2, p3, f1, f2, b1, b2)
+    p3 = c[2]
+    friction = max(c[3] + c[5], c[4] + c[6])
+    damping = k * (friction + 4.0 * p3 * w)
+    bias = friction + max(c[5], c[6]) * w + 3.0 * p3 * w * w  # bound on |H dphi + G|
+    position = math.sqrt(2.0 * p3 * k * k * (tau_norm + bias) + 3.0 * p3 * k * w * w)
     n = dt * (damping + position) / SUBSTEP_STIFFNESS
     return int(math.ceil(n)) if n < MAX_SUBSTEPS + 1 else MAX_SUBSTEPS + 1
 
@@ -223,14 +225,14 @@ def integrate(
     friction dissipates), so ||dphi||_D = sqrt(2 E) grows by at most dt ||tau|| sqrt(||D^-1||); a
     larger growth (5 % slack for the integration error) is a numerical blow-up, not motion."""
     q1, q2, w1, w2 = state
-    tau_norm = math.hypot(tau1, tau2)
+    tau_norm = hypot(tau1, tau2)
     n = max(min_substeps, substeps_needed(q2, w1, w2, dt, p, tau_norm))
     if n > MAX_SUBSTEPS:
         raise IntegrationError(
             f"the arm at dphi = ({w1:.6g}, {w2:.6g}) rad/s with |tau| = {tau_norm:.6g} N.m is too stiff for a "
             f"{dt:g} s step: it needs more than {MAX_SUBSTEPS} RK4 substeps (shorten the communication step)")
     new = rk4_step(state, tau1, tau2, dt, n, p)
-    if not all(map(math.isfinite, new)):
+    if not (math.isfinite(new[0]) and math.isfinite(new[1]) and math.isfinite(new[2]) and math.isfinite(new[3])):
         raise IntegrationError("the integration gave a non-finite state")
     speed_before = math.sqrt(2.0 * kinetic_energy(q2, w1, w2, p))
     speed_after = math.sqrt(2.0 * kinetic_energy(new[1], new[2], new[3], p))

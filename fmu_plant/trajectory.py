@@ -62,21 +62,34 @@ class CircleTrajectory:
 
     def path(self, t: float) -> tuple[float, float, float, float, float, float]:
         """(X, Y, dX, dY, ddX, ddY) of eq. (47) at time t."""
-        a = self.rate * t + self.phase
-        s, c = math.sin(a), math.cos(a)
-        r, w = self.radius, self.rate
-        return (
-            self.center_x + r * s,
-            self.center_y + r * c,
-            r * w * c,
-            -r * w * s,
-            -r * w * w * s,
-            -r * w * w * c,
-        )
+        return circle_path(t, self.center_x, self.center_y, self.radius, self.rate, self.phase)
 
     def sample(self, t: float) -> tuple[float, ...]:
         """The eight ``REFERENCE_SIGNALS`` at time t: joint references (48) and their derivatives."""
-        x, y, dx, dy, ddx, ddy = self.path(t)
-        phi1, phi2 = inverse_kinematics(x, y, self.l1, self.l2)
-        dq1, dq2, ddq1, ddq2 = joint_rates(phi1, phi2, dx, dy, ddx, ddy, self.l1, self.l2)
-        return phi1, phi2, dq1, dq2, ddq1, ddq2, x, y
+        return circle_sample(t, self.center_x, self.center_y, self.radius, self.rate, self.phase, self.l1, self.l2)
+
+
+def circle_path(t: float, center_x: float, center_y: float, radius: float, rate: float,
+                phase: float) -> tuple[float, float, float, float, float, float]:
+    """(X, Y, dX, dY, ddX, ddY) of eq. (47) at time t (the circle's parameters as in ``CircleTrajectory``)."""
+    a = rate * t + phase
+    s, c = math.sin(a), math.cos(a)
+    r, w = radius, rate
+    return (
+        center_x + r * s,
+        center_y + r * c,
+        r * w * c,
+        -r * w * s,
+        -r * w * w * s,
+        -r * w * w * c,
+    )
+
+
+def circle_sample(t: float, center_x: float, center_y: float, radius: float, rate: float, phase: float, l1: float,
+                  l2: float) -> tuple[float, float, float, float, float, float, float, float]:
+    """The eight ``REFERENCE_SIGNALS`` at time t: joint references (48) of the path (47) and their
+    derivatives (``kinematics.joint_rates``)."""
+    x, y, dx, dy, ddx, ddy = circle_path(t, center_x, center_y, radius, rate, phase)
+    phi1, phi2 = inverse_kinematics(x, y, l1, l2)
+    dq1, dq2, ddq1, ddq2 = joint_rates(phi1, phi2, dx, dy, ddx, ddy, l1, l2)
+    return phi1, phi2, dq1, dq2, ddq1, ddq2, x, y

@@ -6,6 +6,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.linalg import solve_continuous_are
 
+from fmu_controller import riccati
 from fmu_controller.otc import OtcCore
 from fmu_controller.riccati import RiccatiError, solve_care
 from fmu_plant.dynamics import inertia_matrix
@@ -62,3 +63,16 @@ def test_the_solution_is_the_same_from_another_stabilising_gain():
     p1 = solve_care(a, b, qm, rm, np.hstack([np.zeros((2, 2)), d]))
     p2 = solve_care(a, b, qm, rm, np.hstack([np.zeros((2, 2)), 3.0 * d]))
     np.testing.assert_allclose(p1, p2, rtol=1e-12, atol=1e-12 * np.max(np.abs(p1)))
+
+
+def test_an_iteration_that_does_not_converge_is_refused(monkeypatch):
+    """Newton-Kleinman stopped before P repeats (here after 2 of the steps the OTC problem needs) raises
+    RiccatiError naming the step count, instead of returning an unconverged P."""
+    core = OtcCore()
+    a, b, qm, rm = _otc_system(core, -0.5)
+    d = np.linalg.inv(b[2:, :])
+    gain = np.hstack([np.zeros((2, 2)), d])
+    solve_care(a, b, qm, rm, gain)  # converges with the real bound
+    monkeypatch.setattr(riccati, "MAX_STEPS", 2)
+    with pytest.raises(RiccatiError, match="did not converge in 2 steps"):
+        solve_care(a, b, qm, rm, gain)

@@ -24,7 +24,7 @@ from support.sotc import (
 from fmu_controller import sotc_math as sm
 from fmu_controller.saturation import accel_projection
 from fmu_controller.sotc import SotcCore
-from fmu_controller.sotc_zv import newton_zv
+from fmu_controller.sotc_zv import newton_zv, solve_tanh_system
 from fmu_plant.dynamics import ArmParameters, inertia_matrix
 from fmu_plant.trajectory import CircleTrajectory
 
@@ -286,8 +286,8 @@ def test_zv_satisfies_its_implicit_definition(weight_scale):
             assert np.allclose(outs(ctrl, "z1", "z2"), np.array(y[:2]) - np.array(r[:2]), atol=0)
             # plain Newton from z_v = c / a, the solver's first try
             hess = sm.value_hessian(ctrl.W)
-            *_, f1, f2 = newton_zv(ctrl.s, ctrl.r, *outs(ctrl, "z1", "z2"), c[0], c[1], a, a, ctrl.W, hess, c[0] / a,
-                                   c[1] / a, False)
+            *_, f1, f2 = newton_zv(ctrl.constants, *outs(ctrl, "z1", "z2"), c[0], c[1], a, a, ctrl.W, hess[0][2],
+                                   hess[0][3], hess[1][2], hess[1][3], c[0] / a, c[1] / a, False)
             newton_stalls += max(abs(f1), abs(f2)) > 1e-6
     if weight_scale >= 10.0:
         assert newton_stalls > 0  # the fallback was needed (and worked) on some samples
@@ -308,7 +308,7 @@ def test_tanh_system_solver_finds_a_solution_without_a_guess():
                 K[1, 0] = K[0, 1] = 0.0
             if trial % 5 == 3:
                 K[0, 1], K[1, 0] = 1e-13, -1e-14
-            t1, t2 = sm.solve_tanh_system(x0[0], x0[1], K[0, 0], K[0, 1], K[1, 0], K[1, 1])
+            t1, t2 = solve_tanh_system(x0[0], x0[1], K[0, 0], K[0, 1], K[1, 0], K[1, 1])
             u = np.array([t1, t2])
             assert np.all(np.abs(u) <= 1.0)
             assert np.max(np.abs(u - np.tanh(x0 + K @ u))) <= 1e-6
