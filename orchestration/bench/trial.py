@@ -4,7 +4,9 @@ each in the pure loop), in a fresh interpreter, so the cores it runs are those a
 in-process (compiled into the wheel by setup.py where the build could, else the ``.py``).
 
 ``python -m orchestration.bench.trial --store-before`` measured the cost on the code before issue 32
-item 5 and stored it in ``trial_before.json`` beside this module; the bench compares with it.
+item 5 and stored it in ``trial_before.json`` beside this module, once per kind of cores (a source
+checkout imports the ``.py``; the tree of a plain install, its compiled extensions); the bench
+compares with the figure of the same kind.
 """
 from __future__ import annotations
 
@@ -44,8 +46,8 @@ def trial_cost(repeats: int) -> dict:
     walls = [r["wall_s"] for r in runs]
     out = {"median": statistics.median(walls), "min": min(walls), "max": max(walls), "cores": runs[0]["cores"],
            "criterion": runs[0]["criterion"]}
-    if BEFORE.is_file():
-        before = json.loads(BEFORE.read_text())
+    before = json.loads(BEFORE.read_text()).get(out["cores"]) if BEFORE.is_file() else None
+    if before is not None:
         out["before"] = before
         out["cheaper"] = before["median"] / out["median"]
     return out
@@ -54,6 +56,7 @@ def trial_cost(repeats: int) -> dict:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--store-before", action="store_true", help=f"store this measurement as {BEFORE.name}")
+    parser.add_argument("--before", type=Path, default=BEFORE, help="the file to store it in")
     parser.add_argument("--repeats", type=int, default=3)
     args = parser.parse_args(argv)
     data = trial_cost(args.repeats)
@@ -61,8 +64,9 @@ def main(argv: list[str] | None = None) -> int:
     print(json.dumps(data, indent=1))
     if args.store_before:
         data["date"] = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-        BEFORE.write_text(json.dumps(data, indent=1) + "\n")
-        print(f"wrote {BEFORE}")
+        stored = json.loads(args.before.read_text()) if args.before.is_file() else {}
+        args.before.write_text(json.dumps(stored | {data["cores"]: data}, indent=1) + "\n")
+        print(f"wrote {args.before}")
     return 0
 
 
