@@ -226,6 +226,23 @@ def cost_split(scenario, paths) -> dict:
             "floor_us_per_step": floor_cores(scenario)}
 
 
+def plumbing_floor(scenario, paths) -> dict:
+    """Microseconds per step inside fmpy's get/set/doStep calls with empty FMUs of the same variables
+    (``orchestration.bench.floor``): the floor of the plumbing figure of ``cost_split``."""
+    from orchestration.bench.floor import empty_fmus
+    from orchestration.run import master
+
+    fmi = _Timer()
+    with tempfile.TemporaryDirectory(prefix="sotc_bench_floor_") as tmp, \
+            _patched(master._Loaded, "read_outputs", fmi.wrap("get", master._Loaded.read_outputs)), \
+            _patched(master._Loaded, "do_step", fmi.wrap("doStep", master._Loaded.do_step)), \
+            _patched(master._Inputs, "push", fmi.wrap("set", master._Inputs.push)):
+        result = master.run(scenario, empty_fmus(paths, Path(tmp)), keep_samples=False)
+    _check(result)
+    per_call = {k: v * 1e6 / scenario.steps for k, v in fmi.seconds.items()}
+    return {"fmi_calls_us_per_step": per_call, "us_per_step": sum(per_call.values())}
+
+
 def child_run(stop_time: float, fmu_dir: Path, record: Path, record_every: int) -> dict:
     """One ``sotc-cosim run`` in a fresh interpreter; its wall time, peak RSS and recording size."""
     code = (
@@ -286,6 +303,7 @@ def bench_speed(fmu_dir: Path, repeats: int = 3, long: tuple[float, ...] = LONG_
     data["split"] = cost_split(scenario, paths)
     if isinstance(fast, dict):
         data["split_compiled"] = cost_split(scenario, fast)
+    data["plumbing_floor"] = plumbing_floor(scenario, paths)
     data["process"] = process_walls(next(iter((fast if isinstance(fast, dict) else paths).values())).parent, repeats)
     if stop_time is None:  # a shortened bench (a smoke test) leaves out the trials of 8 x 20 s
         data["trial"] = trial_cost(repeats)
@@ -377,6 +395,12 @@ def format_markdown(data: dict) -> str:
         "",
         f"Compiled cores: {data.get('compiled', 'not measured (this measurement predates them)')}.",
     ]
+    if "plumbing_floor" in data:
+        f = data["plumbing_floor"]
+        lines += ["", f"The plumbing's floor: the same master and instrumentation on empty pythonfmu FMUs with our "
+                  f"variables (`orchestration/bench/floor.py`) spend {f['us_per_step']:.1f} us per step in "
+                  f"get/set/doStep ({', '.join(f'{k} {v:.1f}' for k, v in f['fmi_calls_us_per_step'].items())}): "
+                  "pythonfmu's C layer and fmpy's ctypes calls, which no change to our slaves removes."]
     if "process" in data:
         lines += ["", _process_line(data["process"], meth["repeats"])]
     if "trial" in data:

@@ -50,6 +50,9 @@ def test_the_targets_judge_start_up_and_each_part_outside_the_cores(short_bench)
     process = short_bench["process"]
     assert 0 < process["startup"]["min"] <= process["startup"]["median"] <= process["startup"]["max"]
     assert "trial" not in short_bench  # a shortened bench runs no tuning trial
+    floor = short_bench["plumbing_floor"]  # empty FMUs with our variables, in the same master
+    assert set(floor["fmi_calls_us_per_step"]) == {"get", "set", "doStep"}
+    assert math.isclose(sum(floor["fmi_calls_us_per_step"].values()), floor["us_per_step"], rel_tol=1e-9)
 
 
 def test_compare_prints_each_figure_old_and_new(short_bench, fmu_dir, tmp_path, capsys):
