@@ -427,7 +427,7 @@ def _trial_line(t: dict) -> str:
     if "before" in t:
         b = t["before"]
         line += (f"; before issue 32 item 5 {b['median']:.2f} s (cores {b['cores']}, {b.get('date', '?')}): "
-                 f"{t['cheaper']:.1f}x cheaper")
+                 f"before / now = {t['cheaper']:.2f}")
     return line + "."
 
 
