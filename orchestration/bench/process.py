@@ -1,7 +1,10 @@
-"""Whole processes, side by side (``sotc-cosim bench``): ``sotc-cosim run paper`` (FMUs, recording,
-summary) against the same experiment as a plain script, a fresh interpreter running the in-process loop
-over the cores (numpy arrays, no FMI, no recording). Each is started ``repeats`` times, alternated; the
-wall time is the parent's, so interpreter start-up and imports count for both."""
+"""Whole processes (``sotc-cosim bench``), each started in a fresh interpreter, the parent's wall time
+(interpreter start-up and imports count):
+
+* ``sotc-cosim run paper`` (FMUs, recording, summary) against what a user would write instead,
+  ``benchmarks/plain_numpy.py`` (numpy only, no project code; a source checkout's), alternated
+  ``repeats`` times;
+* start-up: ``sotc-cosim run paper --stop-time 0.01`` with its recording, ``repeats`` times."""
 from __future__ import annotations
 
 import statistics
@@ -11,14 +14,11 @@ import tempfile
 import time
 from pathlib import Path
 
-SCRIPT = (
-    "from fmu_controller.sotc import SotcCore\n"
-    "from orchestration.study.pure_loop import simulate\n"
-    "from orchestration.run.metrics import tracking_metrics\n"
-    "res = simulate(SotcCore(), stop_time=100.0)\n"
-    "print(tracking_metrics(res.t, res.error, res.tau, 4.0)['mse'])\n"
-)
+from orchestration.fmu_build.build import PACKAGE_ROOT
+
+PLAIN_NUMPY = PACKAGE_ROOT / "benchmarks" / "plain_numpy.py"
 RUN = "from orchestration.cli import main; raise SystemExit(main())"
+STARTUP_STOP_TIME = "0.01"  # one step: what is measured is start-up, loading and the recording's set-up
 
 
 def _timed(argv: list[str], cwd: Path) -> float:
@@ -30,15 +30,26 @@ def _timed(argv: list[str], cwd: Path) -> float:
     return wall
 
 
+def _run(fmu_dir: Path, tmp: str, *extra: str) -> list[str]:
+    return [sys.executable, "-c", RUN, "run", "paper", *extra, "--fmu-dir", str(fmu_dir), "--recording",
+            str(Path(tmp) / "run.rrd")]
+
+
+def _stats(walls: list[float]) -> dict:
+    return {"median": statistics.median(walls), "min": min(walls), "max": max(walls)}
+
+
 def process_walls(fmu_dir: Path, repeats: int) -> dict:
-    """Median (min, max) wall seconds of both processes and their ratio."""
-    walls: dict[str, list[float]] = {"run": [], "script": []}
+    """Median (min, max) wall seconds of the run and of the plain numpy script, their ratio, and the
+    start-up (a one-step recorded run); without the script (an installed package) only the start-up."""
+    walls: dict[str, list[float]] = {"run": [], "script": [], "startup": []}
     with tempfile.TemporaryDirectory(prefix="sotc_bench_proc_") as tmp:
-        run = [sys.executable, "-c", RUN, "run", "paper", "--fmu-dir", str(fmu_dir), "--recording",
-               str(Path(tmp) / "run.rrd")]
         for _ in range(repeats):
-            walls["run"].append(_timed(run, Path(tmp)))
-            walls["script"].append(_timed([sys.executable, "-c", SCRIPT], Path(tmp)))
-    med = {k: statistics.median(v) for k, v in walls.items()}
-    return {k: {"median": med[k], "min": min(v), "max": max(v)} for k, v in walls.items()} | {
-        "ratio": med["run"] / med["script"]}
+            walls["startup"].append(_timed(_run(fmu_dir, tmp, "--stop-time", STARTUP_STOP_TIME), Path(tmp)))
+            if PLAIN_NUMPY.is_file():
+                walls["run"].append(_timed(_run(fmu_dir, tmp), Path(tmp)))
+                walls["script"].append(_timed([sys.executable, str(PLAIN_NUMPY)], Path(tmp)))
+    out = {k: _stats(v) for k, v in walls.items() if v}
+    if "script" in out:
+        out["ratio"] = out["run"]["median"] / out["script"]["median"]
+    return out

@@ -82,10 +82,11 @@ def _source_files(source: FmuSource, fmi: int = 2) -> list[Path]:
     return sorted(set(files)) + [f for e in exporters for f in packaging.pythonfmu_sources(e)]
 
 
-def source_digest(source: FmuSource, fmi: int = 2) -> str:
+def source_digest(source: FmuSource, fmi: int = 2, compiled_cores: bool | None = None) -> str:
     """What the FMU is built from: its sources, pythonfmu's Python half, the packaging code, its FMI
-    version and whether its cores are compiled (``compiles``)."""
-    h = hashlib.sha256(source.model.encode() + (f" compiled for {compiled.target()}".encode() if compiles() else b"")
+    version and whether its cores are compiled (``compiled_cores``; default: what a build here does)."""
+    compiled_cores = compiles() if compiled_cores is None else compiled_cores
+    h = hashlib.sha256(source.model.encode() + (f" compiled for {compiled.target()}".encode() if compiled_cores else b"")
                        + (b" FMI 3.0" if fmi == 3 else b""))
     for f in _source_files(source, fmi):
         h.update(f.name.encode())
@@ -101,13 +102,14 @@ def file_digest(path: Path) -> str:
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
-def is_current(model: str, out_dir: Path, fmi: int = 2) -> bool:
-    """The FMU is there, built from today's sources, and its bytes are the ones that build wrote (the
-    stamp holds both digests): a truncated, corrupt or replaced FMU is built again."""
+def is_current(model: str, out_dir: Path, fmi: int = 2, compiled_cores: bool | None = None) -> bool:
+    """The FMU is there, built from today's sources (cores compiled or not: ``source_digest``), and its
+    bytes are the ones that build wrote (the stamp holds both digests): a truncated, corrupt or
+    replaced FMU is built again."""
     stamp, fmu = Path(out_dir) / f"{model}.sources.sha256", fmu_path(model, out_dir)
     try:
         lines = stamp.read_text().split()
-        return fmu.is_file() and lines == [source_digest(FMU_SOURCES[model], fmi), file_digest(fmu)]
+        return fmu.is_file() and lines == [source_digest(FMU_SOURCES[model], fmi, compiled_cores), file_digest(fmu)]
     except OSError:
         return False
 
@@ -179,9 +181,25 @@ def cores_note() -> str:
         f"hot cores compiled with Cython for {compiled.target()} (tens of seconds per FMU)"
 
 
+def kept_in_other_mode(models: list[str], out_dir: Path, fmi: int = 2) -> list[str]:
+    """The FMUs that are current but built in the other mode (cores compiled, or Python under
+    ``SOTC_COSIM_COMPILE=0``): the user's build, kept unless the switch is set for this command."""
+    if compiled.SWITCH in os.environ:
+        return []
+    return [m for m in models if m in FMU_SOURCES and not is_current(m, out_dir, fmi)
+            and is_current(m, out_dir, fmi, not compiles())]
+
+
 def ensure_built(models: list[str], out_dir: Path = DEFAULT_FMU_DIR, fmi: int = 2) -> dict[str, Path]:
-    """Build the FMUs that are missing or older than their sources; return model -> path."""
-    stale = [m for m in dict.fromkeys(models) if m not in FMU_SOURCES or not is_current(m, out_dir, fmi)]
+    """Build the FMUs that are missing or older than their sources (those current in the other mode
+    are kept, and said so: ``kept_in_other_mode``); return model -> path."""
+    models = list(dict.fromkeys(models))
+    kept = kept_in_other_mode(models, out_dir, fmi)
+    if kept:
+        mode = f"cores Python, as {compiled.SWITCH}=0 builds them" if compiles() else "cores compiled"
+        _to_stderr(f"{', '.join(kept)} in {out_dir}: kept as built ({mode}); "
+                   f"sotc-cosim build --out {out_dir}{' --fmi 3' if fmi == 3 else ''} rebuilds them ({cores_note()})")
+    stale = [m for m in models if m not in kept and (m not in FMU_SOURCES or not is_current(m, out_dir, fmi))]
     if stale:
         build_fmus(stale, out_dir, fmi)
     return {m: fmu_path(m, out_dir) for m in models}

@@ -1,5 +1,5 @@
 """Compiled cores: wherever Cython, setuptools, a C compiler and the Python headers are found
-(``pip install ".[compiled]"``), building an FMU compiles its hot modules in place with Cython, from
+(ordinary dependencies of the package), building an FMU compiles its hot modules in place with Cython, from
 the same ``.py`` files typed by the ``.pxd`` beside each, so every formula still lives once
 (``SOTC_COSIM_COMPILE=0`` keeps them Python).
 
@@ -79,12 +79,13 @@ def insisted() -> bool:
 def unavailable() -> str | None:
     """Why this interpreter cannot compile the cores (None: it can)."""
     if importlib.util.find_spec("Cython") is None or importlib.util.find_spec("setuptools") is None:
-        return "Cython and setuptools are not installed (pip install cython setuptools)"
+        return "Cython and setuptools are not installed (pip install cython setuptools gives compiled cores)"
     compiler = (sysconfig.get_config_var("CC") or "cc").split()[0]
     if shutil.which(compiler) is None:
-        return f"no C compiler ({compiler}) on PATH"
+        return f"no C compiler ({compiler}) on PATH (install one, e.g. apt install gcc, for compiled cores)"
     if not Path(sysconfig.get_paths()["include"], "Python.h").is_file():
-        return "the Python headers (Python.h) are missing"
+        return ("the Python headers (Python.h) are missing (install them, e.g. apt install python3-dev, "
+                "for compiled cores)")
     return None
 
 

@@ -33,7 +33,6 @@ from pathlib import Path
 from typing import Any, Iterator
 
 import numpy as np
-from scipy.stats import qmc
 
 from fmu_controller.catalog import CORES
 from fmu_controller.saturation import LIMIT_HANDLINGS
@@ -93,6 +92,8 @@ def nominal_design(fmu: str) -> dict[str, float]:
 def initial_design(fmu: str, seed: int) -> list[dict[str, float]]:
     """The first ``INITIAL_DESIGN`` trials of a search: the nominal design, then a scrambled Latin
     hypercube on the log scale of each design parameter, seeded with the tuning seed."""
+    from scipy.stats import qmc  # here, not at the top: ``sotc-cosim``'s parser reads this module's constants
+
     space = SEARCH_SPACES[fmu]
     low = np.log([lo for lo, _, _ in space.values()])
     high = np.log([hi for _, hi, _ in space.values()])

@@ -42,6 +42,19 @@ def test_the_cost_split_adds_up_to_the_instrumented_run(short_bench):
     assert {f"{c} (core, inside the FMU)" for c in split["floor_us_per_step"]} == cores  # the same cores in the floor
 
 
+def test_the_targets_judge_start_up_and_each_part_outside_the_cores(short_bench):
+    targets = short_bench["targets"]
+    for part in ("FMI plumbing <= 30 us", "master <= 5 us", "recording <= 3 us", "start-up <= 0.5 s",
+                 "cores <= 250 us"):
+        assert [k for k in targets if k.startswith(part)], part
+    process = short_bench["process"]
+    assert 0 < process["startup"]["min"] <= process["startup"]["median"] <= process["startup"]["max"]
+    assert "trial" not in short_bench  # a shortened bench runs no tuning trial
+    floor = short_bench["plumbing_floor"]  # empty FMUs with our variables, in the same master
+    assert set(floor["fmi_calls_us_per_step"]) == {"get", "set", "doStep"}
+    assert math.isclose(sum(floor["fmi_calls_us_per_step"].values()), floor["us_per_step"], rel_tol=1e-9)
+
+
 def test_compare_prints_each_figure_old_and_new(short_bench, fmu_dir, tmp_path, capsys):
     old = dict(short_bench, runs={k: dict(v, median=2 * v["median"]) for k, v in short_bench["runs"].items()})
     text = compare(old, short_bench)
