@@ -426,7 +426,7 @@ def _trial_line(t: dict) -> str:
             f"{t['cores']}, fresh interpreter): {t['median']:.2f} s ({t['min']:.2f}-{t['max']:.2f})")
     if "before" in t:
         b = t["before"]
-        line += (f"; before issue 32 item 5 {b['median']:.2f} s (cores {b['cores']}, {b.get('date', '?')}): "
+        line += (f"; before the typed cores {b['median']:.2f} s (cores {b['cores']}, {b.get('date', '?')}): "
                  f"before / now = {t['cheaper']:.2f}")
     return line + "."
 
