@@ -15,6 +15,7 @@ from pathlib import Path
 
 import pytest
 
+from fmi_slave.compiled_check import DIGESTS
 from orchestration.fmu_build import compiled
 from support.cli import leftovers, run
 
@@ -142,3 +143,47 @@ def test_a_damaged_core_without_its_py_is_refused_naming_it(sotc_fmu, fmu_dir, t
     line = next(ln for ln in proc.stderr.splitlines() if "FAILED" in ln)
     assert CORE in line and "no .py to run instead" in line, proc.stderr
     assert leftovers(tmp_path) == []
+
+
+def _with(fmu: Path, dest: Path, changes: dict[str, bytes]) -> Path:
+    with zipfile.ZipFile(fmu) as z, zipfile.ZipFile(dest, "w", zipfile.ZIP_DEFLATED) as out:
+        for item in z.infolist():
+            out.writestr(item, changes.get(item.filename, z.read(item)))
+    return dest
+
+
+def _cut_binary(fmu: Path, dest: Path) -> tuple[Path, str]:
+    """The FMU with its Linux binary cut to half its length."""
+    with zipfile.ZipFile(fmu) as z:
+        name = next(n for n in z.namelist() if n.startswith("binaries/linux64/"))
+        data = z.read(name)
+    return _with(fmu, dest, {name: data[:len(data) // 2]}), name
+
+
+def _cut_core_with_its_digest(fmu: Path, dest: Path) -> tuple[Path, str]:
+    """The FMU with a compiled core cut to half its length, and ``compiled_cores.sha256`` rewritten to
+    the cut file's digest (what a careless repair would do): the FMU's own check then loads it."""
+    with zipfile.ZipFile(fmu) as z:
+        name = next(n for n in z.namelist() if compiled.is_extension(n) and CORE in n)
+        cut = z.read(name)[:len(z.read(name)) // 2]
+        digests = f"resources/{DIGESTS}"
+        rel = name[len("resources/"):]
+        lines = [f"{hashlib.sha256(cut).hexdigest()}  {rel}" if line.split(None, 1)[1].strip() == rel else line
+                 for line in z.read(digests).decode().splitlines() if line.strip()]
+    return _with(fmu, dest, {name: cut, digests: ("\n".join(lines) + "\n").encode()}), name
+
+
+def test_validate_reports_a_loader_crash_as_a_finding_naming_the_file(sotc_fmu, fmu_paths, tmp_path):
+    """validate ended with SIGBUS (exit 135) and printed nothing: the FMU is now instantiated and run
+    in a child process, and its crash is a finding naming the truncated file."""
+    if not sys.platform.startswith("linux"):
+        pytest.skip("the truncated binary is the Linux one")
+    cases = [_cut_binary(fmu_paths["ArmPlant"], tmp_path / "ArmPlant.fmu"),
+             _cut_core_with_its_digest(sotc_fmu, tmp_path / f"{MODEL}.fmu")]
+    for fmu, name in cases:
+        proc = run(["validate", str(fmu)], tmp_path, timeout=600)
+        assert proc.returncode == 1, (name, proc.returncode, proc.stderr[-2000:])
+        crashes = [line for line in proc.stdout.splitlines() if "the loader crashed with SIG" in line]
+        assert crashes and all(name in line for line in crashes), proc.stdout
+        assert "Traceback" not in proc.stdout + proc.stderr
+    assert leftovers(tmp_path) == []  # the crashed children's sotc_fmu_* went with them
