@@ -31,6 +31,14 @@ def _extensions(fmu: Path) -> list[str]:
         return [n for n in z.namelist() if compiled.is_extension(n)]
 
 
+def _with(fmu: Path, dest: Path, changes: dict[str, bytes]) -> Path:
+    """A copy of ``fmu`` at ``dest`` with the members named in ``changes`` replaced."""
+    with zipfile.ZipFile(fmu) as z, zipfile.ZipFile(dest, "w", zipfile.ZIP_DEFLATED) as out:
+        for item in z.infolist():
+            out.writestr(item, changes.get(item.filename, z.read(item)))
+    return dest
+
+
 def _damaged(fmu: Path, kind: str, dest: Path, core: str = CORE) -> Path:
     with zipfile.ZipFile(fmu) as z:
         names = z.namelist()
@@ -38,10 +46,7 @@ def _damaged(fmu: Path, kind: str, dest: Path, core: str = CORE) -> Path:
         other = next(n for n in names if compiled.is_extension(n) and n != target)
         data = z.read(target)
         new = {"truncated": data[:len(data) // 2], "empty": b"", "foreign": z.read(other)}[kind]
-        with zipfile.ZipFile(dest, "w", zipfile.ZIP_DEFLATED) as out:
-            for item in z.infolist():
-                out.writestr(item, new if item.filename == target else z.read(item))
-    return dest
+    return _with(fmu, dest, {target: new})
 
 
 @pytest.fixture(scope="module")
@@ -143,13 +148,6 @@ def test_a_damaged_core_without_its_py_is_refused_naming_it(sotc_fmu, fmu_dir, t
     line = next(ln for ln in proc.stderr.splitlines() if "FAILED" in ln)
     assert CORE in line and "no .py to run instead" in line, proc.stderr
     assert leftovers(tmp_path) == []
-
-
-def _with(fmu: Path, dest: Path, changes: dict[str, bytes]) -> Path:
-    with zipfile.ZipFile(fmu) as z, zipfile.ZipFile(dest, "w", zipfile.ZIP_DEFLATED) as out:
-        for item in z.infolist():
-            out.writestr(item, changes.get(item.filename, z.read(item)))
-    return dest
 
 
 def _cut_binary(fmu: Path, dest: Path) -> tuple[Path, str]:
