@@ -117,19 +117,30 @@ class WrappedSlave(Fmi3Slave):
                 self._expanded[key] = found
         return found
 
+    def _sized(self, call: str, vrs, values) -> tuple[int, ...]:
+        """The wrapped scalars of ``vrs``, refused before anything is set (naming each variable with its
+        size) unless ``values`` holds exactly one value per element (was: zip() argument 2 is shorter)."""
+        scalars = self._expand(vrs)
+        if len(values) != len(scalars):
+            sizes = ", ".join(f"'{self.vars[vr].name}' ({len(self._scalars[vr])})" for vr in vrs)
+            message = f"{call}: {len(values)} values for {sizes}, which take {len(scalars)}; nothing was set"
+            self.log(message, Fmi3Status.error)
+            raise ValueError(message)
+        return scalars
+
     def get_float64(self, vrs):
         if len(vrs) == 1 and vrs[0] == 0:  # the independent variable
             return [self._inner._time]
         return self._forward(lambda: self._inner.get_real(self._expand(vrs)))
 
     def set_float64(self, vrs, values):
-        self._forward(lambda: self._inner.set_real(self._expand(vrs), list(values)))
+        self._forward(lambda: self._inner.set_real(self._sized("fmi3SetFloat64", vrs, values), list(values)))
 
     def get_int32(self, vrs):
         return self._forward(lambda: self._inner.get_integer(self._expand(vrs)))
 
     def set_int32(self, vrs, values):
-        self._forward(lambda: self._inner.set_integer(self._expand(vrs), list(values)))
+        self._forward(lambda: self._inner.set_integer(self._sized("fmi3SetInt32", vrs, values), list(values)))
 
     def setup_experiment(self, start_time: float):
         self._forward(self._inner.setup_experiment, start_time)

@@ -4,7 +4,8 @@ A build that compiles an FMU's hot cores writes ``resources/compiled_cores.sha25
 each extension, one ``<digest>  <path under resources/>`` line each). The FMU script calls
 ``verify_compiled_cores`` before it imports any core: every extension file under ``resources/``
 whose bytes do not have the recorded digest (truncated, empty, replaced by another build's, or not
-recorded at all) is not loaded; its module runs from the ``.py`` beside it, which gives the same
+recorded at all) is not loaded, and neither is any other extension of the FMU (they cimport one
+another); each module runs from the ``.py`` beside it, which gives the same
 results bit for bit (the compiled cores are the same source), and each instance logs a warning
 naming the file and why. A truncated shared library would otherwise crash the host with SIGBUS
 while being mapped. An extension without its ``.py`` refuses the FMU with one message naming it.
@@ -87,15 +88,23 @@ def _module_and_source(resources: str, rel: str) -> tuple[str, str]:
 
 def verify_compiled_cores(model: str, resources: str) -> None:
     """Keep every extension under ``resources`` whose digest does not match from loading (its ``.py``
-    runs instead; ``FALLBACKS`` says why); ImportError if one has no ``.py`` to run instead."""
+    runs instead; ``FALLBACKS`` says why); ImportError if one has no ``.py`` to run instead.
+
+    The fallback takes the whole set: compiled cores ``cimport`` one another, and an extension whose
+    cimported module runs as ``.py`` fails to import (``no attribute '__pyx_capi__'``). So when one
+    extension is not loaded, none of this FMU's extensions is: whatever cimports what now or later."""
+    damaged = problems(resources)
+    if not damaged:
+        return
     sources = {}
-    for rel, why in problems(resources).items():
+    first = next(iter(damaged))
+    for rel in extension_files(resources):
         module, source = _module_and_source(resources, rel)
+        why = damaged.get(rel) or f"resources/{first} is not loaded, and compiled cores cimport one another"
         if not os.path.isfile(source):
             raise ImportError(f"{model} FMU: the compiled core resources/{rel} is not loaded: {why}; and there "
                               "is no .py to run instead. Rebuild the FMU (sotc-cosim build)")
         sources[module] = source
         FALLBACKS.append(f"{model} FMU: resources/{rel} is not loaded: {why}; "
                          f"{module.split('.')[-1]}.py runs instead (same results, slower)")
-    if sources:
-        sys.meta_path.insert(0, _SourceInstead(sources))
+    sys.meta_path.insert(0, _SourceInstead(sources))

@@ -142,7 +142,7 @@ class FmuStateMixin:
         if not isinstance(values, dict) or set(values) != set(settable):
             found = sorted(values) if isinstance(values, dict) else type(values).__name__
             raise ValueError(f"FMU state field 'values' must hold exactly the variables {sorted(settable)}, got {found}")
-        if state["mode"] not in RESTORABLE:
+        if not isinstance(state["mode"], str) or state["mode"] not in RESTORABLE:  # a list is not hashable
             raise ValueError(f"FMU state field 'mode' = {state['mode']!r} is not one of {list(RESTORABLE)}")
         if state["mode"] not in RESTORABLE[self._mode]:
             raise ValueError(f"FMU state field 'mode' = {state['mode']!r} cannot be restored into an instance in "

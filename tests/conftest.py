@@ -2,9 +2,18 @@
 test process itself, so the tests exercise the built FMUs and not the imported source tree)."""
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
+from hypothesis import settings
+
+# CI (the env var CI set, as CI services do) draws the same examples on every run, so a result never
+# flips between two runs of one commit; elsewhere each run explores new examples (a failure found
+# there is kept as an explicit @example). Profiles load here, before any test module builds its settings.
+settings.register_profile("ci", derandomize=True)
+settings.register_profile("explore", derandomize=False)
+settings.load_profile("ci" if os.environ.get("CI") else "explore")
 
 from orchestration.fmu_build.build import FMU_SOURCES, ensure_built
 

@@ -2,7 +2,11 @@
 
 One module per group of subcommands (``run_commands``, ``batch_commands``, ``compliance_commands``,
 ``optimum_commands``, ``tune_commands``), each adding its parsers; ``options`` holds the argument types
-and the options they share."""
+and the options they share.
+
+This module imports only the standard library and light modules at its top: ``main`` defers SIGINT,
+SIGTERM and SIGHUP before anything heavy is imported (under load the imports took 8 s, and a signal
+then killed the command silently, exit -15)."""
 from __future__ import annotations
 
 import argparse
@@ -10,15 +14,14 @@ import sys
 
 from fmi_slave import VERSION
 from orchestration import exit_codes
-from orchestration.cli import batch_commands, compliance_commands, optimum_commands, run_commands, tune_commands
 from orchestration.exit_codes import UsageError
-from orchestration.fmu_build.build import BuildError
-from orchestration.fmu_build.child import BuildInterrupted
-from orchestration.outputs import OutputError
-from orchestration.paths import check_output_folder
 from orchestration.run import interrupt
 
-COMMAND_GROUPS = (run_commands, batch_commands, compliance_commands, optimum_commands, tune_commands)
+
+def _command_groups() -> tuple:
+    from orchestration.cli import batch_commands, compliance_commands, optimum_commands, run_commands, tune_commands
+
+    return run_commands, batch_commands, compliance_commands, optimum_commands, tune_commands
 
 
 class _Parser(argparse.ArgumentParser):
@@ -32,16 +35,24 @@ def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="sotc-cosim", description=__doc__.split("\n")[0])
     parser.add_argument("--version", action="version", version=f"%(prog)s {VERSION}")
     sub = parser.add_subparsers(dest="command", required=True)
-    for group in COMMAND_GROUPS:
+    for group in _command_groups():
         group.add_commands(sub)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
     stopped = "stopped between two steps; finished results were kept"
-    with interrupt.signals_deferred():
+    with interrupt.signals_deferred():  # first: a signal during the imports below is noted, not fatal
+        from orchestration.fmu_build.build import BuildError
+        from orchestration.fmu_build.child import BuildInterrupted
+        from orchestration.outputs import OutputError
+        from orchestration.paths import check_output_folder
+
+        args = build_parser().parse_args(argv)
         try:
+            if interrupt.requested():  # a signal during the imports above: nothing starts
+                stopped = "stopped before anything ran"
+                raise interrupt.Interrupted(stopped)
             fmu_dir = getattr(args, "fmu_dir", None)
             if fmu_dir is not None and not fmu_dir.is_dir():  # an existing folder may be read-only: prebuilt
                 check_output_folder(fmu_dir, "--fmu-dir")

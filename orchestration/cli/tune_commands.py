@@ -50,8 +50,8 @@ def handling(text: str) -> int:
 
 
 class _Listener:
-    def __init__(self, out: Path, workers: int | None, scheduler: str | None):
-        self.out, self.workers, self.scheduler = out, workers, scheduler
+    def __init__(self, journal: Path, workers: int | None, scheduler: str | None):
+        self.journal, self.workers, self.scheduler = journal, workers, scheduler
         self.progress = None
 
     def started(self, outcome, total: int) -> None:
@@ -65,8 +65,7 @@ class _Listener:
         cores = ("compiled" if compiled else "Python (an editable install, or SOTC_COSIM_COMPILE=0 at install: "
                  "slower, docs/performance.md)")
         print(f"tune: {outcome.searches} searches, {total} trials, {outcome.trials_before} already in "
-              f"{self.out.with_suffix('.journal')}, the rest on {where(self.scheduler, self.workers)}; cores {cores}",
-              flush=True)
+              f"{self.journal}, the rest on {where(self.scheduler, self.workers)}; cores {cores}", flush=True)
         # one search is one task: no more run at once than there are searches
         self.progress = Progress(total, "tune", min(worker_count(self.workers), outcome.searches),
                                  skipped=outcome.trials_before)
@@ -81,20 +80,21 @@ class _Listener:
 
 def _cmd_tune(args: argparse.Namespace) -> int:
     from orchestration.study.tuning import CONVERGED, HANDLINGS, SEEDS, last_half_improvement
-    from orchestration.sweep.tuning_jobs import tune
+    from orchestration.sweep.tuning_jobs import journal_of, tune
 
     controllers = _controllers(args.controllers)
     seeds = list(dict.fromkeys(args.seeds or SEEDS))
     handlings = list(dict.fromkeys(args.handlings or HANDLINGS))
     out = check_output_file(args.out, "--out")
-    listener = _Listener(out, args.workers, args.scheduler)
-    with PathLock(out, "--out"):
+    journal = journal_of(out)
+    listener = _Listener(journal, args.workers, args.scheduler)
+    with PathLock(out, "--out"), PathLock(journal, "--out's journal"):  # repair() may then remove Optuna's lock
         try:
             outcome = tune(out, controllers, handlings, seeds, args.budget, args.workers, args.scheduler, listener)
         finally:
             listener.close()
     data = outcome.store
-    print(f"store: {out} ({'complete' if data['complete'] else 'incomplete'}; journal {out.with_suffix('.journal')})")
+    print(f"store: {out} ({'complete' if data['complete'] else 'incomplete'}; journal {journal})")
     for fmu, c in data["controllers"].items():
         for h, per in c["handlings"].items():
             for s, r in per["seeds"].items():
@@ -107,7 +107,7 @@ def _cmd_tune(args: argparse.Namespace) -> int:
                  "--handlings", *(h for h in data["controllers"][controllers[0]]["handlings"]), "--out", str(out)]
         again += ["--workers", str(args.workers)] if args.workers else []
         again += ["--scheduler", args.scheduler] if args.scheduler else []
-        print(f"interrupted: the finished trials are kept in {out.with_suffix('.journal')}; resume with: {' '.join(again)}")
+        print(f"interrupted: the finished trials are kept in {journal}; resume with: {' '.join(again)}")
         return interrupt.exit_code()
     return exit_codes.OK
 
@@ -128,6 +128,6 @@ def add_commands(sub) -> None:
                    help="limit handlings to tune under (default: radial joint accel)")
     add_cluster(p, ", whose workers share this file system")
     p.add_argument("--out", type=Path, default=DEFAULT_OUT,
-                   help=f"the store (default {DEFAULT_OUT}); the Optuna journal beside it (.journal) makes a "
+                   help=f"the store (default {DEFAULT_OUT}); the Optuna journal beside it (its name + .journal) makes a "
                         "rerun resume")
     p.set_defaults(func=_cmd_tune)

@@ -11,6 +11,9 @@ from __future__ import annotations
 
 import json
 import math
+import os
+import signal
+import struct
 import subprocess
 import sys
 import tempfile
@@ -64,12 +67,47 @@ def outputs_of(path: Path, steps: int = STEPS) -> tuple[list[str], list[list[flo
     return [v.name for v in outputs], rows
 
 
+def _cut_short(path: Path) -> list[str]:
+    """The shared libraries in the FMU (its binaries, its compiled cores) that end before their own ELF
+    header says they do: truncated files, which the loader maps and then crashes on (SIGBUS)."""
+    found = []
+    with zipfile.ZipFile(path) as z:
+        for info in z.infolist():
+            with z.open(info) as f:
+                head = f.read(64)
+            if head[:4] != b"\x7fELF":
+                continue
+            wide = head[4:5] == b"\x02"
+            order = "<" if head[5:6] == b"\x01" else ">"
+            if len(head) < (64 if wide else 52):
+                found.append(f"{info.filename} ({info.file_size} bytes, shorter than its ELF header)")
+                continue
+            offset = struct.unpack(order + ("Q" if wide else "I"), head[0x28:0x30] if wide else head[0x20:0x24])[0]
+            size, count = struct.unpack(order + "HH", head[0x3A:0x3E] if wide else head[0x2E:0x32])
+            if offset + size * count > info.file_size:
+                found.append(f"{info.filename} ({info.file_size:,} bytes; its ELF header says at least "
+                             f"{offset + size * count:,}: truncated)")
+    return found
+
+
+def crash_finding(path: Path, returncode: int) -> str:
+    """What a child process that died of a signal while it loaded and ran the FMU at ``path`` found."""
+    name = signal.Signals(-returncode).name if -returncode in signal.valid_signals() else f"signal {-returncode}"
+    cut = _cut_short(path)
+    if cut:
+        return f"{'; '.join(cut)}: the loader crashed with {name}"
+    return f"the FMU crashed the process that loaded and ran it with {name}"
+
+
 def _child(path: Path, workdir: Path) -> tuple[list[str], list[list[float]]] | str:
     cmd = [sys.executable, "-I", "-m", "orchestration.compliance.core_paths", str(path)]
     try:
-        proc = subprocess.run(cmd, cwd=workdir, capture_output=True, text=True, timeout=TIME_LIMIT)
+        proc = subprocess.run(cmd, cwd=workdir, capture_output=True, text=True, timeout=TIME_LIMIT,
+                              env={**os.environ, "TMPDIR": str(workdir)})  # a crashed child's folders go with it
     except subprocess.TimeoutExpired:
         return f"took over {TIME_LIMIT:g} s"
+    if proc.returncode < 0:
+        return crash_finding(path, proc.returncode)
     if proc.returncode != 0:
         return next((ln.strip() for ln in reversed(proc.stderr.splitlines()) if ln.strip()), f"exit {proc.returncode}")
     names, rows = json.loads(proc.stdout)

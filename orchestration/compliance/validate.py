@@ -23,7 +23,10 @@ Per FMU:
   output that does not declare that input exactly unchanged, restoring the input must restore the
   outputs, and each output that declares dependencies must change for some perturbation of them
   (unless it stays at rounding level, |y| <= ROUNDING_LEVEL, in every probe: a solver residual such as
-  the SOTC's ``zv_residual`` may then be exactly 0 whatever the inputs).
+  the SOTC's ``zv_residual`` may then be exactly 0 whatever the inputs). The experiment (and the
+  ``starts`` check, on its fresh instance) runs in a child process (``python -m
+  orchestration.compliance.validate FMU`` is that child): an FMU that crashes the process loading it
+  (a truncated binary or compiled core: SIGBUS) is a finding naming the file, not the end of validate.
 
 - ``standalone``: every pythonfmu FMU in a process shares one interpreter and one ``sys.modules``,
   so the FMU's Python lives under names of its own: the script ``resources/<stem>.py`` named in
@@ -41,9 +44,14 @@ bundled copies, and a source-tree copy already in ``sys.modules`` would be used 
 from __future__ import annotations
 
 import fnmatch
+import json
 import logging
 import math
+import os
 import re
+import subprocess
+import sys
+import tempfile
 import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -363,6 +371,26 @@ def _dependency_problems(path: Path, start_problems: list[str]) -> list[str]:
     return sorted(set(problems), key=problems.index)
 
 
+def _experiment_in_child(path: Path) -> tuple[list[str], list[str]]:
+    """(start problems, dependency problems) of the FMU at ``path``, from a child process whose
+    TMPDIR goes with it (a crashed child cannot remove what it extracted)."""
+    cmd = [sys.executable, "-P", "-m", "orchestration.compliance.validate", str(Path(path).resolve())]
+    with tempfile.TemporaryDirectory(prefix="sotc_validate_") as tmp:
+        try:
+            proc = subprocess.run(cmd, cwd=tmp, capture_output=True, text=True, timeout=core_paths.TIME_LIMIT,
+                                  env={**os.environ, "TMPDIR": tmp})
+        except subprocess.TimeoutExpired:
+            return [], [f"the experiment took over {core_paths.TIME_LIMIT:g} s"]
+    if proc.returncode < 0:
+        return [], [core_paths.crash_finding(path, proc.returncode)]
+    lines = proc.stdout.strip().splitlines()
+    if proc.returncode != 0 or not lines:
+        why = next((ln.strip() for ln in reversed(proc.stderr.splitlines()) if ln.strip()), f"exit {proc.returncode}")
+        return [], [f"the experiment's process failed: {why}"]
+    starts, dependencies = json.loads(lines[-1])
+    return starts, dependencies
+
+
 # --- driver -------------------------------------------------------------------------------------
 
 def validate_fmu_file(path: Path) -> FmuReport:
@@ -382,7 +410,8 @@ def validate_fmu_file(path: Path) -> FmuReport:
     report.model = md.coSimulation.modelIdentifier if md.coSimulation else md.modelName
     _metadata_problems(md, report)
     report.problems["standalone"] = _standalone_problems(path)
-    report.problems["dependencies"] = _dependency_problems(path, report.problems["starts"])
+    starts, report.problems["dependencies"] = _experiment_in_child(path)
+    report.problems["starts"] += starts
     report.problems["cores"] = core_paths.problems(path)
     return report
 
@@ -420,3 +449,15 @@ def format_report(report: ValidationReport, details: bool = True) -> str:
         lines += [f"  set: {p}" for p in report.set_problems]
     lines.append("all FMUs pass" if report.ok else "validation FAILED")
     return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """The child of ``_experiment_in_child``: prints [start problems, dependency problems] as JSON."""
+    starts: list[str] = []
+    dependencies = _dependency_problems(Path((argv or sys.argv[1:])[0]), starts)
+    print(json.dumps([starts, dependencies]))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -18,7 +18,7 @@ from fmpy import extract, read_model_description
 from fmpy.fmi3 import FMU3Slave
 
 from fmi3_slave.arrays import element_names
-from orchestration.run.fmi_direct import ByName
+from orchestration.run.fmi_direct import ByName, removed_on_error
 
 _TYPES = {"Float64": "Real", "Int32": "Integer"}
 
@@ -113,11 +113,12 @@ class FmuInstance3(ByName):
         self.messages: list[tuple[int, str]] = []
         self._own_dir = workdir is None
         self.unzipdir = Path(tempfile.mkdtemp(prefix="sotc_fmu_")) if workdir is None else Path(workdir)
-        extract(str(fmu_file), unzipdir=str(self.unzipdir))
-        self._fmu3 = FMU3Slave(guid=self.fmi3_md.guid, unzipDirectory=str(self.unzipdir),
-                               modelIdentifier=self.fmi3_md.coSimulation.modelIdentifier, instanceName=instance_name)
-        self._fmu3.instantiate(loggingOn=True, logMessage=lambda env, status, category, message: self.messages.append(
-            (int(status), (message or b"").decode(errors="replace"))))
+        with removed_on_error(self.unzipdir, self._own_dir):
+            extract(str(fmu_file), unzipdir=str(self.unzipdir))
+            self._fmu3 = FMU3Slave(guid=self.fmi3_md.guid, unzipDirectory=str(self.unzipdir),
+                                   modelIdentifier=self.fmi3_md.coSimulation.modelIdentifier, instanceName=instance_name)
+            self._fmu3.instantiate(loggingOn=True, logMessage=lambda env, status, category, message: self.messages.append(
+                (int(status), (message or b"").decode(errors="replace"))))
         self.fmu = _ScalarCalls(self._fmu3, slots)
         self._freed = False
 

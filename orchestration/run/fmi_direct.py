@@ -15,6 +15,7 @@ import ctypes
 import itertools
 import shutil
 import tempfile
+from contextlib import contextmanager
 from pathlib import Path
 
 from fmpy import extract, read_model_description
@@ -50,6 +51,18 @@ def forget_callbacks(callbacks: fmi2CallbackFunctions) -> None:
     _SINKS.pop(callbacks.componentEnvironment or 0, None)
 
 
+@contextmanager
+def removed_on_error(unzipdir: Path, own: bool):
+    """A constructor's error path: an FMU that cannot be extracted or instantiated leaves no
+    ``sotc_fmu_*`` folder behind (the folder is removed only if the instance made it)."""
+    try:
+        yield
+    except BaseException:
+        if own:
+            shutil.rmtree(unzipdir, ignore_errors=True)
+        raise
+
+
 class ByName:
     """Variables addressed by their FMI 2 names (``md``, ``vars`` and an ``fmu`` with FMI 2's scalar calls),
     and the messages the instance logged."""
@@ -82,11 +95,16 @@ class FmuInstance(ByName):
         self.messages: list[tuple[int, str]] = []
         self._own_dir = workdir is None
         self.unzipdir = Path(tempfile.mkdtemp(prefix="sotc_fmu_")) if workdir is None else Path(workdir)
-        extract(str(fmu_file), unzipdir=str(self.unzipdir))
         self._callbacks = make_callbacks(self.messages)
-        self.fmu = FMU2Slave(guid=self.md.guid, unzipDirectory=str(self.unzipdir),
-                             modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=instance_name)
-        self.fmu.instantiate(callbacks=self._callbacks, loggingOn=True)
+        try:
+            with removed_on_error(self.unzipdir, self._own_dir):
+                extract(str(fmu_file), unzipdir=str(self.unzipdir))
+                self.fmu = FMU2Slave(guid=self.md.guid, unzipDirectory=str(self.unzipdir),
+                                     modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=instance_name)
+                self.fmu.instantiate(callbacks=self._callbacks, loggingOn=True)
+        except BaseException:
+            forget_callbacks(self._callbacks)
+            raise
         self._freed = False
 
     def initialize(self, start_time: float = 0.0, inputs: dict[str, float] | None = None, **parameters: float) -> None:

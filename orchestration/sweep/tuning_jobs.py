@@ -26,13 +26,15 @@ class TuneOutcome:
 
 
 def journal_of(out: Path) -> Path:
-    """The Optuna journal beside a store (``tuned.json`` -> ``tuned.journal``)."""
-    return out.with_suffix(".journal")
+    """The Optuna journal beside a store, named from the store's whole name (``tuned.json`` ->
+    ``tuned.json.journal``): two stores of one stem (``t.json``, ``t.toml``; ``tuned``, ``tuned.json``)
+    never share a journal (they did, and the first command died with Optuna's "did not possess lock")."""
+    return out.with_name(out.name + ".journal")
 
 
 def repair(journal: Path) -> None:
     """Before a run: the journal's lock left by a worker stopped while holding it goes (only one
-    sotc-cosim tunes into a store at a time: the caller holds the store's lock), and so does a last
+    sotc-cosim tunes into a journal at a time: the caller holds the journal's own ``PathLock``), and so does a last
     line cut off by a stopped worker, which would corrupt the line appended after it."""
     journal.with_name(journal.name + ".lock").unlink(missing_ok=True)  # JournalFileOpenLock's file
     if not journal.is_file():

@@ -6,6 +6,7 @@ file) and ``sotc-cosim run`` (the same results as the intact FMU), all in subpro
 from __future__ import annotations
 
 import hashlib
+import json
 import shutil
 import subprocess
 import sys
@@ -14,6 +15,7 @@ from pathlib import Path
 
 import pytest
 
+from fmi_slave.compiled_check import DIGESTS
 from orchestration.fmu_build import compiled
 from support.cli import leftovers, run
 
@@ -24,17 +26,27 @@ CORE = "fmu_controller/sotc."  # the core whose extension is damaged
 FMPY = str(Path(sys.executable).with_name("fmpy"))
 
 
-def _damaged(fmu: Path, kind: str, dest: Path) -> Path:
+def _extensions(fmu: Path) -> list[str]:
+    with zipfile.ZipFile(fmu) as z:
+        return [n for n in z.namelist() if compiled.is_extension(n)]
+
+
+def _with(fmu: Path, dest: Path, changes: dict[str, bytes]) -> Path:
+    """A copy of ``fmu`` at ``dest`` with the members named in ``changes`` replaced."""
+    with zipfile.ZipFile(fmu) as z, zipfile.ZipFile(dest, "w", zipfile.ZIP_DEFLATED) as out:
+        for item in z.infolist():
+            out.writestr(item, changes.get(item.filename, z.read(item)))
+    return dest
+
+
+def _damaged(fmu: Path, kind: str, dest: Path, core: str = CORE) -> Path:
     with zipfile.ZipFile(fmu) as z:
         names = z.namelist()
-        target = next(n for n in names if compiled.is_extension(n) and CORE in n)
+        target = next(n for n in names if compiled.is_extension(n) and core in n)
         other = next(n for n in names if compiled.is_extension(n) and n != target)
         data = z.read(target)
         new = {"truncated": data[:len(data) // 2], "empty": b"", "foreign": z.read(other)}[kind]
-        with zipfile.ZipFile(dest, "w", zipfile.ZIP_DEFLATED) as out:
-            for item in z.infolist():
-                out.writestr(item, new if item.filename == target else z.read(item))
-    return dest
+    return _with(fmu, dest, {target: new})
 
 
 @pytest.fixture(scope="module")
@@ -93,6 +105,32 @@ def test_run_with_a_damaged_core_gives_the_intact_results(sotc_fmu, fmu_dir, tmp
     assert leftovers(tmp_path) == []  # no sotc_fmu_*, no sotc_run_*
 
 
+def _summary(path: Path) -> dict:
+    """A run's summary without its wall time: every computed number, to the bit."""
+    return {k: v for k, v in json.loads(path.read_text()).items() if k != "wall_time_s"}
+
+
+def test_any_damaged_core_falls_back_with_the_cores_that_cimport_it(sotc_fmu, fmu_dir, tmp_path):
+    """Every extension of the FMU in turn, truncated: the FMU's compiled cores cimport one another, and
+    a compiled core whose cimported module ran as .py failed to import ("no attribute '__pyx_capi__'",
+    exit 1 for 5 of the SotcController's 7 cores); now they all run as .py, with the intact bits."""
+    args = ["run", "paper", "--stop-time", "1", "--no-recording", "--summary"]
+    intact = run([*args, str(tmp_path / "intact.json"), "--fmu-dir", str(fmu_dir)], tmp_path)
+    assert intact.returncode == 0, intact.stderr
+    cores = _extensions(sotc_fmu)
+    assert len(cores) > 1
+    for i, core in enumerate(cores):
+        folder = tmp_path / f"damaged{i}"
+        shutil.copytree(fmu_dir, folder)
+        _stamped(_damaged(sotc_fmu, "truncated", folder / f"{MODEL}.fmu", core))
+        proc = run([*args, str(tmp_path / f"{i}.json"), "--fmu-dir", str(folder)], tmp_path)
+        assert proc.returncode == 0, (core, proc.returncode, proc.stderr)
+        assert "building" not in proc.stderr, core
+        assert _summary(tmp_path / f"{i}.json") == _summary(tmp_path / "intact.json"), core
+        shutil.rmtree(folder)
+    assert leftovers(tmp_path) == []
+
+
 def test_a_damaged_core_without_its_py_is_refused_naming_it(sotc_fmu, fmu_dir, tmp_path):
     """Nothing to fall back to: the FMU refuses at instantiation, and ``run``'s one line says why (it
     said only "[ctor] findClass")."""
@@ -110,3 +148,40 @@ def test_a_damaged_core_without_its_py_is_refused_naming_it(sotc_fmu, fmu_dir, t
     line = next(ln for ln in proc.stderr.splitlines() if "FAILED" in ln)
     assert CORE in line and "no .py to run instead" in line, proc.stderr
     assert leftovers(tmp_path) == []
+
+
+def _cut_binary(fmu: Path, dest: Path) -> tuple[Path, str]:
+    """The FMU with its Linux binary cut to half its length."""
+    with zipfile.ZipFile(fmu) as z:
+        name = next(n for n in z.namelist() if n.startswith("binaries/linux64/"))
+        data = z.read(name)
+    return _with(fmu, dest, {name: data[:len(data) // 2]}), name
+
+
+def _cut_core_with_its_digest(fmu: Path, dest: Path) -> tuple[Path, str]:
+    """The FMU with a compiled core cut to half its length, and ``compiled_cores.sha256`` rewritten to
+    the cut file's digest (what a careless repair would do): the FMU's own check then loads it."""
+    with zipfile.ZipFile(fmu) as z:
+        name = next(n for n in z.namelist() if compiled.is_extension(n) and CORE in n)
+        cut = z.read(name)[:len(z.read(name)) // 2]
+        digests = f"resources/{DIGESTS}"
+        rel = name[len("resources/"):]
+        lines = [f"{hashlib.sha256(cut).hexdigest()}  {rel}" if line.split(None, 1)[1].strip() == rel else line
+                 for line in z.read(digests).decode().splitlines() if line.strip()]
+    return _with(fmu, dest, {name: cut, digests: ("\n".join(lines) + "\n").encode()}), name
+
+
+def test_validate_reports_a_loader_crash_as_a_finding_naming_the_file(sotc_fmu, fmu_paths, tmp_path):
+    """validate ended with SIGBUS (exit 135) and printed nothing: the FMU is now instantiated and run
+    in a child process, and its crash is a finding naming the truncated file."""
+    if not sys.platform.startswith("linux"):
+        pytest.skip("the truncated binary is the Linux one")
+    cases = [_cut_binary(fmu_paths["ArmPlant"], tmp_path / "ArmPlant.fmu"),
+             _cut_core_with_its_digest(sotc_fmu, tmp_path / f"{MODEL}.fmu")]
+    for fmu, name in cases:
+        proc = run(["validate", str(fmu)], tmp_path, timeout=600)
+        assert proc.returncode == 1, (name, proc.returncode, proc.stderr[-2000:])
+        crashes = [line for line in proc.stdout.splitlines() if "the loader crashed with SIG" in line]
+        assert crashes and all(name in line for line in crashes), proc.stdout
+        assert "Traceback" not in proc.stdout + proc.stderr
+    assert leftovers(tmp_path) == []  # the crashed children's sotc_fmu_* went with them

@@ -14,6 +14,10 @@ HOSTILE_TOML = {
     "nested-tables": "a = " + "{b = " * 20_000 + "1" + "}" * 20_000 + "\n",
     "not-utf8": b'name = "\xff\xfe"\n',
     "too-large": "# padding\n" * 200_000,
+    # tomllib is quadratic in a key's dotted parts: these took hours (20,000 parts: 63 s)
+    "dotted-key": "a" + ".a" * 200_000 + " = 1\n",
+    "dotted-header": "[t" + ".t" * 200_000 + "]\n",
+    "spaced-dotted-key": "a" + " . a" * 100_000 + " = 1\n",
 }
 
 

@@ -281,9 +281,12 @@ def test_cli_writes_a_recording_per_run_unless_told_otherwise(fmu_dir, tmp_path,
     assert "recording: recordings/paper-ct.rrd" in capsys.readouterr().out
 
 
-def test_compare_overlays_the_runs_in_one_recording(fmu_dir, fmu_paths, tmp_path, monkeypatch):
+def test_compare_overlays_the_runs_in_one_recording(fmu_dir, fmu_paths, tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
     assert main(["compare", "paper", "paper-ct", "--stop-time", "2", "--fmu-dir", str(fmu_dir)]) == 0
+    out = capsys.readouterr().out.splitlines()
+    first = next(i for i, line in enumerate(out) if line.startswith("scenario"))  # the table
+    assert [line.split(",")[0] for line in out[:first]] == ["compare: 1/2 done", "compare: 2/2 done"]  # progress
     path = tmp_path / "recordings" / "compare.rrd"
     ents = read_entities(path)
     for name in ("paper", "paper-ct"):

@@ -46,3 +46,19 @@ def test_a_journal_whose_first_trial_no_longer_reproduces_is_refused(tmp_path):
                                               intermediate_values={0: 0.123}))  # numbers of older code
     with pytest.raises(optimize.JournalError, match="no longer reproduces"):
         optimize.run_search(journal, fmu, 2, 0, 2)
+
+
+def _trials(journal, fmu, handling, seed):
+    study = optuna.load_study(study_name=optimize.study_name(fmu, handling, seed), storage=optimize.storage(journal))
+    return [(t.params, t.intermediate_values, t.value, t.state) for t in optimize.finished_trials(study)]
+
+
+def test_a_search_resumed_from_its_journal_gives_the_trials_of_one_run(tmp_path):
+    """CtController under radial handling: its first training MSE is not exp(log(MSE)) in the last bit,
+    and resume was refused as "no longer reproduces" (12 of the 36 searches)."""
+    fmu, handling, seed = "CtController", 0, 0
+    once, cut = tmp_path / "once.journal", tmp_path / "cut.journal"
+    assert optimize.run_search(once, fmu, handling, seed, 3) == 3
+    assert optimize.run_search(cut, fmu, handling, seed, 2) == 2
+    assert optimize.run_search(cut, fmu, handling, seed, 3) == 1  # resumed: one more trial
+    assert _trials(cut, fmu, handling, seed) == _trials(once, fmu, handling, seed)

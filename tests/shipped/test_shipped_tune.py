@@ -39,7 +39,7 @@ def test_tune_writes_the_store_and_resumes_after_ctrl_c_to_the_same_trials(shipp
         assert r["criterion"][r["best"]] == min(v for v in r["criterion"] if v is not None)
         assert f"CtController accel seed {seed}: 3 trials" in whole.stdout
 
-    journal = work / "cut" / "tuned.journal"
+    journal = work / "cut" / "tuned.json.journal"
     cut = shipped.interrupt([*ARGS, "--out", "cut/tuned.json"], work, ready=lambda: _finished(journal) >= 2)
     assert cut.returncode == 130 and "resume with:" in cut.stdout, cut.stdout + cut.stderr
     partial = json.loads((work / "cut" / "tuned.json").read_text())
