@@ -38,6 +38,8 @@ import math
 from array import array
 from typing import Any, Sequence
 
+import numpy as np
+
 from fmu_controller.fixed_linalg import (EPS, as_buffer, buffer, cholesky, dot, forward_substitute,
                                          smallest_eigenvalue, sturm_count, trace)
 from fmu_controller.sotc_math import N_BASIS, CriticConstants, critic_row, normalisation, policy_arguments
@@ -47,6 +49,8 @@ REPLAYS = ("current", "stored")
 MAXEIG_GAIN = 1.01  # a swap must raise lambda_min(M) by more than 1 % ...
 RANK_TOL = N_BASIS * EPS  # ... and by more than RANK_TOL trace(M), the rounding level of M's entries
 _WIDTHS = {"eta": N_BASIS, "z": 4, "dinv": 3, "fe": 2}
+INTERPRETED = __file__.endswith(".py")  # False in the compiled core (an extension module)
+_LOWER = np.tril(np.ones((N_BASIS, N_BASIS), dtype=bool))  # entries (a, c), c <= a, that cl_matrix sums
 
 
 def cl_matrix(n: int, E: array, rew: array, M: array, b: array, sc: array) -> None:
@@ -71,6 +75,30 @@ def cl_matrix(n: int, E: array, rew: array, M: array, b: array, sc: array) -> No
     for a in range(N):
         for c in range(a):
             M[c * N + a] = M[a * N + c]
+
+
+def cl_matrix_numpy(n: int, E: array, rew: array, M: array, b: array, sc: array) -> None:
+    """``cl_matrix`` for the interpreted core, the same bits: every product is the same elementwise
+    product (numpy rounds each one as Python does, no FMA), and every sum runs over the rows in the same
+    order, one vector addition per row (each M entry and b entry starting from 0.0 as there); only the
+    loops over the entries of a row become vector operations."""
+    N = N_BASIS
+    Ev = np.frombuffer(E, count=n * N).reshape(n, N)
+    ee = np.zeros(n)
+    for k in range(N):  # eta_i^T eta_i over k in order, for all rows at once
+        ee += Ev[:, k] * Ev[:, k]
+    with np.errstate(all="ignore"):  # an overflow gives inf silently, as the loops do
+        scv = 1.0 / normalisation(ee)
+    np.frombuffer(sc, count=n)[:] = scv
+    xa = Ev * scv[:, None]
+    outer = xa[:, :, None] * Ev[:, None, :]  # xa_a eta_c of each row
+    rb = xa * np.frombuffer(rew, count=n)[:, None]
+    Mv, bv = np.zeros((N, N)), np.zeros(N)
+    for i in range(n):
+        Mv += outer[i]
+        bv += rb[i]
+    np.frombuffer(M).reshape(N, N)[:] = np.where(_LOWER, Mv, Mv.T)
+    np.frombuffer(b)[:] = bv
 
 
 def cl_rate(M: array, b: array, W: array, out: array) -> None:
@@ -185,12 +213,19 @@ class CLStack:
 
     # --- the CL sum ----------------------------------------------------------------------------------
 
+    def _cl_matrix(self) -> None:
+        """M, b and the row scales from the rows E and rewards of the last replay (or as recorded)."""
+        if INTERPRETED:
+            cl_matrix_numpy(self.count, self.E, self.rew_now, self.M, self.b, self.sc)
+        else:
+            cl_matrix(self.count, self.E, self.rew_now, self.M, self.b, self.sc)
+
     def refresh(self) -> None:
         """Rebuild what the ``stored`` replay derives from the rows (M, b do not depend on W there)."""
         if self.replay_form == "stored":
             self.E[:] = self.rows["eta"]
             self.rew_now[:] = self.rew
-            cl_matrix(self.count, self.E, self.rew_now, self.M, self.b, self.sc)
+            self._cl_matrix()
 
     def terms(self, W: Sequence[float]) -> array:
         """The CL sum M W + b of (30)/(31) at the weights W (a buffer kept by the stack, overwritten by
@@ -200,7 +235,7 @@ class CLStack:
         if self.replay_form == "current":
             rows = self.rows
             replay_current(self.constants, self.count, Wb, rows["z"], rows["dinv"], rows["fe"], self.E, self.rew_now)
-            cl_matrix(self.count, self.E, self.rew_now, self.M, self.b, self.sc)
+            self._cl_matrix()
         cl_rate(self.M, self.b, Wb, self._rate)
         return self._rate
 
