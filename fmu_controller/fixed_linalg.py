@@ -27,9 +27,6 @@ import math
 from array import array
 from typing import Sequence
 
-import numpy as np
-
-INTERPRETED = __file__.endswith(".py")  # False in a compiled core (an extension module)
 EPS = 2.220446049250313e-16  # the unit roundoff of float64, 2^-52
 MAX_HALVINGS = 200  # bisection stops when the interval stops shrinking, or after this many halvings
 
@@ -152,44 +149,13 @@ def _reflect(A: array, n: int, k: int, v: array, p: array) -> float:
     return alpha
 
 
-def _reflect_numpy(A: array, n: int, k: int) -> float:
-    """``_reflect`` for the interpreted core, the same bits: the sums over i stay scalar loops in order,
-    A22 v accumulates its columns in order (``np.add.accumulate`` from a zero column, as the loop's sum
-    starts at 0.0) and the rank-2 update is elementwise (numpy rounds each product and sum as Python)."""
-    m0 = k + 1
-    A2 = np.frombuffer(A).reshape(n, n)
-    col = A2[m0:, k]
-    scale = 0.0
-    for x in (col * col).tolist():
-        scale += x
-    if scale == 0.0:
-        return 0.0
-    x0 = A[m0 * n + k]
-    alpha = -math.sqrt(scale) if x0 >= 0.0 else math.sqrt(scale)
-    v = col.copy()
-    v[0] = x0 - alpha
-    vv = 0.0
-    for x in (v * v).tolist():
-        vv += x
-    terms = np.zeros((n - m0, n - m0 + 1))
-    terms[:, 1:] = A2[m0:, m0:] * v
-    p = 2.0 * np.add.accumulate(terms, axis=1)[:, -1] / vv
-    kk = 0.0
-    for x in (v * p).tolist():
-        kk += x
-    kk /= vv
-    p -= kk * v
-    A2[m0:, m0:] -= np.multiply.outer(v, p) + np.multiply.outer(p, v)
-    return alpha
-
-
 def tridiagonalize(M: array, n: int, d: array, e: array, A: array, v: array, p: array) -> None:
     """Diagonal d (n) and subdiagonal e (n - 1) of a tridiagonal matrix similar to the symmetric M
     (Householder reflections; M is read, not changed; A (n * n), v, p (n) are scratch)."""
     for k in range(n * n):
         A[k] = M[k]
     for k in range(n - 2):
-        e[k] = _reflect_numpy(A, n, k) if INTERPRETED else _reflect(A, n, k, v, p)
+        e[k] = _reflect(A, n, k, v, p)
         d[k] = A[k * n + k]
     if n >= 2:
         d[n - 2] = A[(n - 2) * n + n - 2]

@@ -40,7 +40,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from fmu_controller.fixed_linalg import (EPS, INTERPRETED, as_buffer, buffer, cholesky, dot, forward_substitute,
+from fmu_controller.fixed_linalg import (EPS, as_buffer, buffer, cholesky, dot, forward_substitute,
                                          smallest_eigenvalue, sturm_count, trace)
 from fmu_controller.sotc_math import N_BASIS, CriticConstants, critic_row, normalisation, policy_arguments
 
@@ -49,6 +49,7 @@ REPLAYS = ("current", "stored")
 MAXEIG_GAIN = 1.01  # a swap must raise lambda_min(M) by more than 1 % ...
 RANK_TOL = N_BASIS * EPS  # ... and by more than RANK_TOL trace(M), the rounding level of M's entries
 _WIDTHS = {"eta": N_BASIS, "z": 4, "dinv": 3, "fe": 2}
+INTERPRETED = __file__.endswith(".py")  # False in the compiled core (an extension module)
 _LOWER = np.tril(np.ones((N_BASIS, N_BASIS), dtype=bool))  # entries (a, c), c <= a, that cl_matrix sums
 
 

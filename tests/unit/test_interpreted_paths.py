@@ -1,14 +1,12 @@
-"""The numpy paths the interpreted cores take (``sotc_stack.cl_matrix_numpy``, ``fixed_linalg``'s
-Householder step) give the bits of the loops the compiled cores run, on hypothesis-drawn rows (including zeros, signed zeros, tiny and huge
+"""The numpy paths the interpreted cores take (``sotc_stack.cl_matrix_numpy``) give the bits of the
+loops the compiled cores run, on hypothesis-drawn rows (including zeros, signed zeros, tiny and huge
 entries)."""
 from array import array
 
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-import pytest
-
-from fmu_controller import fixed_linalg, sotc_stack
+from fmu_controller import sotc_stack
 from fmu_controller.fixed_linalg import buffer
 
 N = 10
@@ -35,23 +33,3 @@ def test_cl_matrix_numpy_gives_the_bits_of_cl_matrix(data, n):
         kernel(n, E, rew, M, b, sc)
         out.append((bits(M), bits(b), bits(sc)))
     assert out[0] == out[1]
-
-
-@settings(max_examples=60, deadline=None)
-@given(values=st.lists(entries, min_size=N * N, max_size=N * N), n=st.integers(1, N))
-def test_the_numpy_householder_step_gives_the_bits_of_the_loop(values, n, monkeypatch_module):
-    """tridiagonalize (and the eigenvalue bisection on its result) with either Householder step."""
-    M = array("d", [values[min(a, c) * N + max(a, c)] for a in range(n) for c in range(n)])  # symmetric
-    out = []
-    for interpreted in (False, True):
-        monkeypatch_module.setattr(fixed_linalg, "INTERPRETED", interpreted)
-        d, e, A, v, p = buffer(n), buffer(n), buffer(n * n), buffer(n), buffer(n)
-        lam = fixed_linalg.smallest_eigenvalue(M, n, d, e, A, v, p)
-        out.append((bits(d), bits(e), lam.hex()))
-    assert out[0] == out[1]
-
-
-@pytest.fixture(scope="module")
-def monkeypatch_module():
-    with pytest.MonkeyPatch.context() as mp:
-        yield mp
