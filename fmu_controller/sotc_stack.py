@@ -55,7 +55,11 @@ _LOWER = np.tril(np.ones((N_BASIS, N_BASIS), dtype=bool))  # entries (a, c), c <
 
 def cl_matrix(n: int, E: array, rew: array, M: array, b: array, sc: array) -> None:
     """M = sum_i sc_i eta_i eta_i^T and b = sum_i sc_i r_i eta_i over the first n rows of E (flat,
-    n x 10), sc_i = 1 / (1 + |eta_i|^2)^2; rows in order, M's lower triangle mirrored."""
+    n x 10), sc_i = 1 / (1 + |eta_i|^2)^2; rows in order, M's lower triangle mirrored. The interpreted
+    core takes ``cl_matrix_numpy`` (the same bits; these loops in Python were half its controller's time)."""
+    if INTERPRETED:
+        cl_matrix_numpy(n, E, rew, M, b, sc)
+        return
     N = N_BASIS
     for k in range(N * N):
         M[k] = 0.0
@@ -77,26 +81,26 @@ def cl_matrix(n: int, E: array, rew: array, M: array, b: array, sc: array) -> No
             M[c * N + a] = M[a * N + c]
 
 
-def cl_matrix_numpy(n: int, E: array, rew: array, M: array, b: array, sc: array) -> None:
+def cl_matrix_numpy(n: int, E, rew, M, b, sc) -> None:
     """``cl_matrix`` for the interpreted core, the same bits: every product is the same elementwise
     product (numpy rounds each one as Python does, no FMA), and every sum runs over the rows in the same
     order, one vector addition per row (each M entry and b entry starting from 0.0 as there); only the
     loops over the entries of a row become vector operations."""
     N = N_BASIS
     Ev = np.frombuffer(E, count=n * N).reshape(n, N)
-    ee = np.zeros(n)
-    for k in range(N):  # eta_i^T eta_i over k in order, for all rows at once
-        ee += Ev[:, k] * Ev[:, k]
     with np.errstate(all="ignore"):  # an overflow gives inf silently, as the loops do
-        scv = 1.0 / normalisation(ee)
-    np.frombuffer(sc, count=n)[:] = scv
-    xa = Ev * scv[:, None]
-    outer = xa[:, :, None] * Ev[:, None, :]  # xa_a eta_c of each row
-    rb = xa * np.frombuffer(rew, count=n)[:, None]
-    Mv, bv = np.zeros((N, N)), np.zeros(N)
-    for i in range(n):
-        Mv += outer[i]
-        bv += rb[i]
+        ee = np.zeros(n)
+        for k in range(N):  # eta_i^T eta_i over k in order, for all rows at once
+            ee += Ev[:, k] * Ev[:, k]
+        scv = np.array([1.0 / normalisation(v) for v in ee.tolist()])
+        np.frombuffer(sc, count=n)[:] = scv
+        xa = Ev * scv[:, None]
+        outer = xa[:, :, None] * Ev[:, None, :]  # xa_a eta_c of each row
+        rb = xa * np.frombuffer(rew, count=n)[:, None]
+        Mv, bv = np.zeros((N, N)), np.zeros(N)
+        for i in range(n):
+            Mv += outer[i]
+            bv += rb[i]
     np.frombuffer(M).reshape(N, N)[:] = np.where(_LOWER, Mv, Mv.T)
     np.frombuffer(b)[:] = bv
 
@@ -213,19 +217,12 @@ class CLStack:
 
     # --- the CL sum ----------------------------------------------------------------------------------
 
-    def _cl_matrix(self) -> None:
-        """M, b and the row scales from the rows E and rewards of the last replay (or as recorded)."""
-        if INTERPRETED:
-            cl_matrix_numpy(self.count, self.E, self.rew_now, self.M, self.b, self.sc)
-        else:
-            cl_matrix(self.count, self.E, self.rew_now, self.M, self.b, self.sc)
-
     def refresh(self) -> None:
         """Rebuild what the ``stored`` replay derives from the rows (M, b do not depend on W there)."""
         if self.replay_form == "stored":
             self.E[:] = self.rows["eta"]
             self.rew_now[:] = self.rew
-            self._cl_matrix()
+            cl_matrix(self.count, self.E, self.rew_now, self.M, self.b, self.sc)
 
     def terms(self, W: Sequence[float]) -> array:
         """The CL sum M W + b of (30)/(31) at the weights W (a buffer kept by the stack, overwritten by
@@ -235,7 +232,7 @@ class CLStack:
         if self.replay_form == "current":
             rows = self.rows
             replay_current(self.constants, self.count, Wb, rows["z"], rows["dinv"], rows["fe"], self.E, self.rew_now)
-            self._cl_matrix()
+            cl_matrix(self.count, self.E, self.rew_now, self.M, self.b, self.sc)
         cl_rate(self.M, self.b, Wb, self._rate)
         return self._rate
 
