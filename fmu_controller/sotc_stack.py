@@ -38,6 +38,8 @@ import math
 from array import array
 from typing import Any, Sequence
 
+import numpy as np
+
 from fmu_controller.fixed_linalg import (EPS, as_buffer, buffer, cholesky, dot, forward_substitute,
                                          smallest_eigenvalue, sturm_count, trace)
 from fmu_controller.sotc_math import N_BASIS, CriticConstants, critic_row, normalisation, policy_arguments
@@ -47,11 +49,17 @@ REPLAYS = ("current", "stored")
 MAXEIG_GAIN = 1.01  # a swap must raise lambda_min(M) by more than 1 % ...
 RANK_TOL = N_BASIS * EPS  # ... and by more than RANK_TOL trace(M), the rounding level of M's entries
 _WIDTHS = {"eta": N_BASIS, "z": 4, "dinv": 3, "fe": 2}
+INTERPRETED = __file__.endswith(".py")  # False in the compiled core (an extension module)
+_LOWER = np.tril(np.ones((N_BASIS, N_BASIS), dtype=bool))  # entries (a, c), c <= a, that cl_matrix sums
 
 
 def cl_matrix(n: int, E: array, rew: array, M: array, b: array, sc: array) -> None:
     """M = sum_i sc_i eta_i eta_i^T and b = sum_i sc_i r_i eta_i over the first n rows of E (flat,
-    n x 10), sc_i = 1 / (1 + |eta_i|^2)^2; rows in order, M's lower triangle mirrored."""
+    n x 10), sc_i = 1 / (1 + |eta_i|^2)^2; rows in order, M's lower triangle mirrored. The interpreted
+    core takes ``cl_matrix_numpy`` (the same bits; these loops in Python were half its controller's time)."""
+    if INTERPRETED:
+        cl_matrix_numpy(n, E, rew, M, b, sc)
+        return
     N = N_BASIS
     for k in range(N * N):
         M[k] = 0.0
@@ -71,6 +79,30 @@ def cl_matrix(n: int, E: array, rew: array, M: array, b: array, sc: array) -> No
     for a in range(N):
         for c in range(a):
             M[c * N + a] = M[a * N + c]
+
+
+def cl_matrix_numpy(n: int, E, rew, M, b, sc) -> None:
+    """``cl_matrix`` for the interpreted core, the same bits: every product is the same elementwise
+    product (numpy rounds each one as Python does, no FMA), and every sum runs over the rows in the same
+    order, one vector addition per row (each M entry and b entry starting from 0.0 as there); only the
+    loops over the entries of a row become vector operations."""
+    N = N_BASIS
+    Ev = np.frombuffer(E, count=n * N).reshape(n, N)
+    with np.errstate(all="ignore"):  # an overflow gives inf silently, as the loops do
+        ee = np.zeros(n)
+        for k in range(N):  # eta_i^T eta_i over k in order, for all rows at once
+            ee += Ev[:, k] * Ev[:, k]
+        scv = np.array([1.0 / normalisation(v) for v in ee.tolist()])
+        np.frombuffer(sc, count=n)[:] = scv
+        xa = Ev * scv[:, None]
+        outer = xa[:, :, None] * Ev[:, None, :]  # xa_a eta_c of each row
+        rb = xa * np.frombuffer(rew, count=n)[:, None]
+        Mv, bv = np.zeros((N, N)), np.zeros(N)
+        for i in range(n):
+            Mv += outer[i]
+            bv += rb[i]
+    np.frombuffer(M).reshape(N, N)[:] = np.where(_LOWER, Mv, Mv.T)
+    np.frombuffer(b)[:] = bv
 
 
 def cl_rate(M: array, b: array, W: array, out: array) -> None:
