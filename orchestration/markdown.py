@@ -53,16 +53,24 @@ def _is_int(value: Any) -> bool:
     return isinstance(value, int) and not isinstance(value, bool) or type(value).__name__.startswith(("int", "uint"))
 
 
+def _missing(value: Any) -> bool:
+    """None, or a value that is not a finite number (printed as ``MISSING``)."""
+    return value is None or isinstance(value, bool) or not _is_int(value) and not math.isfinite(float(value))
+
+
 def stable(value: Any, others: Sequence[Any], spec: str = ".4g") -> str:
     """``value`` to at most ``spec``'s significant digits, and to no more than every one of ``others``
     (the same figure after each perturbation of the initial state, ``comparison.PERTURBATIONS``) shares
     with it: only the digits that reproduce. A figure whose first digit already moves is printed as
     'chaotic: ' and the range of all of them; counts that differ as their range; a figure that some runs
-    do not have, as each distinct value."""
+    do not have, as the rule gives it over the runs that have it, and '-' for the others."""
     values = [value, *others]
-    if any(v is None or isinstance(v, bool) or not _is_int(v) and not math.isfinite(float(v)) for v in values):
-        distinct = list(dict.fromkeys(number(v, spec) for v in values))
-        return distinct[0] + (f" (or {', '.join(distinct[1:])})" if len(distinct) > 1 else "")
+    present = [v for v in values if not _missing(v)]
+    if len(present) < len(values):
+        if not present:
+            return MISSING
+        shown = stable(present[0], present[1:], spec)
+        return f"{MISSING} (or {shown})" if _missing(value) else f"{shown} (or {MISSING})"
     if all(_is_int(v) for v in values):
         low, high = min(values), max(values)
         return number(value) if low == high else f"{number(low)}–{number(high)}"

@@ -1,6 +1,7 @@
 """Every table of measured numbers in README.md and docs/ is written by this module.
 
     python -m orchestration.reports.docgen write [NAME ...]    # regenerate the marked blocks (default: all)
+                                                               # and the perturbed runs they print
     python -m orchestration.reports.docgen check [NAME ...]    # exit 1 and list the blocks that differ
     python -m orchestration.reports.docgen list
 
@@ -29,19 +30,16 @@ from orchestration.bench.speed import MEASUREMENT as SPEED_MEASUREMENT
 from orchestration.bench.speed import stored_block
 from orchestration.bench import exchange
 from orchestration.markdown import block_pattern, number, replace_block, stable, stable_pair, table
-from orchestration.reports import fair_tables, numerics_tables, optimum_tables
+from orchestration.reports import fair_tables, numerics_tables, optimum_tables, perturbed
 from orchestration.study.comparison import (
     COMPARED,
     OTC_VARIANTS,
     PAPER_TABLE1,
     TABLE1_MARGIN,
-    chaos_text,
+    chaos_of,
     controller_of,
     handling_name,
     mse_sum,
-    run_perturbed,
-    tuned_metrics,
-    tuned_perturbed,
     within_table1,
 )
 from orchestration.study import tuning
@@ -64,7 +62,7 @@ METRIC_HEADER = ["MSE j1 / j2", "MSE t >= 5 s", "MSE after last limit sample (t)
 
 def metric_cells(m: dict[str, Any], ns: list[dict[str, Any]]) -> list[str]:
     """Table cells of the metrics m of a run, each figure to the digits it shares with the metrics in ns of
-    the same run under every perturbation of the initial state (``run_perturbed``)."""
+    the same run under every perturbation of the initial state (``perturbed.metrics``)."""
     def of(key: str) -> list[Any]:
         return [n[key] for n in ns]
 
@@ -89,16 +87,17 @@ def handlings_table() -> str:
         fmu, _ = controller_of(scenario)
         for code in codes:
             rows.append([LABELS[fmu], f"`{scenario}`", handling_name(scenario, limit_handling=code),
-                         *metric_cells(*run_perturbed(scenario, limit_handling=code))])
+                         *metric_cells(*perturbed.metrics(scenario, limit_handling=code))])
     return table(["controller", "scenario", "limit handling", *METRIC_HEADER], rows)
 
 
 def reading_cells(scenario: str, **overrides: float) -> list[str]:
     """``metric_cells`` of an SOTC reading, or, for a chaotic one (Table 1's metric moves by more than
-    ``CHAOS_THRESHOLD`` when the PE amplitude moves by ``PE_NUDGE`` or the RK4 substeps double), what is
-    reproducible about it: the lower bound of its MSE and the sensitivity."""
-    cells = metric_cells(*run_perturbed(scenario, **overrides))
-    chaos = chaos_text(scenario, **overrides)
+    ``CHAOS_THRESHOLD`` under a perturbation of the initial state), what is reproducible about it
+    (``comparison.chaos_of``)."""
+    m, ns = perturbed.metrics(scenario, **overrides)
+    cells = metric_cells(m, ns)
+    chaos = chaos_of(m, ns)
     if chaos is not None:
         cells[:4] = [chaos, "-", "-", "-"]
     return cells
@@ -135,14 +134,14 @@ def results_rows() -> tuple[list[str], list[list[str]]]:
         label = "SOTC, chosen reading" if sotc else f"{LABELS[fmu]} (scenario defaults)"
         for code in codes:
             cells = reading_cells(scenario, limit_handling=code) if sotc else metric_cells(
-                *run_perturbed(scenario, limit_handling=code))
+                *perturbed.metrics(scenario, limit_handling=code))
             rows.append([label, f"`{scenario}`", handling_name(scenario, limit_handling=code), *cells])
     for fmu in CONTROLLERS:
         for code in (2, 0):
-            design, m = tuned_metrics(fmu, code)
+            design = tuning.best_design(fmu, code)
             rows.append([f"{LABELS[fmu]}, tuned (seed {tuning.stored()['seeds'][0]}: {fair_tables.design_text(design)})",
                          f"`{NOMINAL_SCENARIO[fmu]}`",
-                         LIMIT_HANDLINGS[code], *metric_cells(m, tuned_perturbed(fmu, code))])
+                         LIMIT_HANDLINGS[code], *metric_cells(*perturbed.tuned(fmu, code))])
     return ["controller / reading", "scenario", "limit handling", *METRIC_HEADER], rows
 
 
@@ -171,18 +170,18 @@ def results_verdict() -> str:
     sotc_codes = next(codes for scenario, codes in COMPARED if scenario == "paper")
     candidates = [(s, {}) for s in LITERAL_SCENARIOS] + [("paper", {"limit_handling": c}) for c in sotc_codes]
     candidates.append(("paper", dict(NO_LEARNING)))
-    measured = [(s, o, *run_perturbed(s, **o)) for s, o in candidates]
+    measured = [(s, o, *perturbed.metrics(s, **o)) for s, o in candidates]
 
     def text(s, o, m, n):
-        chaos = chaos_text(s, **o)
+        chaos = chaos_of(m, n)
         if chaos is not None:
             return f"{_reading_label(s, o)}: {chaos}"
         return f"{_reading_label(s, o)}: MSE {mse(m, n)}, realised cost {cost(m, n)}"
 
     reach = [text(s, o, m, n) for s, o, m, n in measured if within_table1(m["mse"])]
     miss = [text(s, o, m, n) for s, o, m, n in measured if not within_table1(m["mse"])]
-    chosen, chosen_n = run_perturbed("paper")
-    learned_off, off_n = run_perturbed("paper", **NO_LEARNING)
+    chosen, chosen_n = perturbed.metrics("paper")
+    learned_off, off_n = perturbed.metrics("paper", **NO_LEARNING)
     lines = [
         f"Within {100 * (TABLE1_MARGIN - 1):.0f} % of Table 1's {paper[0]} / {paper[1]}: {'; '.join(reach) or 'none'}. "
         f"Not within: {'; '.join(miss) or 'none'}.",
@@ -193,11 +192,10 @@ def results_verdict() -> str:
         if within_table1(learned_off["mse"]) else
         f"Switching the critic's learning off (alpha1 = alpha2 = 1e-9) moves `paper` out of Table 1's range: "
         f"MSE {mse(learned_off, off_n)}, realised cost {cost(learned_off, off_n)}."]
-    tuned = sorted(((fmu, *tuned_metrics(fmu, 2)) for fmu in CONTROLLERS), key=lambda t: mse_sum(t[2]))
+    tuned = sorted(((fmu, *perturbed.tuned(fmu, 2)) for fmu in CONTROLLERS), key=lambda t: mse_sum(t[1]))
     lines.append("On the paper's nominal `paper` loop (100 s, not in the tuning's training set; accel for every "
                  "controller, each at the best design of the first tuning seed), Table 1's metric ranks them: " + "; ".join(
-                     f"{LABELS[fmu]} {mse(m, n)} (cost {cost(m, n)})" for fmu, _, m in tuned
-                     for n in [tuned_perturbed(fmu, 2)])
+                     f"{LABELS[fmu]} {mse(m, n)} (cost {cost(m, n)})" for fmu, m, n in tuned)
                  + ". Judged on points the tuning never saw, across the tuning seeds, see the paired statistics below.")
     return "\n".join(f"- {line}" for line in lines)
 
@@ -214,57 +212,33 @@ def nominal_tuned_table() -> str:
                 variants += [(f"{d}, learning off", {**ov, **NO_LEARNING}) for d, ov in variants]
             for what, overrides in variants:
                 rows.append([LIMIT_HANDLINGS[code], LABELS[fmu], what,
-                             *metric_cells(*run_perturbed(scenario, limit_handling=code, **overrides))])
+                             *metric_cells(*perturbed.metrics(scenario, limit_handling=code, **overrides))])
     return table(["limit handling", "controller", "design", *METRIC_HEADER], rows)
 
 
 def settings_table() -> str:
     from orchestration.study.sotc_study import sotc_settings
 
-    rows = [[f"`{s}`", handling_name(s), *metric_cells(*run_perturbed(s))] for s in sotc_settings()]
+    rows = [[f"`{s}`", handling_name(s), *metric_cells(*perturbed.metrics(s))] for s in sotc_settings()]
     return table(["setting", "limit handling", *METRIC_HEADER], rows)
 
 
 def readings_table() -> str:
     from orchestration.study.sotc_study import READINGS
 
-    rows = [[label, _params_text("paper", ov), *metric_cells(*run_perturbed("paper", **ov))] for label, ov in READINGS]
+    rows = [[label, _params_text("paper", ov), *metric_cells(*perturbed.metrics("paper", **ov))] for label, ov in READINGS]
     return table(["reading", "parameters", *METRIC_HEADER], rows)
 
 
 def value_table() -> str:
-    from orchestration.study.sotc_study import run
-    from orchestration.study.value_function import value_report, value_rows
+    from orchestration.study.value_function import value_report
 
-    ctrl, res = run("paper")
-    return value_report(value_rows(np.array(ctrl.W), res))
-
-
-def learned_w_table() -> str:
-    """Section 3: W(100 s) of each CL / PE setting against the LQR value and the paper's W."""
-    from fmu_controller.sotc import SotcCore
-    from fmu_controller.sotc_math import weights_to_matrix
-    from orchestration.study.sotc_study import PAPER_W, lqr_weights, run, stack_min_eig
-
-    ref = lqr_weights(1.39, SotcCore())
-    norm = float(np.linalg.norm(ref))
-
-    def row(label: str, W: np.ndarray, min_eig: str) -> list[str]:
-        eig = np.linalg.eigvalsh(weights_to_matrix(W))
-        d = float(np.linalg.norm(W - ref))
-        return [label, "[" + ", ".join(f"{w:.3g}" for w in W) + "]", f"{d:.3g} ({100 * d / norm:.0f} %)",
-                ", ".join(f"{v:.2g}" for v in eig), min_eig]
-
-    rows = []
-    for setting in ("paper", "paper-long-pe", "paper-pe-only"):
-        ctrl, _ = run(setting)
-        rows.append(row(f"`{setting}`", np.array(ctrl.W), f"{stack_min_eig(ctrl):.2g}" if ctrl.stack.count else "(no stack)"))
-    rows.append(row("the paper's W", PAPER_W, ""))
-    return table(["setting", "W(100 s)", f"‖W - W_lqr‖ (‖W_lqr‖ = {norm:.3g})", "eig S(W)", "lambda_min(M)"], rows)
+    nominal, others = perturbed.value("paper")
+    return value_report(perturbed.value_rows_of(nominal), [perturbed.value_rows_of(o) for o in others])
 
 
 def otc_table() -> str:
-    rows = [[label, *metric_cells(*run_perturbed("paper-otc", **ov))] for label, ov in OTC_VARIANTS]
+    rows = [[label, *metric_cells(*perturbed.metrics("paper-otc", **ov))] for label, ov in OTC_VARIANTS]
     return table(["OTC variant", *METRIC_HEADER], rows)
 
 
@@ -321,7 +295,7 @@ def controllers_verdict() -> str:
 class Block:
     file: str
     make: Callable[[], str]
-    slow: bool  # needs more than a few dozen 100 s runs (every figure of run_perturbed costs nine)
+    slow: bool  # needs more than a few dozen 100 s runs (every figure is judged over nine: ``perturbed``)
 
 
 def integrator_table() -> str:
@@ -356,7 +330,7 @@ BLOCKS: dict[str, Block] = {
     "settings": Block("docs/paper-notes.md", settings_table, True),
     "readings": Block("docs/paper-notes.md", readings_table, True),
     "value": Block("docs/paper-notes.md", value_table, True),
-    "learned-w": Block("docs/paper-notes.md", learned_w_table, True),
+    "learned-w": Block("docs/paper-notes.md", numerics_tables.learned_w_table, True),
     "cl-rule": Block("docs/paper-notes.md", numerics_tables.cl_rule_table, True),
     "chi-a-bounded": Block("docs/paper-notes.md", numerics_tables.chi_a_bounded_table, True),
     # the results of a shipped sweep, from its stored rows (rerun: sotc-cosim sweep NAME --doc docs/robustness.md)
@@ -380,7 +354,26 @@ def committed(name: str, root: Path | None = None) -> str:
 
 
 def render(name: str) -> str:
-    return BLOCKS[name].make().rstrip("\n") + "\n"
+    """The block as the code produces it now, its perturbed figures read from the store (``perturbed``)."""
+    perturbed.use(ROOT)
+    try:
+        return BLOCKS[name].make().rstrip("\n") + "\n"
+    except perturbed.Stale as exc:
+        raise perturbed.Stale(f"stale: run python -m orchestration.reports.docgen write {name} ({exc})") from None
+
+
+def store_perturbed(names: list[str], workers: int) -> None:
+    """Compute and store the perturbed runs of the blocks ``names``: their tables are made once with the
+    nominal runs to learn which configurations they print (the store keeps the others unless ``names`` is
+    every block)."""
+    perturbed.use(ROOT)
+    with perturbed.collecting() as configurations:
+        for n in names:
+            if BLOCKS[n].slow:  # the quick blocks print no perturbed figure
+                BLOCKS[n].make()
+    if configurations:
+        done = perturbed.compute(configurations, keep_others=set(names) != set(BLOCKS), workers=workers)
+        print(f"{perturbed.STORE}: {len(configurations)} configurations, {done} perturbed runs", flush=True)
 
 
 def write(name: str, root: Path | None = None) -> bool:
@@ -406,7 +399,12 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("action", choices=("write", "check", "list"))
     ap.add_argument("names", nargs="*", metavar="NAME", help=f"blocks (default all: {', '.join(BLOCKS)})")
+    ap.add_argument("--workers", type=int, default=2, metavar="N",
+                    help="processes for the perturbed runs of write (default 2)")
     args = ap.parse_args(argv)
+    if args.workers < 1:
+        print(f"docgen: --workers must be at least 1, not {args.workers}", file=sys.stderr)
+        return 2
     names = args.names or list(BLOCKS)
     unknown = [n for n in names if n not in BLOCKS]
     if unknown:
@@ -416,11 +414,18 @@ def main(argv: list[str] | None = None) -> int:
         for n in names:
             print(f"{n:16s} {BLOCKS[n].file}{' (slow)' if BLOCKS[n].slow else ''}")
         return 0
+    if args.action == "write":
+        store_perturbed(names, args.workers)
     stale = []
     for n in names:
         if args.action == "write":
             print(f"{n}: {'rewritten' if write(n) else 'unchanged'}", flush=True)
-        elif render(n) != committed(n):
+            continue
+        try:
+            if render(n) != committed(n):
+                stale.append(n)
+        except perturbed.Stale as exc:
+            print(exc)
             stale.append(n)
     if stale:
         print(f"stale blocks (run python -m orchestration.reports.docgen write {' '.join(stale)}): {', '.join(stale)}")

@@ -1,38 +1,46 @@
 """Generated tables of docs/paper-notes.md on numerics (the fixed-order, CPU-independent cores): the CL stack's swap rule against the
-earlier rule, and where the bound (5) holds chi_vd^a (whose derivative the core then sets to 0)."""
+earlier rule, where the bound (5) holds chi_vd^a (whose derivative the core then sets to 0), and the learned W."""
 from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
 
 from fmu_controller.saturation import ACCEL, LIMIT_HANDLINGS, RADIAL
 from fmu_controller.sotc_stack import SELECTIONS
 from orchestration.markdown import stable, stable_pair, table
-from orchestration.study.comparison import handling_code, run_perturbed
-from orchestration.study.sotc_study import run, setting_params, sotc_settings
+from orchestration.reports import perturbed
+from orchestration.study.comparison import handling_code
+from orchestration.study.sotc_study import setting_params, sotc_settings
 from orchestration.study.tuning import tuned_parameters
 
 RULES = ("maxeig", "maxeig-raw", "fill")
 
 
+def _of(key: str, ns: list[dict[str, Any]]) -> list[Any]:
+    return [n[key] for n in ns]
+
+
 def cl_rule_table() -> str:
     """`paper` (100 s) under accel and radial with each swap rule: Table 1's metric, the swaps taken and
-    lambda_min of the CL matrix at the end."""
+    lambda_min of the CL matrix at the end, each to the digits its perturbed runs share."""
     rows = []
     for code in (ACCEL, RADIAL):
         for rule in RULES:
             overrides = {"limit_handling": float(code), "cl_selection": float(SELECTIONS.index(rule))}
-            m, ns = run_perturbed("paper", **overrides)
-            ctrl, _ = run("paper", **overrides)
-            rows.append([LIMIT_HANDLINGS[code], f"`{rule}`", stable_pair(m["mse"], [n["mse"] for n in ns]),
-                         stable(m["tracking_cost"], [n["tracking_cost"] for n in ns]), str(ctrl.stack.swaps),
-                         f"{ctrl.stack.min_eig_at(list(ctrl.W)):.2g}"])
+            m, ns = perturbed.metrics("paper", **overrides)
+            s, ss = perturbed.sotc("paper", **overrides)
+            rows.append([LIMIT_HANDLINGS[code], f"`{rule}`", stable_pair(m["mse"], _of("mse", ns)),
+                         stable(m["tracking_cost"], _of("tracking_cost", ns)), stable(s["swaps"], _of("swaps", ss)),
+                         stable(s["min_eig"], _of("min_eig", ss), ".2g")])
     return table(["limit handling", "cl_selection", "MSE j1 / j2", "realised cost", "swaps in 100 s",
                   "lambda_min(M) at 100 s"], rows)
 
 
 def _bounded(setting: str, overrides: dict[str, float]) -> list[str]:
-    _, res = run(setting, **overrides)
-    flags = res.outputs[:, res.names.index("chi_a_bounded")] > 0.5
-    active = res.t[flags]
-    return [str(int(flags.sum())), f"{active[-1]:.2f} s" if len(active) else "-"]
+    s, ss = perturbed.sotc(setting, **overrides)
+    last = stable(s["chi_a_last"], _of("chi_a_last", ss))
+    return [stable(s["chi_a_bounded"], _of("chi_a_bounded", ss)), "-" if last == "-" else f"{last} s"]
 
 
 def chi_a_bounded_table() -> str:
@@ -46,3 +54,34 @@ def chi_a_bounded_table() -> str:
         rows.append(["tuned SOTC", LIMIT_HANDLINGS[code],
                      *_bounded("paper", {"limit_handling": float(code), **tuned_parameters("SotcController", code)})])
     return table(["design", "limit handling", "samples with chi_vd^a bounded", "last one"], rows)
+
+
+def learned_w_table() -> str:
+    """Section 3: W(100 s) of each CL / PE setting against the LQR value and the paper's W, each figure to
+    the digits its perturbed runs share."""
+    from fmu_controller.sotc import SotcCore
+    from fmu_controller.sotc_math import weights_to_matrix
+    from orchestration.study.sotc_study import PAPER_W, lqr_weights
+
+    ref = lqr_weights(1.39, SotcCore())
+    norm = float(np.linalg.norm(ref))
+
+    def figures(W: Any) -> dict[str, Any]:
+        d = float(np.linalg.norm(np.asarray(W) - ref))
+        return {"W": list(W), "d": d, "percent": 100 * d / norm,
+                "eig": list(np.linalg.eigvalsh(weights_to_matrix(np.asarray(W))))}
+
+    def row(label: str, W: Any, Ws: list[Any], min_eig: str) -> list[str]:
+        f, fs = figures(W), [figures(w) for w in Ws]
+        each = lambda key, spec: ", ".join(stable(v, [g[key][i] for g in fs], spec) for i, v in enumerate(f[key]))
+        return [label, f"[{each('W', '.3g')}]",
+                f"{stable(f['d'], _of('d', fs), '.3g')} ({stable(f['percent'], _of('percent', fs), '.3g')} %)",
+                each("eig", ".2g"), min_eig]
+
+    rows = []
+    for setting in ("paper", "paper-long-pe", "paper-pe-only"):
+        s, ss = perturbed.sotc(setting)
+        min_eig = stable(s["min_eig"], _of("min_eig", ss), ".2g") if s["stack_count"] else "(no stack)"
+        rows.append(row(f"`{setting}`", s["W"], _of("W", ss), min_eig))
+    rows.append(row("the paper's W", PAPER_W, [], ""))
+    return table(["setting", "W(100 s)", f"‖W - W_lqr‖ (‖W_lqr‖ = {norm:.3g})", "eig S(W)", "lambda_min(M)"], rows)

@@ -13,6 +13,7 @@ controller, the SOTC included, gets the same tuning protocol under each handling
 from __future__ import annotations
 
 import functools
+import math
 from typing import Any
 
 import numpy as np
@@ -21,6 +22,7 @@ from fmu_controller.catalog import CORES
 from fmu_controller.saturation import LIMIT_HANDLINGS
 from fmu_plant.dynamics import TORQUE_LIMIT
 from fmu_plant.paper_setting import INITIAL_ANGLES, SUBSTEPS
+from orchestration.markdown import stable
 from orchestration.run.metrics import limit_active, tracking_metrics
 from orchestration.run.scenario import load_scenario
 from orchestration.study.pure_loop import LoopResult, simulate
@@ -59,8 +61,8 @@ def controller_of(scenario: str, **overrides: float) -> tuple[str, dict[str, flo
     return inst.fmu, {**inst.parameters, **overrides}
 
 
-# the changes of the initial state a printed figure is judged over (issue 33): (relative change of phi1_0,
-# of phi2_0, initial dphi1 and dphi2 in rad/s); a table prints only the digits the nominal run shares with
+# the changes of the initial state every printed figure is judged over: (relative change of phi1_0, of
+# phi2_0, initial dphi1 and dphi2 in rad/s); a table prints only the digits the nominal run shares with
 # every one of them (``orchestration.markdown.stable``)
 NOMINAL = (0.0, 0.0, 0.0, 0.0)
 PERTURBATIONS: tuple[tuple[float, float, float, float], ...] = (
@@ -72,14 +74,20 @@ PERTURBATIONS: tuple[tuple[float, float, float, float], ...] = (
 )
 
 
+def initial_state(perturbation: tuple[float, float, float, float]) -> dict[str, tuple[float, float]]:
+    """``simulate``'s phi0 and dphi0 for section 4's initial state changed by ``perturbation``."""
+    return {"phi0": (INITIAL_ANGLES[0] * (1.0 + perturbation[0]), INITIAL_ANGLES[1] * (1.0 + perturbation[1])),
+            "dphi0": (perturbation[2], perturbation[3])}
+
+
 @functools.lru_cache(maxsize=None)
-def _cached(fmu: str, params: tuple[tuple[str, float], ...], stop_time: float, substeps: int,
-            perturbation: tuple[float, float, float, float] = NOMINAL) -> dict[str, Any]:
+def loop_run(fmu: str, params: tuple[tuple[str, float], ...], stop_time: float, substeps: int = SUBSTEPS,
+             perturbation: tuple[float, float, float, float] = NOMINAL) -> dict[str, Any]:
+    """Metrics of a controller FMU's core with these parameters in the pure loop; cached per process."""
     p = dict(params)
     limit = float(p.get("rho", TORQUE_LIMIT))
-    phi0 = (INITIAL_ANGLES[0] * (1.0 + perturbation[0]), INITIAL_ANGLES[1] * (1.0 + perturbation[1]))
-    return loop_metrics(simulate(CORES[fmu](**p), stop_time=stop_time, substeps=substeps, phi0=phi0,
-                                 dphi0=perturbation[2:]), limit)
+    return loop_metrics(simulate(CORES[fmu](**p), stop_time=stop_time, substeps=substeps,
+                                 **initial_state(perturbation)), limit)
 
 
 def run_metrics(scenario: str, stop_time: float = 100.0, substeps: int = SUBSTEPS,
@@ -87,13 +95,14 @@ def run_metrics(scenario: str, stop_time: float = 100.0, substeps: int = SUBSTEP
     """Metrics of a scenario's controller (with overrides) in the pure loop, its initial state changed by
     ``perturbation`` (one of ``PERTURBATIONS``); cached per process."""
     fmu, params = controller_of(scenario, **overrides)
-    return _cached(fmu, tuple(sorted(params.items())), stop_time, substeps, perturbation)
+    return loop_run(fmu, tuple(sorted(params.items())), stop_time, substeps, perturbation)
 
 
 def run_perturbed(scenario: str, stop_time: float = 100.0,
                   **overrides: float) -> tuple[dict[str, Any], list[dict[str, Any]]]:
     """``run_metrics`` as it is, and under every one of ``PERTURBATIONS``: a table prints each figure only
-    to the digits all of them share (``orchestration.markdown.stable``)."""
+    to the digits all of them share (``orchestration.markdown.stable``). The generated docs read the
+    perturbed runs from their store instead (``orchestration.reports.perturbed``)."""
     return run_metrics(scenario, stop_time, **overrides), [
         run_metrics(scenario, stop_time, perturbation=p, **overrides) for p in PERTURBATIONS]
 
@@ -110,32 +119,29 @@ def within_table1(mse: tuple[float, float], controller: str = "SOTC") -> bool:
     """Whether the MSE (50) of both joints is at most ``TABLE1_MARGIN`` times Table 1's."""
     return all(m <= TABLE1_MARGIN * p for m, p in zip(mse, PAPER_TABLE1[controller]))
 
-# a reading is chaotic when Table 1's metric moves by more than this under either nudge below
+# a reading is chaotic when Table 1's metric moves by more than this under a perturbation of its initial state
 CHAOS_THRESHOLD = 0.10
-PE_NUDGE = 1e-4  # N.m off the SOTC's PE amplitude 0.5
 
 
-def sensitivity(scenario: str, stop_time: float = 100.0, **overrides: float) -> tuple[float, float, float]:
-    """(relative change of MSE_1 + MSE_2 when the SOTC's PE amplitude moves by -PE_NUDGE, when the plant's
-    RK4 substeps double, the lowest MSE_1 + MSE_2 of the three runs)."""
-    base = run_metrics(scenario, stop_time, **overrides)
-    amplitude = controller_of(scenario, **overrides)[1].get("pe_amplitude", 0.5)
-    nudged = run_metrics(scenario, stop_time, **{**overrides, "pe_amplitude": amplitude - PE_NUDGE})
-    finer = run_metrics(scenario, stop_time, substeps=8, **overrides)
-    b = mse_sum(base)
-    return abs(mse_sum(nudged) - b) / b, abs(mse_sum(finer) - b) / b, min(b, mse_sum(nudged), mse_sum(finer))
+def chaos_of(nominal: dict[str, Any], others: list[dict[str, Any]]) -> str | None:
+    """None for a run whose Table 1 metric MSE_1 + MSE_2 moves by at most ``CHAOS_THRESHOLD`` (relative)
+    under every one of ``others`` (the run under each of ``PERTURBATIONS``); else what is reproducible
+    about it: "does not track" (or "chaotic", within 10x of Table 1's), the metric to the digits all the
+    runs share (or their range) and how far it moves."""
+    sums = [mse_sum(m) for m in (nominal, *others)]
+    finite = all(math.isfinite(s) for s in sums) and sums[0] > 0
+    move = max(abs(s - sums[0]) / sums[0] for s in sums[1:]) if finite else math.inf
+    if move <= CHAOS_THRESHOLD:
+        return None
+    what = "does not track" if min(sums) > 10 * sum(PAPER_TABLE1["SOTC"]) else "chaotic"
+    moves = f"moves up to {100 * move:.2g} %" if finite else "is not finite"
+    return (f"{what} (MSE_1 + MSE_2 {stable(sums[0], sums[1:])}; {moves} under {len(others)} "
+            "perturbations of the initial state)")
 
 
 def chaos_text(scenario: str, stop_time: float = 100.0, **overrides: float) -> str | None:
-    """None for a reading whose Table 1 metric moves by at most ``CHAOS_THRESHOLD`` under both nudges of
-    ``sensitivity``; else what is reproducible about it: "does not track" (or "chaotic", within 10x of
-    Table 1's), the lower bound of its MSE_1 + MSE_2 and the two sensitivities."""
-    pe, sub, low = sensitivity(scenario, stop_time, **overrides)
-    if max(pe, sub) <= CHAOS_THRESHOLD:
-        return None
-    what = "does not track" if low > 10 * sum(PAPER_TABLE1["SOTC"]) else "chaotic"
-    return (f"{what} (MSE_1 + MSE_2 > {0.9 * low:.2g}; moves {100 * pe:.0f} % when the PE amplitude moves by "
-            f"{PE_NUDGE:g}, {100 * sub:.0f} % with 8 RK4 substeps)")
+    """``chaos_of`` a scenario's controller (with overrides) in the pure loop."""
+    return chaos_of(*run_perturbed(scenario, stop_time, **overrides))
 
 
 def handling_code(fmu: str, params: dict[str, float]) -> int:
@@ -154,15 +160,13 @@ def mse_sum(m: dict[str, Any]) -> float:
     return float(np.sum(mse)) if mse and None not in mse else float("inf")
 
 
-def tuned_metrics(fmu: str, handling: int, stop_time: float = 100.0,
-                  perturbation: tuple[float, float, float, float] = NOMINAL) -> tuple[dict[str, float], dict[str, Any]]:
+def tuned_metrics(fmu: str, handling: int, stop_time: float = 100.0) -> tuple[dict[str, float], dict[str, Any]]:
     """(design point, metrics of the nominal `paper` loop) of ``fmu`` tuned under a handling by the
     protocol of ``orchestration.study.tuning`` (its stored result)."""
-    design = best_design(fmu, handling)
-    return design, run_metrics(NOMINAL_SCENARIO[fmu], stop_time, perturbation=perturbation,
-                               limit_handling=handling, **tuned_parameters(fmu, handling))
+    scenario, overrides = tuned_run(fmu, handling)
+    return best_design(fmu, handling), run_metrics(scenario, stop_time, **overrides)
 
 
-def tuned_perturbed(fmu: str, handling: int, stop_time: float = 100.0) -> list[dict[str, Any]]:
-    """``tuned_metrics``' metrics under every one of ``PERTURBATIONS``."""
-    return [tuned_metrics(fmu, handling, stop_time, p)[1] for p in PERTURBATIONS]
+def tuned_run(fmu: str, handling: int) -> tuple[str, dict[str, float]]:
+    """(scenario, overrides) of ``fmu`` tuned under a handling: its nominal scenario at the stored design."""
+    return NOMINAL_SCENARIO[fmu], {"limit_handling": handling, **tuned_parameters(fmu, handling)}

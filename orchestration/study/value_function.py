@@ -24,12 +24,13 @@ from __future__ import annotations
 import itertools
 import math
 from dataclasses import dataclass
+from typing import Callable, Sequence
 
 import numpy as np
 
 from fmu_controller.sotc import SotcCore
 from fmu_plant.trajectory import CircleTrajectory
-from orchestration.markdown import number, table
+from orchestration.markdown import stable, table
 from orchestration.run.metrics import _trapezoid
 from orchestration.study.pure_loop import LoopResult, simulate
 
@@ -162,41 +163,62 @@ def value_rows(learned: np.ndarray, learning_run: LoopResult, horizon: float = H
     return rows
 
 
-def residual_cells(rows: list[ValueRow]) -> list[list[str]]:
-    return [[LONG_LABELS.get(r.label, r.label), *(number(v, ".3g") for v in r.residuals)] for r in rows]
+def residual_cells(rows: list[ValueRow], others: Sequence[list[ValueRow]]) -> list[list[str]]:
+    """The residuals of each row, to the digits the same row of every one of ``others`` shares."""
+    return [[LONG_LABELS.get(r.label, r.label),
+             *(stable(v, [o[i].residuals[j] for o in others], ".3g") for j, v in enumerate(r.residuals))]
+            for i, r in enumerate(rows)]
 
 
-def cost_cells(rows: list[ValueRow]) -> list[list[str]]:
-    """Sums over the initial states relative to LQR's (the last row), 4 significant digits."""
-    ref = rows[-1]
-    rel = lambda a, b: f"{a.sum() / b.sum():.4g}"  # noqa: E731
-    return [[LONG_LABELS.get(r.label, r.label), rel(r.state_cost, ref.state_cost),
-             f"{int(np.sum(r.state_cost < ref.state_cost - 1e-12))} of {len(r.state_cost)}",
-             rel(r.state_cost + r.omega_cost, ref.state_cost + ref.omega_cost), rel(r.cost_earlier, ref.cost_earlier)]
-            for r in rows]
+def _relative(rows: list[ValueRow], i: int, cost: Callable[[ValueRow], np.ndarray]) -> float:
+    """The summed cost of row i relative to LQR's (the last row)."""
+    return float(cost(rows[i]).sum() / cost(rows[-1]).sum())
 
 
-def _ranking(rows: list[ValueRow], cost) -> str:
-    ref = cost(rows[-1]).sum()
-    ranked = sorted(rows, key=lambda r: cost(r).sum())
-    return " < ".join(f"{r.label} ({cost(r).sum() / ref:.4g})" for r in ranked)
+def cost_cells(rows: list[ValueRow], others: Sequence[list[ValueRow]]) -> list[list[str]]:
+    """Sums over the initial states relative to LQR's (the last row), at most 4 significant digits, each to
+    the digits the same figure of every one of ``others`` shares."""
+    def rel(i: int, cost: Callable[[ValueRow], np.ndarray]) -> str:
+        return stable(_relative(rows, i, cost), [_relative(o, i, cost) for o in others], ".4g")
+
+    def below(rs: list[ValueRow], i: int) -> int:
+        return int(np.sum(rs[i].state_cost < rs[-1].state_cost - 1e-12))
+
+    return [[LONG_LABELS.get(r.label, r.label), rel(i, lambda x: x.state_cost),
+             f"{stable(below(rows, i), [below(o, i) for o in others])} of {len(r.state_cost)}",
+             rel(i, lambda x: x.state_cost + x.omega_cost), rel(i, lambda x: x.cost_earlier)]
+            for i, r in enumerate(rows)]
 
 
-def value_report(rows: list[ValueRow]) -> str:
-    """Both tables and the sentence that resolves each earlier figure, from the same measures."""
+def _ranking(rows: list[ValueRow], others: Sequence[list[ValueRow]], cost: Callable[[ValueRow], np.ndarray]) -> str:
+    order = sorted(range(len(rows)), key=lambda i: cost(rows[i]).sum())
+    return " < ".join(f"{rows[i].label} ({stable(_relative(rows, i, cost), [_relative(o, i, cost) for o in others], '.4g')})"
+                      for i in order)
+
+
+def value_report(rows: list[ValueRow], others: Sequence[list[ValueRow]] = ()) -> str:
+    """Both tables and the sentence that resolves each earlier figure, from the same measures; each figure
+    to the digits it shares with ``others`` (the rows of the learning run under each perturbation of its
+    initial state, ``orchestration.study.comparison.PERTURBATIONS``)."""
     learned, zero = rows[0], rows[1]
     lowest = ", the lowest" if min(rows, key=lambda r: r.cost_earlier.sum()) is zero else ""
+
+    def residual(j: int) -> str:
+        return stable(learned.residuals[j], [o[0].residuals[j] for o in others], ".3g")
+
+    earlier = stable(_relative(rows, 1, lambda r: r.cost_earlier), [_relative(o, 1, lambda r: r.cost_earlier)
+                                                                    for o in others], ".4g")
     return "\n".join([
-        "HJB residual, RMS relative to W = 0's:", "", table(RESIDUAL_HEADER, residual_cells(rows)), "",
+        "HJB residual, RMS relative to W = 0's:", "", table(RESIDUAL_HEADER, residual_cells(rows, others)), "",
         "Cost-to-go from the 16 initial states, summed, relative to LQR's:", "",
-        table(COST_HEADER, cost_cells(rows)), "",
-        f"- Residual: the earlier figure (learned W at {learned.residuals[-1]:.3g} x W = 0's) was taken at fixed "
+        table(COST_HEADER, cost_cells(rows, others)), "",
+        f"- Residual: the earlier figure (learned W at {residual(-1)} x W = 0's) was taken at fixed "
         "(e, e_dot), which each W maps to other z; at the same z for every W it is "
-        f"{number(learned.residuals[0], '.3g')} on the grid and {number(learned.residuals[1], '.3g')} on the z the "
-        f"learning run visits ({number(learned.residuals[2], '.3g')} once the transient is over, t >= {SETTLED:g} s).",
-        f"- Cost-to-go: the earlier figure (W = 0 at {zero.cost_earlier.sum() / rows[-1].cost_earlier.sum():.4g} x "
+        f"{residual(0)} on the grid and {residual(1)} on the z the "
+        f"learning run visits ({residual(2)} once the transient is over, t >= {SETTLED:g} s).",
+        f"- Cost-to-go: the earlier figure (W = 0 at {earlier} x "
         f"LQR's{lowest}) integrated each W's own z, in which W = 0's z_v is not the others'; in the shared z "
-        f"the state cost ranks {_ranking(rows, lambda r: r.state_cost)}, and with each policy's own "
-        f"Omega(mu_hat(W)) added {_ranking(rows, lambda r: r.state_cost + r.omega_cost)} (mu_hat(0) = 0 costs "
+        f"the state cost ranks {_ranking(rows, others, lambda r: r.state_cost)}, and with each policy's own "
+        f"Omega(mu_hat(W)) added {_ranking(rows, others, lambda r: r.state_cost + r.omega_cost)} (mu_hat(0) = 0 costs "
         "nothing).",
     ])

@@ -1,6 +1,7 @@
 """The digit rule of the generated tables (orchestration.markdown.stable, stable_pair): a figure is printed
 only to the digits it shares with every perturbed run; a figure whose first digit moves is printed as
-chaotic with the range of all runs (issue 33). Constructed values only."""
+chaotic with the range of all runs; a reading's chaos (comparison.chaos_of) from the same runs.
+Constructed values only."""
 from __future__ import annotations
 
 import math
@@ -9,7 +10,7 @@ import pytest
 from hypothesis import given, strategies as st
 
 from orchestration.markdown import stable, stable_pair
-from orchestration.study.comparison import PERTURBATIONS
+from orchestration.study.comparison import CHAOS_THRESHOLD, PERTURBATIONS, chaos_of
 
 
 def test_all_digits_when_every_run_agrees():
@@ -42,6 +43,12 @@ def test_counts_and_missing_figures():
     assert stable(2.5, [2.5, None, float("nan")]) == "2.5 (or -)"
 
 
+def test_a_figure_some_runs_lack_is_judged_over_the_runs_that_have_it():
+    assert stable(1.8e-08, [2.2e-06, None, 7.1e-08]) == "chaotic: 1.8e-08–2.2e-06 (or -)"
+    assert stable(None, [0.0123, 0.0124]) == "- (or 0.012)"
+    assert stable(3, [None, 5]) == "3–5 (or -)"
+
+
 def test_pairs_are_judged_joint_by_joint():
     others = [(0.0027, 0.0084)] * 7 + [(0.0026, 0.0084)]
     assert stable_pair((0.0027, 0.0084), others) == "0.003 / 0.0084"
@@ -72,3 +79,22 @@ def test_the_perturbation_set():
     assert any(p[0] != 0.0 and p[1] == 0.0 for p in PERTURBATIONS)
     assert any(p[2] != 0.0 or p[3] != 0.0 for p in PERTURBATIONS)
     assert (0.0, 0.0, 0.0, 0.0) not in PERTURBATIONS
+
+
+def _mse(total: float) -> dict:
+    return {"mse": [total / 4, 3 * total / 4]}
+
+
+def test_a_reading_is_chaotic_when_table_1s_metric_moves_under_a_perturbation():
+    steady = [_mse(0.011 * (1 + c)) for c in (1e-6, 2e-6, CHAOS_THRESHOLD / 2)]
+    assert chaos_of(_mse(0.011), steady) is None
+    moving = steady + [_mse(0.011 * 1.5)]
+    assert chaos_of(_mse(0.011), moving) == ("chaotic (MSE_1 + MSE_2 chaotic: 0.011–0.017; moves up to 50 % under 4 "
+                                             "perturbations of the initial state)")
+    far = [_mse(8.3 * c) for c in (1.2, 0.9)]
+    assert chaos_of(_mse(8.3), far).startswith("does not track (MSE_1 + MSE_2 ")
+
+
+def test_a_reading_without_a_finite_metric_does_not_track():
+    text = chaos_of(_mse(8.3), [{"mse": [None, None]}])
+    assert text.startswith("does not track") and "is not finite under 1 perturbations" in text
