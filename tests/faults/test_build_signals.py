@@ -149,7 +149,7 @@ def test_a_later_build_removes_what_a_killed_build_left(tmp_path):
 
 
 def test_a_sweep_removes_the_scratch_a_killed_coordinator_left(fmu_dir, tmp_path):
-    """A coordinator killed with SIGKILL leaves its Dask scratch (56 MB in issue 27); the next sweep on
+    """A coordinator killed with SIGKILL leaves its Dask scratch (56 MB once); the next sweep on
     this host removes it once its owner process is gone, and its own scratch at the end."""
     from orchestration.scratch import scratch_name
 

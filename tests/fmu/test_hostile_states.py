@@ -2,7 +2,7 @@
 against the same ranges as parameters and inputs, its outputs must be finite, in their declared
 range and (the arm's state lives in its outputs) in the arm's range, and its mode must be one from
 which the FMI calls that follow are legal. Each of the 32 states below was accepted before
-(issue 27) and is now refused; the instance then runs on exactly as from its own saved state."""
+and is now refused; the instance then runs on exactly as from its own saved state."""
 from __future__ import annotations
 
 import json

@@ -1,4 +1,4 @@
-"""``run --fmu-dir DIR`` keeps the FMUs the user built in the other mode (issue 32, item 1): a
+"""``run --fmu-dir DIR`` keeps the FMUs the user built in the other mode: a
 ``SOTC_COSIM_COMPILE=0`` build is not replaced by a compiled one at the next run, and the run says
 which mode it runs them in."""
 from __future__ import annotations

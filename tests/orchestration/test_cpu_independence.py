@@ -1,4 +1,4 @@
-"""One result on every machine (issue N): the reference runs of ``support/bit_runs.py`` give the same
+"""One result on every machine: the reference runs of ``support/bit_runs.py`` give the same
 bits under every OpenBLAS kernel and with numpy's CPU dispatch limited, for the compiled and the
 Python build of the cores, and equal the stored ``tests/data/reference_bits.json``.
 

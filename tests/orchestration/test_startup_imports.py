@@ -1,4 +1,4 @@
-"""``sotc-cosim run`` imports only what it uses (issue 32, item 2): the parser of every command is
+"""``sotc-cosim run`` imports only what it uses: the parser of every command is
 built at start-up, so no command module may pull its heavy dependencies in at import time."""
 from __future__ import annotations
 

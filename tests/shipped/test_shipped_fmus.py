@@ -197,7 +197,7 @@ def test_each_fmu_says_what_its_host_needs(shipped_fmu_dir):
         expected = [] if model == "ReferenceTrajectory" else ["numpy"]
         assert [r.split("<")[0].split(">")[0] for r in requirements] == expected, (model, requirements)
         assert all(r in page for r in requirements) and "CPython 3.11" in page
-        # the page says what the list holds: packages to install, or none at all (issue 27)
+        # the page says what the list holds: packages to install, or none at all
         assert ("imports no package beyond Python's standard library" in page) == (not requirements), model
         names = [line.split('name="')[1].split('"')[0] for line in md.splitlines() if "<ScalarVariable" in line]
         assert names and all(f"<td>{n}</td>" in page for n in names), model

@@ -1,4 +1,4 @@
-"""The runs whose bits must not depend on the CPU (issue N), as a child process of
+"""The runs whose bits must not depend on the CPU, as a child process of
 ``tests/orchestration/test_cpu_independence.py``:
 
     python tests/support/bit_runs.py FMU_DIR            # prints {case: {metric: float.hex()}} as JSON

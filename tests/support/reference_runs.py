@@ -9,7 +9,7 @@ Runs every shipped scenario through the FMUs (no recording) and writes, under ``
 - ``reference_paper.npz``: every output of every instance of the ``paper`` run at every
   ``DECIMATE``-th sample and at the last one, keyed ``instance.variable``, plus ``time``.
 
-Regenerate them only when the numbers are meant to change (the maths, or as with issue N the order of
+Regenerate them only when the numbers are meant to change (the maths, or as with the fixed-order arithmetic the order of
 the cores' arithmetic), and say so in the commit. ``tests/support/bit_runs.py --write`` stores the runs
 that ``test_cpu_independence`` checks under several CPU kernels.
 """
