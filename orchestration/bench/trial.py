@@ -4,7 +4,7 @@ each in the pure loop), in a fresh interpreter, so the cores it runs are those a
 in-process (compiled into the wheel by setup.py where the build could, else the ``.py``).
 
 ``python -m orchestration.bench.trial --store-before`` measured the cost on the code before the typed C cores
-item 5 and stored it in ``trial_before.json`` beside this module, once per kind of cores (a source
+and stored it in ``trial_before.json`` beside this module, once per kind of cores (a source
 checkout imports the ``.py``; the tree of a plain install, its compiled extensions); the bench
 compares with the figure of the same kind.
 """

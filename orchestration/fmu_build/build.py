@@ -181,12 +181,14 @@ def cores_note() -> str:
         f"hot cores compiled with Cython for {compiled.target()} (tens of seconds per FMU)"
 
 
-def kept_in_other_mode(models: list[str], out_dir: Path, fmi: int = 2) -> list[str]:
+def kept_in_other_mode(models: list[str], out_dir: Path, fmi: int, current: set[str]) -> list[str]:
     """The FMUs that are current but built in the other mode (cores compiled, or Python under
-    ``SOTC_COSIM_COMPILE=0``): the user's build, kept unless the switch is set for this command."""
+    ``SOTC_COSIM_COMPILE=0``): the user's build, kept unless the switch is set for this command.
+    ``current``: the models found current in this mode (each check digests the sources and the FMU,
+    so it is done once)."""
     if compiled.SWITCH in os.environ:
         return []
-    return [m for m in models if m in FMU_SOURCES and not is_current(m, out_dir, fmi)
+    return [m for m in models if m in FMU_SOURCES and m not in current
             and is_current(m, out_dir, fmi, not compiles())]
 
 
@@ -194,12 +196,13 @@ def ensure_built(models: list[str], out_dir: Path = DEFAULT_FMU_DIR, fmi: int = 
     """Build the FMUs that are missing or older than their sources (those current in the other mode
     are kept, and said so: ``kept_in_other_mode``); return model -> path."""
     models = list(dict.fromkeys(models))
-    kept = kept_in_other_mode(models, out_dir, fmi)
+    current = {m for m in models if m in FMU_SOURCES and is_current(m, out_dir, fmi)}  # digested once
+    kept = kept_in_other_mode(models, out_dir, fmi, current)
     if kept:
         mode = f"cores Python, as {compiled.SWITCH}=0 builds them" if compiles() else "cores compiled"
         _to_stderr(f"{', '.join(kept)} in {out_dir}: kept as built ({mode}); "
                    f"sotc-cosim build --out {out_dir}{' --fmi 3' if fmi == 3 else ''} rebuilds them ({cores_note()})")
-    stale = [m for m in models if m not in kept and (m not in FMU_SOURCES or not is_current(m, out_dir, fmi))]
+    stale = [m for m in models if m not in kept and m not in current]
     if stale:
         build_fmus(stale, out_dir, fmi)
     return {m: fmu_path(m, out_dir) for m in models}

@@ -131,7 +131,7 @@ def test_a_restored_sotc_state_of_the_wrong_form_is_refused_naming_the_field(fie
 def test_a_damaged_fmu_in_the_fmu_folder_is_built_again_or_refused(damage, fmu_dir, tmp_path):
     fmus = tmp_path / "fmus"
     fmus.mkdir()
-    for f in fmu_dir.iterdir():
+    for f in fmu_dir.glob("*.fmu"):  # the session's FMUs (other tests build Python ones in a subfolder)
         (fmus / f.name).write_bytes(f.read_bytes())
     target = fmus / "ReferenceTrajectory.fmu"
     if damage == "folder":
