@@ -242,16 +242,31 @@ def _python_bundle(path: Path) -> dict[str, bytes]:
 
 def _digest_problems(path: Path, stem: str) -> list[str]:
     """The module names must carry the digest of the bundled content (one name, one content)."""
-    from orchestration.fmu_build.packaging import UNDIGESTED, bundle_digest
+    from orchestration.fmu_build.packaging import bundle_digest, digested
 
     model, _, named = stem.rpartition("_")
     with zipfile.ZipFile(path) as z:
-        files = {n[len("resources/"):]: z.read(n) for n in z.namelist()
-                 if n.startswith("resources/") and not n.endswith("/") and n.rsplit("/", 1)[-1] not in UNDIGESTED}
+        every = {n[len("resources/"):]: z.read(n) for n in z.namelist() if n.startswith("resources/") and not n.endswith("/")}
+    files = {n: data for n, data in every.items() if digested(n)}
     actual = bundle_digest(files, stem, model.removeprefix("sotc_"))[:12]
-    if actual != named:
-        return [f"the bundled code has digest {actual}, but its module names say {named}: changed after the build"]
-    return []
+    problems = [] if actual == named else [
+        f"the bundled code has digest {actual}, but its module names say {named}: changed after the build"]
+    return problems + _bytecode_problems(every)
+
+
+def _bytecode_problems(files: dict[str, bytes]) -> list[str]:
+    """Every ``.pyc`` of the bundle is a checked-hash one of the ``.py`` beside it (packaging.write_bytecode)."""
+    import importlib.util
+
+    out = []
+    for name, data in sorted(files.items()):
+        folder, _, file = name.rpartition("/")
+        if not folder.endswith("__pycache__") or not file.endswith(".pyc"):
+            continue
+        source = files.get(f"{folder.removesuffix('__pycache__')}{file.split('.')[0]}.py")
+        if source is None or int.from_bytes(data[4:8], "little") != 3 or data[8:16] != importlib.util.source_hash(source):
+            out.append(f"resources/{name} is not a checked-hash .pyc of the .py beside it: changed after the build")
+    return out
 
 
 def _standalone_problems(path: Path) -> list[str]:

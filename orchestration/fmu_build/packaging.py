@@ -87,10 +87,17 @@ def bundle_digest(files: dict[str, bytes], stem: str, model: str) -> str:
 UNDIGESTED = ("parameter_starts.json", DIGESTS)
 
 
+def digested(name: str) -> bool:
+    """Whether ``bundle_digest`` covers a file of the bundle (its path under resources/): every file but
+    ``UNDIGESTED`` and the ``.pyc`` files (``write_bytecode``: derived from the sources, after the digest)."""
+    parts = name.split("/")
+    return "__pycache__" not in parts and parts[-1] not in UNDIGESTED
+
+
 def bundled_files(resources: Path) -> dict[str, bytes]:
-    """What ``bundle_digest`` covers: every staged file but ``UNDIGESTED``."""
+    """What ``bundle_digest`` covers, from a staged folder."""
     return {f.relative_to(resources).as_posix(): f.read_bytes() for f in sorted(resources.rglob("*"))
-            if f.is_file() and "__pycache__" not in f.parts and f.name not in UNDIGESTED}
+            if f.is_file() and digested(f.relative_to(resources).as_posix())}
 
 
 def write_core_digests(resources: Path) -> None:

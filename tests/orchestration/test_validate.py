@@ -149,3 +149,16 @@ def test_validate_cli_exits_non_zero_on_a_broken_fmu(fmu_paths, tmp_path, capsys
     out = capsys.readouterr().out
     assert "FAIL" in out and "stepSize" in out
     assert main(["validate", str(fmu_paths["ReferenceTrajectory"])]) == 0
+
+
+def test_a_pyc_that_is_not_its_sources_fails_standalone(fmu_paths, tmp_path):
+    """The .pyc files lie outside the bundle's digest (derived from the sources after it); each must be the
+    checked-hash bytecode of the .py beside it."""
+    fmu = tmp_path / "ArmPlant.fmu"
+    with zipfile.ZipFile(fmu_paths["ArmPlant"]) as zin, zipfile.ZipFile(fmu, "w", zipfile.ZIP_DEFLATED) as zout:
+        pycs = sorted(n for n in zin.namelist() if n.endswith(".pyc"))
+        for item in zin.infolist():
+            data = zin.read(item.filename)
+            zout.writestr(item, data if item.filename != pycs[0] else data[:8] + bytes(8) + data[16:])
+    problems = validate_fmu_file(fmu).problems["standalone"]
+    assert problems == [f"{pycs[0]} is not a checked-hash .pyc of the .py beside it: changed after the build"]
