@@ -8,6 +8,7 @@ docs/reliability.md)."""
 from __future__ import annotations
 
 import shutil
+import sys
 import tempfile
 import zipfile
 from pathlib import Path
@@ -93,3 +94,22 @@ def test_an_int32_of_the_wrong_size_is_an_error(arm):
     fmu, vrs, messages = arm
     _refused(lambda: fmu.getInt32([vrs["substeps"]], nValues=2), messages, "substeps", 1, 2)
     assert len(fmu.getInt32([vrs["substeps"]], nValues=1)) == 1
+
+
+def test_without_a_c_compiler_the_build_says_so_and_ships_pythonfmu3s_binary_alone(tmp_path, monkeypatch):
+    from orchestration.fmu_build import compiled
+    from orchestration.fmu_build.build import build_fmus
+
+    if shim.platform_folder() is None:
+        pytest.skip(f"the size-checking binary is built on Linux only, not {sys.platform}")
+    monkeypatch.setenv("PATH", str(Path(sys.executable).parent))  # the interpreter, no C compiler
+    if compiled.c_compiler() is not None:
+        pytest.skip(f"{compiled.compiler_name()} is found beside the interpreter: cannot hide it")
+    lines: list[str] = []
+    with compiled.switched(False):
+        fmu = build_fmus([MODEL], tmp_path, fmi=3, report=lines.append)[0]
+    assert [line for line in lines if "no C compiler" in line and "sizes" in line], lines
+    with zipfile.ZipFile(fmu) as z:
+        names = z.namelist()
+    assert f"binaries/{shim.platform_folder()}/{MODEL}.so" in names
+    assert not [n for n in names if shim.INNER_SUFFIX in n or n.endswith(shim.SIZES_FILE)], names
