@@ -113,3 +113,28 @@ def test_without_a_c_compiler_the_build_says_so_and_ships_pythonfmu3s_binary_alo
         names = z.namelist()
     assert f"binaries/{shim.platform_folder()}/{MODEL}.so" in names
     assert not [n for n in names if shim.INNER_SUFFIX in n or n.endswith(shim.SIZES_FILE)], names
+
+
+@pytest.mark.parametrize("damage", ["no pythonfmu3 binary", "no size table", "a torn size table"])
+def test_an_fmu_missing_a_part_of_the_shim_fails_instantiation_naming_it(fmi3_paths, tmp_path, damage):
+    path = fmi3_paths[MODEL]
+    with zipfile.ZipFile(path) as z:
+        if f"resources/{shim.SIZES_FILE}" not in z.namelist():
+            pytest.skip(f"the FMI 3 FMUs were built without the size-checking binary here: {MODEL} has no shim")
+    md = read_model_description(str(path))
+    folder = Path(extract(str(path), unzipdir=str(tmp_path / "fmu")))
+    inner = folder / "binaries" / shim.platform_folder() / f"{MODEL}{shim.INNER_SUFFIX}.so"
+    table = folder / "resources" / shim.SIZES_FILE
+    if damage == "no pythonfmu3 binary":
+        inner.unlink()
+    elif damage == "no size table":
+        table.unlink()
+    else:
+        table.write_text(table.read_text()[:-1])  # the last line loses its end
+    fmu = FMU3Slave(guid=md.guid, unzipDirectory=str(folder), modelIdentifier=MODEL, instanceName="damaged")
+    messages: list[str] = []
+    with pytest.raises(Exception, match="instantiate"):
+        fmu.instantiate(loggingOn=True, logMessage=lambda env, status, category, message: messages.append(
+            (message or b"").decode(errors="replace")))
+    named = inner.name if damage == "no pythonfmu3 binary" else shim.SIZES_FILE
+    assert any(named in text for text in messages), messages
