@@ -1,5 +1,6 @@
 """A non-Python host (docs/c_host/host.c) runs the ArmPlant FMU, gets fmpy's trajectory bit for bit,
-and exits cleanly wherever the FMU was extracted.
+and exits cleanly wherever the FMU was extracted; so does the FMI 3 host (docs/c_host/host3.c) with
+the FMI 3 arm, after gets and sets of the wrong size were answered fmi3Error.
 
 The pythonfmu binary does not link libpython (no NEEDED entry; it references ``_Py_NoneStruct`` and
 the C API as undefined symbols), so the host process must provide them: here through LD_PRELOAD of
