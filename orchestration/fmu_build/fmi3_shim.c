@@ -198,8 +198,8 @@ static fmi3Status check(const Shim *s, const char *call, const fmi3ValueReferenc
                                       s->names[vr[i]], s->sizes[vr[i]], s->sizes[vr[i]] == 1 ? "" : "s");
     }
     if (want == nValues) return fmi3OK;
-    report(s->log, s->environment, "%s: %s %s given %zu value%s, not %zu; nothing was %s", call, list,
-           nvr == 1 ? "was" : "were", nValues, nValues == 1 ? "" : "s", want, verb);
+    report(s->log, s->environment, "%s: %s %s given %zu value%s, not %zu; nothing was %s", call,
+           nvr ? list : "no variable", nvr == 1 ? "was" : "were", nValues, nValues == 1 ? "" : "s", want, verb);
     return fmi3Error;
 }
 
