@@ -78,33 +78,56 @@ class _Listener:
             self.progress.close()
 
 
+def _searches_text(data: dict) -> list[str]:
+    from orchestration.study.tuning import CONVERGED, last_half_improvement
+
+    return [f"{fmu} {h} seed {s}: {r['trials']} trials, best "
+            f"{'none' if r['criterion'][r['best']] is None else format(r['criterion'][r['best']], '.6g')}, "
+            f"last-half improvement {100 * last_half_improvement(r['criterion']):.2f} % "
+            f"(converged below {100 * CONVERGED:g} %)"
+            for fmu, c in data["controllers"].items() for h, per in c["handlings"].items() for s, r in per["seeds"].items()]
+
+
+def _tune_once(args, controllers, handlings, seeds, budget, out, journal):
+    from orchestration.sweep.tuning_jobs import tune
+
+    listener = _Listener(journal, args.workers, args.scheduler)
+    try:
+        return tune(out, controllers, handlings, seeds, budget, args.workers, args.scheduler, listener)
+    finally:
+        listener.close()
+
+
 def _cmd_tune(args: argparse.Namespace) -> int:
-    from orchestration.study.tuning import CONVERGED, HANDLINGS, SEEDS, last_half_improvement
-    from orchestration.sweep.tuning_jobs import journal_of, tune
+    """Tune at ``--budget``; with ``--until-converged CAP``, double the budget of every search alike while any
+    search still improves by ``CONVERGED`` or more over its last half, up to CAP trials."""
+    from orchestration.study.tuning import HANDLINGS, SEEDS, unconverged
+    from orchestration.sweep.tuning_jobs import journal_of
 
     controllers = _controllers(args.controllers)
     seeds = list(dict.fromkeys(args.seeds or SEEDS))
     handlings = list(dict.fromkeys(args.handlings or HANDLINGS))
     out = check_output_file(args.out, "--out")
     journal = journal_of(out)
-    listener = _Listener(journal, args.workers, args.scheduler)
+    budget = args.budget
     with PathLock(out, "--out"), PathLock(journal, "--out's journal"):  # repair() may then remove Optuna's lock
-        try:
-            outcome = tune(out, controllers, handlings, seeds, args.budget, args.workers, args.scheduler, listener)
-        finally:
-            listener.close()
+        while True:
+            outcome = _tune_once(args, controllers, handlings, seeds, budget, out, journal)
+            still = [] if outcome.interrupted else unconverged(outcome.store)
+            if not still or not args.until_converged or 2 * budget > args.until_converged:
+                break
+            print(f"tune: at {budget} trials {len(still)} of {outcome.searches} searches still improve "
+                  f"(e.g. {still[0]}): every search goes on to {2 * budget}", flush=True)
+            budget *= 2
     data = outcome.store
     print(f"store: {out} ({'complete' if data['complete'] else 'incomplete'}; journal {journal})")
-    for fmu, c in data["controllers"].items():
-        for h, per in c["handlings"].items():
-            for s, r in per["seeds"].items():
-                best = r["criterion"][r["best"]]
-                print(f"{fmu} {h} seed {s}: {r['trials']} trials, best {best if best is None else f'{best:.6g}'}, "
-                      f"last-half improvement {100 * last_half_improvement(r['criterion']):.2f} % "
-                      f"(converged below {100 * CONVERGED:g} %)")
+    print("\n".join(_searches_text(data)))
+    if still and args.until_converged and not outcome.interrupted:
+        print(f"not converged at {budget} trials, the cap of --until-converged: {', '.join(still)}")
     if outcome.interrupted:
-        again = ["sotc-cosim", "tune", *controllers, "--budget", str(args.budget), "--seeds", *map(str, seeds),
+        again = ["sotc-cosim", "tune", *controllers, "--budget", str(budget), "--seeds", *map(str, seeds),
                  "--handlings", *(h for h in data["controllers"][controllers[0]]["handlings"]), "--out", str(out)]
+        again += ["--until-converged", str(args.until_converged)] if args.until_converged else []
         again += ["--workers", str(args.workers)] if args.workers else []
         again += ["--scheduler", args.scheduler] if args.scheduler else []
         print(f"interrupted: the finished trials are kept in {journal}; resume with: {' '.join(again)}")
@@ -114,7 +137,7 @@ def _cmd_tune(args: argparse.Namespace) -> int:
 
 def add_commands(sub) -> None:
     """tune."""
-    from orchestration.study.tuning import BUDGET, SEEDS
+    from orchestration.study.tuning import BUDGET, CONVERGED, SEEDS
 
     p = sub.add_parser("tune", help="tune the controllers by the one protocol (Optuna, on Dask), resumable")
     p.add_argument("controllers", nargs="*", metavar="CONTROLLER",
@@ -122,6 +145,9 @@ def add_commands(sub) -> None:
                         "LQR OTC (default: all)")
     p.add_argument("--budget", type=positive_int, default=BUDGET,
                    help=f"trials per controller, limit handling and seed (default {BUDGET})")
+    p.add_argument("--until-converged", type=positive_int, metavar="CAP",
+                   help="then double the budget of every search alike while any search's best-so-far still improves "
+                        f"by {100 * CONVERGED:g} %% or more over its last half, up to CAP trials (docs/baselines.md)")
     p.add_argument("--seeds", type=seed, nargs="+", metavar="SEED",
                    help=f"tuning seeds, one independent search each (default {' '.join(map(str, SEEDS))})")
     p.add_argument("--handlings", type=handling, nargs="+", metavar="HANDLING",

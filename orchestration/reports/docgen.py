@@ -282,7 +282,7 @@ def controllers_verdict() -> str:
                 continue
             keys = sorted(errors[fmu])
             v = paired([sotc.get(k) for k in keys], [errors[fmu][k] for k in keys], family)
-            said.append(f"against {label(fmu)}: {v.verdict} (SOTC / it {number(v.ratio.value, '.3g')}, interval "
+            said.append(f"against {label(fmu)}: {v.said} (SOTC / it {number(v.ratio.value, '.3g')}, interval "
                         f"[{number(v.ratio.low, '.3g')}, {number(v.ratio.high, '.3g')}], worse on {v.worse_on} of "
                         f"{v.ratio.n} paired points)")
         lines.append("The SOTC, paired point by point (geometric mean of the ratio of post-transient errors; family: "

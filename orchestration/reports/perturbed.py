@@ -19,14 +19,13 @@ from typing import Any, Callable, Iterator
 
 import numpy as np
 
-from fmu_controller.sotc import SotcCore
 from fmu_plant.paper_setting import SUBSTEPS
 from orchestration.outputs import atomic_write
 from orchestration.progress import Progress
-from orchestration.study.comparison import NOMINAL, PERTURBATIONS, controller_of, initial_state, loop_run, tuned_run
-from orchestration.study.pure_loop import simulate
+from orchestration.study.comparison import NOMINAL, PERTURBATIONS, controller_of, loop_result, loop_run, tuned_run
 
 STORE = "docs/perturbed.json"
+SOTC = "SotcController"  # the core the "sotc" and "value" figures read
 # the metrics (orchestration.run.metrics.tracking_metrics) the tables print
 PRINTED = ("last_limit_time", "max_tau_norm", "mse", "mse_after_5s", "mse_after_limit", "samples_over_limit",
            "tracking_cost")
@@ -60,10 +59,15 @@ def loop_figures(fmu: str, params: list[list[Any]], stop_time: float,
     return _plain({k: m[k] for k in PRINTED})
 
 
+def _sotc_run(params: str, stop_time: float, perturbation: tuple[float, ...]) -> tuple[Any, Any]:
+    """The SOTC core after its pure-loop run, and the run: the one ``loop_figures`` of the same
+    configuration simulated (``comparison.loop_result`` caches it)."""
+    return loop_result(SOTC, tuple((k, v) for k, v in json.loads(params)), stop_time, SUBSTEPS, perturbation)
+
+
 @functools.lru_cache(maxsize=None)
 def _sotc(params: str, stop_time: float, perturbation: tuple[float, ...]) -> str:
-    ctrl = SotcCore(**dict(json.loads(params)))
-    res = simulate(ctrl, stop_time=stop_time, **initial_state(perturbation))
+    ctrl, res = _sotc_run(params, stop_time, perturbation)
     flags = res.outputs[:, res.names.index("chi_a_bounded")] > 0.5
     active = res.t[flags]
     return _text(_plain({"W": list(ctrl.W), "swaps": ctrl.stack.swaps, "stack_count": ctrl.stack.count,
@@ -81,8 +85,7 @@ def sotc_figures(params: list[list[Any]], stop_time: float, perturbation: tuple[
 def _value(params: str, stop_time: float, perturbation: tuple[float, ...]) -> str:
     from orchestration.study.value_function import value_rows
 
-    ctrl = SotcCore(**dict(json.loads(params)))
-    res = simulate(ctrl, stop_time=stop_time, **initial_state(perturbation))
+    ctrl, res = _sotc_run(params, stop_time, perturbation)
     return _text(_plain([{"label": r.label, "residuals": r.residuals, "state_cost": r.state_cost,
                           "omega_cost": r.omega_cost, "cost_earlier": r.cost_earlier}
                          for r in value_rows(np.array(ctrl.W), res)]))
@@ -118,6 +121,16 @@ def recompute(stored_key: str, index: int) -> Figures:
     """The figures of a stored configuration under ``PERTURBATIONS[index]``, computed now."""
     kind, *args = json.loads(stored_key)
     return FIGURES[kind](*args, PERTURBATIONS[index])
+
+
+def _recompute_run(stored_keys: list[str], index: int) -> list[Figures]:
+    """``recompute`` of configurations that read one run (``_run_of``), in one process: one simulation."""
+    return [recompute(k, index) for k in stored_keys]
+
+
+def _run_of(kind: str, args: list[Any]) -> str:
+    """The pure-loop run a configuration's figures are read from: (core, parameters, stop time)."""
+    return _text([args[0], *args[1:]] if kind == "loop" else [SOTC, *args])
 
 
 def _figures(kind: str, args: list[Any]) -> tuple[Figures, list[Figures]]:
@@ -199,13 +212,17 @@ def compute(configurations: dict[str, list[Any]], keep_others: bool, workers: in
     store them with their nominal figures; the configurations stored before are kept if ``keep_others``.
     Returns the number of runs."""
     runs = dict(stored(_root)) if keep_others else {}
-    jobs = [(key, i) for key in configurations for i in range(len(PERTURBATIONS))]
+    groups: dict[str, list[str]] = {}
+    for at, (kind, args) in configurations.items():
+        groups.setdefault(_run_of(kind, args), []).append(at)
+    jobs = [(keys, i) for keys in groups.values() for i in range(len(PERTURBATIONS))]
     results: dict[tuple[str, int], Figures] = {}
     progress = Progress(len(jobs), "perturbed runs", workers)
     with ProcessPoolExecutor(max_workers=workers) as pool:
-        futures = {pool.submit(recompute, *job): job for job in jobs}
+        futures = {pool.submit(_recompute_run, *job): job for job in jobs}
         for future in as_completed(futures):
-            results[futures[future]] = future.result()
+            keys, i = futures[future]
+            results.update({(at, i): figures for at, figures in zip(keys, future.result())})
             progress.update(True)
     progress.close()
     for key, (kind, args) in configurations.items():

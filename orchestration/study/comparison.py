@@ -80,14 +80,22 @@ def initial_state(perturbation: tuple[float, float, float, float]) -> dict[str, 
             "dphi0": (perturbation[2], perturbation[3])}
 
 
+@functools.lru_cache(maxsize=4)
+def loop_result(fmu: str, params: tuple[tuple[str, float], ...], stop_time: float, substeps: int = SUBSTEPS,
+                perturbation: tuple[float, float, float, float] = NOMINAL) -> tuple[Any, LoopResult]:
+    """A controller FMU's core with these parameters after its pure-loop run, and the run; the last few
+    are cached per process, so the tables that read one run's metrics, core state and value function
+    simulate it once (a run holds its whole recording: the cache stays small)."""
+    core = CORES[fmu](**dict(params))
+    return core, simulate(core, stop_time=stop_time, substeps=substeps, **initial_state(perturbation))
+
+
 @functools.lru_cache(maxsize=None)
 def loop_run(fmu: str, params: tuple[tuple[str, float], ...], stop_time: float, substeps: int = SUBSTEPS,
              perturbation: tuple[float, float, float, float] = NOMINAL) -> dict[str, Any]:
     """Metrics of a controller FMU's core with these parameters in the pure loop; cached per process."""
-    p = dict(params)
-    limit = float(p.get("rho", TORQUE_LIMIT))
-    return loop_metrics(simulate(CORES[fmu](**p), stop_time=stop_time, substeps=substeps,
-                                 **initial_state(perturbation)), limit)
+    limit = float(dict(params).get("rho", TORQUE_LIMIT))
+    return loop_metrics(loop_result(fmu, params, stop_time, substeps, perturbation)[1], limit)
 
 
 def run_metrics(scenario: str, stop_time: float = 100.0, substeps: int = SUBSTEPS,

@@ -5,7 +5,9 @@ its geometric mean, and two controllers are compared by the geometric mean of th
 (the mean of log10 ratios, paired on the same point). Intervals: ``scipy.stats.bootstrap``, BCa
 (bias-corrected and accelerated), ``RESAMPLES`` seeded resamples of the points, paired for a ratio.
 Verdict: "better" when the whole interval of the ratio A / B lies below 1, "worse" when it lies above,
-else "not distinguishable"; beside it, on how many points A is worse than B.
+else "not distinguishable"; beside it, on how many points A is worse than B. A "better" or "worse"
+whose corrected bound nearest 1 lies within ``MARGINAL`` of 1 is said "marginal": one more draw of the
+tuning or of the points could turn it (a hidden redraw of the tuning seeds turned such verdicts).
 
 Multiple comparisons: a table that states several verdicts states them as one family, and each of its
 intervals is taken at 1 - 0.05 / m for a family of m verdicts (Bonferroni: every verdict of the family
@@ -26,6 +28,7 @@ from scipy.stats import bootstrap
 LEVEL = 0.95  # of a whole family of verdicts
 RESAMPLES = 20_000
 BOOTSTRAP_SEED = 0
+MARGINAL = 0.01  # a verdict whose bound nearest 1 is within 1 % of 1
 
 
 def level(family: int = 1) -> float:
@@ -81,6 +84,18 @@ class PairedVerdict:
     failed_a: int
     failed_b: int
     worse_on: int  # points where A is higher than B (of ratio.n)
+
+    @property
+    def marginal(self) -> bool:
+        """A "better" or "worse" whose corrected bound nearest 1 lies within ``MARGINAL`` of 1."""
+        if self.verdict == "better":
+            return self.ratio.high > 1.0 - MARGINAL
+        return self.verdict == "worse" and self.ratio.low < 1.0 + MARGINAL
+
+    @property
+    def said(self) -> str:
+        """The verdict as printed: "marginal" marked."""
+        return self.verdict + (" (marginal)" if self.marginal else "")
 
 
 def paired(a, b, family: int = 1) -> PairedVerdict:

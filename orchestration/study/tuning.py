@@ -40,7 +40,7 @@ from orchestration.run.scenario import load_scenario
 from orchestration.study.points import KINDS, draw_points, run_point
 
 BUDGET = 64  # trials per controller, limit handling and seed
-SEEDS = (0, 1, 2)
+SEEDS = (0, 1, 2, 3, 4)
 HANDLINGS = (0, 1, 2)  # radial, joint, accel
 INITIAL_DESIGN = 8  # the nominal design and a Latin hypercube, before the sampler models anything
 PRUNE_AFTER = 2  # training points every trial runs before it may be pruned (one of each kind)
@@ -49,7 +49,7 @@ STOP_TIME = 20.0  # s, each training run (as long as the held-out runs)
 TRAINING_SEED = 2026
 TRAINING_NOISE_SEED = 1001  # the held-out sets use noise seeds 1..16
 TRAINING_POINTS = {"initial states": 4, "perturbed": 4}
-CONVERGED = 0.02  # the budget is enough when the best-so-far improves by less than this over the last half
+CONVERGED = 0.01  # the budget is enough when doubling it moved the best by less than this (its last half)
 TUNED_FILE = Path(__file__).with_name("tuned.json")
 
 # the scenario whose controller parameters are each controller's nominal design
@@ -149,6 +149,13 @@ def last_half_improvement(values: list[float | None]) -> float:
     if half == end:
         return 0.0
     return 1.0 if math.isinf(half) else (half - end) / half
+
+
+def unconverged(data: dict[str, Any]) -> list[str]:
+    """The searches of a store ("<controller> <handling> seed <seed>") whose best-so-far still improves by
+    ``CONVERGED`` or more over the last half of its trials."""
+    return [f"{fmu} {h} seed {s}" for fmu, c in data["controllers"].items() for h, per in c["handlings"].items()
+            for s, r in per["seeds"].items() if last_half_improvement(r["criterion"]) >= CONVERGED]
 
 
 # --- the stored search --------------------------------------------------------------------------------

@@ -49,3 +49,29 @@ def test_identical_configurations_are_not_distinguishable_and_their_interval_is_
     values = [0.1, 0.02, 0.3, 0.004]
     v = paired(values, values)
     assert v.verdict == "not distinguishable" and v.ratio.low == v.ratio.high == 1.0 and v.worse_on == 0
+
+
+def test_a_verdict_whose_bound_is_within_one_percent_of_one_is_marginal():
+    from orchestration.study.statistics import MARGINAL, Interval, PairedVerdict
+
+    def verdict(low, high, said):
+        return PairedVerdict(Interval(math.sqrt(low * high), low, high, 16, 0), said, 0, 0, 8)
+
+    assert verdict(0.80, 0.995, "better").marginal and verdict(0.80, 0.995, "better").said == "better (marginal)"
+    assert not verdict(0.80, 1.0 - 2 * MARGINAL, "better").marginal
+    assert verdict(1.005, 1.3, "worse").marginal and not verdict(1.02, 1.3, "worse").marginal
+    assert not verdict(0.9, 1.1, "not distinguishable").marginal
+
+
+def test_a_verdict_across_seeds_holds_only_where_every_seed_gives_it_and_names_the_marginal_ones():
+    from orchestration.reports.fair_tables import _across
+    from orchestration.study.statistics import Interval, PairedVerdict
+
+    def verdict(low, high, said):
+        return PairedVerdict(Interval(math.sqrt(low * high), low, high, 16, 0), said, 0, 0, 8)
+
+    every = _across({0: verdict(0.7, 0.9, "better"), 1: verdict(0.8, 0.995, "better")}, "mse")
+    assert every.startswith("mse better for every tuning seed, marginal for seed 1 (")
+    assert "seed 1: better (marginal)" in every and "seed 0: better," in every
+    split = _across({0: verdict(0.7, 0.9, "better"), 1: verdict(0.9, 1.1, "not distinguishable")}, "mse")
+    assert split.startswith("mse depends on the tuning seed (") and "seed 1: not distinguishable" in split

@@ -1,0 +1,53 @@
+"""``sotc-cosim tune --until-converged CAP``: every search's budget doubles alike while any search still
+improves by ``CONVERGED`` or more over the last half of its trials, and never beyond CAP (the searches
+themselves are stood in for by a criterion curve per budget: the loop is what is tested here)."""
+from __future__ import annotations
+
+import pytest
+
+from orchestration.cli import main
+from orchestration.study.tuning import CONVERGED
+from orchestration.sweep import tuning_jobs
+
+
+def _store(curve: list[float]) -> dict:
+    record = {"trials": len(curve), "criterion": curve, "best": curve.index(min(curve))}
+    return {"complete": True, "controllers": {"CtController": {"handlings": {"accel": {"seeds": {"0": record}}}}}}
+
+
+@pytest.fixture
+def budgets(monkeypatch):
+    """Run tune with a search whose best falls by 5 % each time the trials double, until 16 trials."""
+    asked = []
+
+    def tune(out, controllers, handlings, seeds, budget, workers, scheduler, listener=None):
+        asked.append(budget)
+        curve, value = [], 1.0
+        for n in range(1, budget + 1):
+            if n & (n - 1) == 0 and n <= 16:  # a new best at 1, 2, 4, 8, 16 trials
+                value *= 1.0 - 5 * CONVERGED
+            curve.append(value)
+        return tuning_jobs.TuneOutcome(1, 0, False, _store(curve))
+
+    monkeypatch.setattr(tuning_jobs, "tune", tune)
+    return asked
+
+
+def test_the_budget_doubles_until_doubling_moves_the_best_by_less_than_the_rule(budgets, tmp_path, capsys):
+    assert main(["tune", "CT", "--handlings", "accel", "--seeds", "0", "--budget", "4", "--until-converged", "256",
+                 "--out", str(tmp_path / "t.json")]) == 0
+    assert budgets == [4, 8, 16, 32]  # at 32 the last half (17..32) found nothing better
+    out = capsys.readouterr().out
+    assert "every search goes on to 8" in out and "goes on to 64" not in out and "not converged" not in out
+
+
+def test_the_cap_bounds_the_doubling_and_says_what_did_not_converge(budgets, tmp_path, capsys):
+    assert main(["tune", "CT", "--handlings", "accel", "--seeds", "0", "--budget", "4", "--until-converged", "8",
+                 "--out", str(tmp_path / "t.json")]) == 0
+    assert budgets == [4, 8]
+    assert "not converged at 8 trials, the cap of --until-converged: CtController accel seed 0" in capsys.readouterr().out
+
+
+def test_without_the_option_one_budget_is_run(budgets, tmp_path):
+    main(["tune", "CT", "--handlings", "accel", "--seeds", "0", "--budget", "4", "--out", str(tmp_path / "t.json")])
+    assert budgets == [4]
