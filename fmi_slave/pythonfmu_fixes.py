@@ -64,15 +64,19 @@ def settle_binary_teardown(resources: str | None) -> None:
     """
     if sys.platform != "linux" or not resources:
         return
-    # FMI 2.0 (pythonfmu) or FMI 3.0 (pythonfmu3, whose binary keeps its keeper the same way) layout
+    # FMI 2.0 (pythonfmu) or FMI 3.0 (pythonfmu3, whose binary keeps its keeper the same way) layout; an
+    # FMI 3 FMU's binary is our size-checking shim, with pythonfmu3's beside it: every one is tried
     binaries = sorted(p for folder in ("linux64", "x86_64-linux")
                       for p in (Path(resources).parent / "binaries" / folder).glob("*.so"))
-    if len(binaries) != 1:
-        return
-    host_made_python = bool(sys.orig_argv)
+    for path in binaries:
+        _settle(path, host_made_python=bool(sys.orig_argv))
+
+
+def _settle(path: Path, host_made_python: bool) -> None:
+    """``settle_binary_teardown`` for one binary of the FMU (nothing if not loaded or not pythonfmu's)."""
     mode = os.RTLD_NOLOAD | (0 if host_made_python else os.RTLD_NODELETE)
     try:
-        binary = ctypes.PyDLL(str(binaries[0]), mode=mode)
+        binary = ctypes.PyDLL(str(path), mode=mode)
     except OSError:  # not loaded in this process
         return
     try:
@@ -84,7 +88,7 @@ def settle_binary_teardown(resources: str | None) -> None:
             register.argtypes = (ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p)
             if register(ctypes.cast(finalize, ctypes.c_void_p), None, None) == 0:
                 _EXIT_CALL_REGISTERED.add(binary._handle)
-    except AttributeError:  # not a pythonfmu binary: nothing to settle
+    except AttributeError:  # not a pythonfmu binary (the FMI 3 shim): nothing to settle
         pass
     finally:
         _ctypes.dlclose(binary._handle)  # only our own reference: unloading stays the host's affair

@@ -25,7 +25,7 @@ from typing import Callable
 from fmu_controller.catalog import CONTROLLERS
 from orchestration.outputs import atomic_write
 from orchestration.paths import OutputPathError, check_output_folder
-from orchestration.fmu_build import compiled, fmi3, packaging
+from orchestration.fmu_build import compiled, fmi3, packaging, shim
 from orchestration.fmu_build.child import Stopped, die_with_parent, run_child, stop_on_signals
 from orchestration.scratch import owner_prefix, remove_stale
 
@@ -76,6 +76,8 @@ def packages_of(source: FmuSource, fmi: int) -> tuple[str, ...]:
 def _source_files(source: FmuSource, fmi: int = 2) -> list[Path]:
     files = [PACKAGE_ROOT / source.script, Path(__file__).resolve(), Path(packaging.__file__).resolve(),
              Path(compiled.__file__).resolve(), Path(fmi3.__file__).resolve()]
+    if fmi == 3:  # the size-checking binary in front of pythonfmu3's
+        files += [Path(shim.__file__).resolve(), shim.SOURCE]
     for pkg in packages_of(source, fmi):
         files += sorted((PACKAGE_ROOT / pkg).glob("*.py")) + sorted((PACKAGE_ROOT / pkg).glob("*.pxd"))
     exporters = dict.fromkeys(("pythonfmu", packaging.EXPORTERS[fmi]))
@@ -84,10 +86,12 @@ def _source_files(source: FmuSource, fmi: int = 2) -> list[Path]:
 
 def source_digest(source: FmuSource, fmi: int = 2, compiled_cores: bool | None = None) -> str:
     """What the FMU is built from: its sources, pythonfmu's Python half, the packaging code, its FMI
-    version and whether its cores are compiled (``compiled_cores``; default: what a build here does)."""
+    version, whether its cores are compiled (``compiled_cores``; default: what a build here does) and,
+    for FMI 3, whether it carries the size-checking binary (``shim``)."""
     compiled_cores = compiles() if compiled_cores is None else compiled_cores
+    fmi3_binary = (b" FMI 3.0" + (b" shim" if packaging.shim_unavailable() is None else b"")) if fmi == 3 else b""
     h = hashlib.sha256(source.model.encode() + (f" compiled for {compiled.target()}".encode() if compiled_cores else b"")
-                       + (b" FMI 3.0" if fmi == 3 else b""))
+                       + fmi3_binary)
     for f in _source_files(source, fmi):
         h.update(f.name.encode())
         h.update(f.read_bytes())
@@ -154,6 +158,9 @@ def build_fmus(models: list[str] | None = None, out_dir: Path = DEFAULT_FMU_DIR,
     out_dir.mkdir(parents=True, exist_ok=True)
     report = report or _to_stderr
     report(f"building {len(models)} FMU{'s' if len(models) > 1 else ''} (FMI {fmi}.0) into {out_dir}: {cores_note()}")
+    unshimmed = packaging.shim_unavailable() if fmi == 3 else None
+    if unshimmed:
+        report(f"FMI 3 sizes stay unchecked in C (a wrong nValues gives fmi3Fatal or worse): {unshimmed}")
     cmd = [sys.executable, "-m", "orchestration.fmu_build.build", "--out", str(out_dir.resolve()), "--fmi", str(fmi),
            "--parent", str(os.getpid()), *models]
     code, errors = run_child(cmd, str(PACKAGE_ROOT), lambda line: report(f"  {line}"))

@@ -80,13 +80,22 @@ def unavailable() -> str | None:
     """Why this interpreter cannot compile the cores (None: it can)."""
     if importlib.util.find_spec("Cython") is None or importlib.util.find_spec("setuptools") is None:
         return "Cython and setuptools are not installed (pip install cython setuptools gives compiled cores)"
-    compiler = (sysconfig.get_config_var("CC") or "cc").split()[0]
-    if shutil.which(compiler) is None:
-        return f"no C compiler ({compiler}) on PATH (install one, e.g. apt install gcc, for compiled cores)"
+    if c_compiler() is None:
+        return f"no C compiler ({compiler_name()}) on PATH (install one, e.g. apt install gcc, for compiled cores)"
     if not Path(sysconfig.get_paths()["include"], "Python.h").is_file():
         return ("the Python headers (Python.h) are missing (install them, e.g. apt install python3-dev, "
                 "for compiled cores)")
     return None
+
+
+def compiler_name() -> str:
+    """The C compiler this Python was built with (what setuptools compiles extensions with)."""
+    return (sysconfig.get_config_var("CC") or "cc").split()[0]
+
+
+def c_compiler() -> str | None:
+    """The path of that C compiler (None: not on PATH)."""
+    return shutil.which(compiler_name())
 
 
 def target() -> str:

@@ -47,7 +47,7 @@ from xml.etree.ElementTree import Element, tostring
 
 from fmi_slave.compiled_check import DIGESTS, extension_files
 from fmi_slave.host_check import parse_requirement
-from orchestration.fmu_build import compiled
+from orchestration.fmu_build import compiled, shim
 from orchestration.outputs import atomic_file
 
 # top-level packages renamed into <stem>_lib
@@ -82,9 +82,10 @@ def bundle_digest(files: dict[str, bytes], stem: str, model: str) -> str:
     return h.hexdigest()
 
 
-# files under resources/ that the bundle digest leaves out: the parameter starts of a copy, and the digests
-# of the compiled cores (written after the renaming; the cores themselves are covered)
-UNDIGESTED = ("parameter_starts.json", DIGESTS)
+# files under resources/ that the bundle digest leaves out: the parameter starts of a copy, the digests
+# of the compiled cores (written after the renaming; the cores themselves are covered), and the FMI 3 size
+# table (written from the modelDescription, which is checked on its own)
+UNDIGESTED = ("parameter_starts.json", DIGESTS, shim.SIZES_FILE)
 
 
 def digested(name: str) -> bool:
@@ -140,6 +141,11 @@ def _pythonfmu_folder(package: str = "pythonfmu") -> Path:
 def pythonfmu_sources(package: str = "pythonfmu") -> list[Path]:
     """The Python half of pythonfmu (or pythonfmu3) that an FMU carries (what its own builder copies)."""
     return sorted(_pythonfmu_folder(package).glob("*.py"))
+
+
+def shim_unavailable() -> str | None:
+    """Why FMI 3 FMUs built here carry pythonfmu3's binary alone, without the size checks (``shim``)."""
+    return shim.unavailable(_pythonfmu_folder("pythonfmu3"))
 
 
 def pythonfmu_binaries(package: str = "pythonfmu") -> list[tuple[Path, str]]:
@@ -365,13 +371,17 @@ def _interfaces(xml: Element) -> list[str]:
     return [label for tag, label in names.items() if xml.find(tag) is not None]
 
 
-def write_fmu(dest_file: Path, model: str, resources: Path, xml: Element, documentation: str, fmi: int = 2) -> None:
-    """Zip the FMU: modelDescription, pythonfmu's (pythonfmu3's) binaries renamed to the model,
-    resources, docs."""
+def write_fmu(dest_file: Path, model: str, resources: Path, xml: Element, documentation: str, fmi: int = 2,
+              shim_binary: bytes | None = None) -> None:
+    """Zip the FMU: modelDescription, pythonfmu's (pythonfmu3's) binaries renamed to the model (on
+    ``shim.platform_folder``, ``shim_binary`` under that name and pythonfmu3's beside it), resources, docs."""
     with atomic_file(dest_file, "wb") as f, zipfile.ZipFile(f, "w", zipfile.ZIP_DEFLATED) as z:
         z.writestr("modelDescription.xml", parseString(tostring(xml, "UTF-8")).toprettyxml(encoding="UTF-8"))
         for binary, platform in pythonfmu_binaries(EXPORTERS[fmi]):
-            z.write(binary, f"binaries/{platform}/{model}{binary.suffix}")
+            shimmed = shim_binary is not None and platform == shim.platform_folder()
+            z.write(binary, f"binaries/{platform}/{model}{shim.INNER_SUFFIX if shimmed else ''}{binary.suffix}")
+            if shimmed:
+                z.writestr(f"binaries/{platform}/{model}{binary.suffix}", shim_binary)
         for item in sorted(resources.rglob("*")):
             if item.is_file():
                 z.write(item, f"resources/{item.relative_to(resources).as_posix()}")
@@ -404,7 +414,12 @@ def package_fmu(model: str, script: Path, packages: dict[str, Path], equations: 
     write_core_digests(resources)
     xml = model_description(resources, stem, model)
     write_bytecode(resources)
+    shim_binary = None
+    if fmi == 3 and shim_unavailable() is None:
+        shim_binary = shim.binary(_pythonfmu_folder("pythonfmu3"), workdir)
+        (resources / shim.SIZES_FILE).write_text(shim.sizes_table(xml))
     docs = [ast.get_docstring(ast.parse(p.read_text())) or "" for p in [script, *equations]]
-    write_fmu(dest_file, model, resources, xml, documentation_html(model, xml, docs, requirements, cores), fmi)
+    write_fmu(dest_file, model, resources, xml, documentation_html(model, xml, docs, requirements, cores), fmi,
+              shim_binary)
     shutil.rmtree(resources)
     return dest_file, cores

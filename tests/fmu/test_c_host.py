@@ -1,5 +1,6 @@
 """A non-Python host (docs/c_host/host.c) runs the ArmPlant FMU, gets fmpy's trajectory bit for bit,
-and exits cleanly wherever the FMU was extracted.
+and exits cleanly wherever the FMU was extracted; so does the FMI 3 host (docs/c_host/host3.c) with
+the FMI 3 arm, after gets and sets of the wrong size were answered fmi3Error.
 
 The pythonfmu binary does not link libpython (no NEEDED entry; it references ``_Py_NoneStruct`` and
 the C API as undefined symbols), so the host process must provide them: here through LD_PRELOAD of
@@ -197,3 +198,70 @@ def test_python_host_leaves_no_keeper_for_the_exit_path(fmu_paths, tmp_path):
     keepers = json.loads(proc.stdout.splitlines()[-1])
     assert keepers, "no pythonfmu binary left mapped: nothing was checked"
     assert all(words == "00" * 16 for words in keepers.values()), keepers
+
+
+HOST3_SOURCE = HOST_SOURCE.with_name("host3.c")
+FMI3_ERROR = 3
+
+
+@pytest.fixture(scope="module")
+def host3(tmp_path_factory) -> Path:
+    """docs/c_host/host3.c, compiled against the FMI 3.0 headers fmpy ships for its own C code."""
+    import fmpy
+
+    out = tmp_path_factory.mktemp("c_host3") / "host3"
+    subprocess.run(["gcc", "-O2", "-Wall", "-Werror", "-I", str(Path(fmpy.__file__).parent / "c-code"), "-o", str(out),
+                    str(HOST3_SOURCE), "-ldl"], check=True)
+    return out
+
+
+@pytest.fixture(scope="module")
+def arm3(fmi3_paths, tmp_path_factory) -> tuple[Path, list[str], np.ndarray]:
+    """The FMI 3 arm (skipped without the size-checking binary), host3's arguments and fmpy's angles
+    after every step."""
+    from fmpy import read_model_description
+    from fmpy.fmi3 import FMU3Slave
+
+    from orchestration.fmu_build import shim
+
+    fmu = fmi3_paths["ArmPlant"]
+    if f"resources/{shim.SIZES_FILE}" not in zipfile.ZipFile(fmu).namelist():
+        pytest.skip("the FMI 3 FMUs were built without the size-checking binary here (no C compiler)")
+    md = read_model_description(str(fmu))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    slave = FMU3Slave(guid=md.guid, unzipDirectory=str(_extract(fmu, tmp_path_factory.mktemp("fmpy3") / "arm")),
+                      modelIdentifier="ArmPlant", instanceName="fmpy")
+    slave.instantiate()
+    slave.enterInitializationMode(startTime=0.0)
+    slave.exitInitializationMode()
+    slave.setFloat64([vr["tau"]], list(TAU))
+    phi = []
+    for k in range(STEPS):
+        slave.doStep(k * T, T)
+        phi.append(slave.getFloat64([vr["phi"]], nValues=2))
+    slave.terminate()
+    slave.freeInstance()
+    phi = np.array(phi)
+    assert np.ptp(phi[:, 0]) > 0.01  # the torque moved the arm
+    args = [md.instantiationToken, str(vr["tau"]), str(vr["phi"]), *map(repr, TAU), str(STEPS)]
+    return fmu, args, phi
+
+
+@pytest.mark.parametrize("length", PATH_LENGTHS[::2])
+def test_fmi3_c_host_gets_fmi3error_for_wrong_sizes_and_fmpys_trajectory(length, host3, arm3, short_root):
+    """The FMI 3 arm in a C host: a set of 3 torques and a read of 1 angle are fmi3Error with a logged
+    message naming the array, the instance goes on to give fmpy's trajectory bit for bit, and the host
+    exits cleanly wherever the FMU was extracted (its binary is the size-checking shim,
+    orchestration/fmu_build/shim.py; pythonfmu3's keeper beside it is settled as pythonfmu's is)."""
+    fmu, args, fmpy_phi = arm3
+    unzip = _extract(fmu, _at_length(short_root, length))
+    try:
+        proc = _run_host(host3, unzip, args, _preload_env())
+    finally:
+        shutil.rmtree(unzip, ignore_errors=True)
+    assert proc.returncode == 0, f"rc {proc.returncode}: {proc.stderr[-2000:]}"
+    lines = proc.stdout.splitlines()
+    assert lines[:2] == [f"size set {FMI3_ERROR}", f"size get {FMI3_ERROR}"], lines[:2]
+    assert "'tau' (2 values) was given 3 values" in proc.stderr and "'phi' (2 values) was given 1 value" in proc.stderr
+    c_phi = np.array([[float(x) for x in line.split()[1:]] for line in lines[2:]])
+    assert np.array_equal(c_phi, fmpy_phi)

@@ -129,3 +129,15 @@ def test_a_sweep_runs_the_fmi3_fmus(shipped, fmi3_dir):
     _ok(proc)
     rows = [json.loads(line) for line in (work / "recordings" / "fmi3" / "points.jsonl").read_text().splitlines()]
     assert len(rows) == 2 and all(r["status"] == "ok" for r in rows), rows
+
+
+def test_the_installed_build_puts_the_size_checking_binary_in_front_of_pythonfmu3s(fmi3_dir):
+    """The wheel carries the shim's C source, and a build from it compiles the shim where it can."""
+    from orchestration.fmu_build import packaging, shim
+
+    why = packaging.shim_unavailable()
+    if why:
+        pytest.skip(why)
+    names = zipfile.ZipFile(fmi3_dir / "ArmPlant.fmu").namelist()
+    assert f"binaries/{shim.platform_folder()}/ArmPlant{shim.INNER_SUFFIX}.so" in names, names
+    assert f"resources/{shim.SIZES_FILE}" in names, names
