@@ -1,6 +1,8 @@
 # Declarations for the compiled cores (orchestration/fmu_build/compiled.py): C types for elementary.py, which
-# stays the one source of the algorithms and runs as it is wherever the cores are not compiled.
+# stays the one source of the algorithms and runs as it is wherever the cores are not compiled. ``math`` is
+# libc's here: sqrt (correctly rounded by IEEE 754, as Python's) and copysign (exact), no Python call.
 cimport cython
+from libc cimport math
 
 cdef double INF, NAN, SHIFT, TINY, P2_M1000, P2_M900, P2_M600, P2_M500, P2_M200, P2_M54, P2_60, P2_200, P2_500
 cdef double P2_600, P2_900, SPLIT, SQRT2, SQRT_HALF, LN2_HI, LN2_LO, INV_LN2, PIO2_1, PIO2_2, PIO2_3, INV_PIO2
