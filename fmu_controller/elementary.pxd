@@ -19,6 +19,7 @@ cdef double ATAN_POLY[13]
 cdef double POW2_E[10]
 cdef double POW2_UP[10]
 cdef double POW2_DOWN[10]
+cdef int EXP_N, LOG_N, TANH_N, SINH_N, SIN_N, COS_N, ATAN_N, POW2_N
 
 @cython.locals(acc=double, i=int)
 cdef double _horner(double x, const double* coeffs, int n)
