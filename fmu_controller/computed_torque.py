@@ -27,11 +27,11 @@ transient. Measured on the paper's scenario (docs/baselines.md).
 """
 from __future__ import annotations
 
-import math
 from typing import Sequence
 
 from fmi_slave.parameters import ParameterSpec, positive
 from fmu_controller.base import ControllerCore, OutputSpec
+from fmu_controller.elementary import hypot
 from fmu_controller.saturation import ACCEL, limit_handling_spec, limit_torque
 from fmu_plant.dynamics import TORQUE_LIMIT, inertia_entries, inverse_dynamics
 
@@ -67,7 +67,7 @@ class LinearisingCore(ControllerCore):
         code = int(self.params["limit_handling"])
         d = inertia_entries(phi2, self.model) if code == ACCEL else (1.0, 0.0, 1.0)
         tau1, tau2, sat = limit_torque(code, raw1, raw2, self.params["rho"], *d)  # eq. (CT-4)
-        self.outputs = [tau1, tau2, math.hypot(raw1, raw2), 1.0 if sat else 0.0, w1, w2]
+        self.outputs = [tau1, tau2, hypot(raw1, raw2), 1.0 if sat else 0.0, w1, w2]
 
 
 class CtCore(LinearisingCore):

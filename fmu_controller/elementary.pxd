@@ -1,6 +1,8 @@
 # Declarations for the compiled cores (orchestration/fmu_build/compiled.py): C types for elementary.py, which
-# stays the one source of the algorithms and runs as it is wherever the cores are not compiled.
+# stays the one source of the algorithms and runs as it is wherever the cores are not compiled. ``math`` is
+# libc's here: sqrt (correctly rounded by IEEE 754, as Python's) and copysign (exact), no Python call.
 cimport cython
+from libc cimport math
 
 cdef double INF, NAN, SHIFT, TINY, P2_M1000, P2_M900, P2_M600, P2_M500, P2_M200, P2_M54, P2_60, P2_200, P2_500
 cdef double P2_600, P2_900, SPLIT, SQRT2, SQRT_HALF, LN2_HI, LN2_LO, INV_LN2, PIO2_1, PIO2_2, PIO2_3, INV_PIO2
@@ -17,6 +19,7 @@ cdef double ATAN_POLY[13]
 cdef double POW2_E[10]
 cdef double POW2_UP[10]
 cdef double POW2_DOWN[10]
+cdef int EXP_N, LOG_N, TANH_N, SINH_N, SIN_N, COS_N, ATAN_N, POW2_N
 
 @cython.locals(acc=double, i=int)
 cdef double _horner(double x, const double* coeffs, int n)

@@ -75,6 +75,10 @@ ATAN_POLY = (-0.3333333333333333, 0.19999999999999973, -0.14285714285706191, 0.1
 POW2_E = tuple(float(1 << i) for i in range(9, -1, -1))
 POW2_UP = tuple(float.fromhex(f"0x1p{1 << i}") for i in range(9, -1, -1))
 POW2_DOWN = tuple(float.fromhex(f"0x1p-{1 << i}") for i in range(9, -1, -1))
+# the lengths, C ints where compiled (len() of a C array builds a Python list on every call)
+EXP_N, LOG_N, TANH_N, SINH_N, SIN_N, COS_N, ATAN_N, POW2_N = (len(EXP_POLY), len(LOG_POLY), len(TANH_POLY),
+                                                              len(SINH_POLY), len(SIN_POLY), len(COS_POLY),
+                                                              len(ATAN_POLY), len(POW2_E))
 EXP_OVER = 709.782712893384  # the largest x with exp(x) finite
 EXP_UNDER = -745.1332191019412  # below it exp(x) rounds to 0
 SINH_OVER = 710.4758600739439  # the largest x with sinh(x), cosh(x) finite
@@ -103,7 +107,7 @@ def _pow2(k: float) -> float:
     """2^k for an integer-valued k in [-1022, 1023], by exact products."""
     a = abs(k)
     p = 1.0
-    for i in range(len(POW2_E)):
+    for i in range(POW2_N):
         if a >= POW2_E[i]:
             a -= POW2_E[i]
             p *= POW2_UP[i]
@@ -126,7 +130,7 @@ def _normalize(u: float) -> tuple:
     if u < P2_M1000:
         u *= P2_200
         k = -200.0
-    for i in range(len(POW2_E)):
+    for i in range(POW2_N):
         if u >= POW2_UP[i]:
             u *= POW2_DOWN[i]
             k += POW2_E[i]
@@ -158,7 +162,7 @@ def _exp_parts(x: float) -> tuple:
     k = _nearest(x * INV_LN2)
     r = (x - k * LN2_HI) - k * LN2_LO
     one_r = 1.0 + r
-    tail = ((1.0 - one_r) + r) + r * r * _horner(r, EXP_POLY, len(EXP_POLY))
+    tail = ((1.0 - one_r) + r) + r * r * _horner(r, EXP_POLY, EXP_N)
     hi = one_r + tail
     return k, hi, (one_r - hi) + tail
 
@@ -183,7 +187,7 @@ def _log_reduced(k: float, f: float, c: float) -> float:
     s = f / (2.0 + f)
     z = s * s
     hfsq = 0.5 * f * f
-    return k * LN2_HI + (f - (hfsq - (s * (hfsq + z * _horner(z, LOG_POLY, len(LOG_POLY))) + (k * LN2_LO + c))))
+    return k * LN2_HI + (f - (hfsq - (s * (hfsq + z * _horner(z, LOG_POLY, LOG_N)) + (k * LN2_LO + c))))
 
 
 def log(x: float) -> float:
@@ -224,7 +228,7 @@ def tanh(x: float) -> float:
         return x
     if a <= TANH_POLY_MAX:
         z, zl = _two_prod(x, x)
-        p, pl = _two_prod(x, z * _horner(z, TANH_POLY, len(TANH_POLY)) + zl * TANH_POLY[0])
+        p, pl = _two_prod(x, z * _horner(z, TANH_POLY, TANH_N) + zl * TANH_POLY[0])
         t = x + p
         return t + ((p - (t - x)) + pl)  # Fast2Sum: |x| > |p|
     if a > 22.0:
@@ -256,7 +260,7 @@ def sinh(x: float) -> float:
         return x
     if a <= SINH_POLY_MAX:
         z = x * x
-        return x + x * (z * _horner(z, SINH_POLY, len(SINH_POLY)))
+        return x + x * (z * _horner(z, SINH_POLY, SINH_N))
     h = _exp_pair(a, -1.0) if a <= SINH_OVER else INF
     return h if x > 0.0 else -h
 
@@ -291,7 +295,7 @@ def atanh(x: float) -> float:
 def _sin_kernel(hi: float, lo: float) -> float:
     """sin(hi + lo) for |hi| <= pi/4 (+ rounding), |lo| <= ulp(hi): hi + hi^3 S(hi^2) + lo (1 - hi^2/2)."""
     z = hi * hi
-    return hi + ((hi * z) * _horner(z, SIN_POLY, len(SIN_POLY)) + (lo - 0.5 * z * lo))
+    return hi + ((hi * z) * _horner(z, SIN_POLY, SIN_N) + (lo - 0.5 * z * lo))
 
 
 def _cos_kernel(hi: float, lo: float) -> float:
@@ -299,7 +303,7 @@ def _cos_kernel(hi: float, lo: float) -> float:
     z = hi * hi
     hz = 0.5 * z
     w = 1.0 - hz
-    return w + (((1.0 - w) - hz) + (z * z * _horner(z, COS_POLY, len(COS_POLY)) - hi * lo))
+    return w + (((1.0 - w) - hz) + (z * z * _horner(z, COS_POLY, COS_N) - hi * lo))
 
 
 def _pi_scaled(bits: int) -> int:
@@ -401,7 +405,7 @@ def _atan_ratio(n: float, d: float, extra: float) -> tuple:
     p, pl = _two_prod(r, den)
     rl = (((num - p) - pl) - r * den_lo) / den
     z = r * r
-    return c_hi, c_lo + (r + (r * (z * _horner(z, ATAN_POLY, len(ATAN_POLY))) + (rl / (1.0 + z) + extra)))
+    return c_hi, c_lo + (r + (r * (z * _horner(z, ATAN_POLY, ATAN_N)) + (rl / (1.0 + z) + extra)))
 
 
 def _atan2_special(y: float, x: float) -> float:

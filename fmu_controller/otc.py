@@ -74,6 +74,7 @@ from fmi_slave.parameters import (
     positive,
 )
 from fmu_controller.base import ControllerCore, OutputSpec
+from fmu_controller.elementary import exp, hypot
 from fmu_controller.fixed_linalg import dot_sequence
 from fmu_controller.riccati import solve_care
 from fmu_controller.saturation import NONE, limit_handling_spec, limit_torque
@@ -95,6 +96,12 @@ from fmu_plant.dynamics import (
 # The quadratic basis sigma(z) of (OTC-7) is the SOTC's zeta(z) of section 4 (same 10 monomials, same
 # order), and the probing signal of (OTC-10) is the SOTC's PE(t): both come from sotc_math.
 N_WEIGHTS = N_BASIS
+
+
+def _norm(w: Sequence[float]) -> float:
+    """||w||: the square root of the sum of squares in index order (``dot_sequence``; sqrt is correctly
+    rounded), the same bits on every machine, unlike an n-argument hypot."""
+    return math.sqrt(dot_sequence(w, w))
 
 
 class OtcCore(ControllerCore):
@@ -203,9 +210,9 @@ class OtcCore(ControllerCore):
             probe = probing_signal(t, self.params["probe_amplitude"])
         raw1, raw2 = ta1 + u1 + probe, ta2 + u2 + probe  # (OTC-10)
         rho = self.params["rho"]
-        over = math.hypot(raw1, raw2) > rho
+        over = hypot(raw1, raw2) > rho
         tau1, tau2, _ = limit_torque(self._limit_code, raw1, raw2, rho, d11, d12, d22)
-        tau_norm = math.hypot(tau1, tau2)
+        tau_norm = hypot(tau1, tau2)
 
         self._last = {
             "z": z, "dinv": (i11, i12, i22), "omega": omega, "cost_rate": cost_rate,
@@ -217,7 +224,7 @@ class OtcCore(ControllerCore):
             ta1, ta2, u1, u2,
             z[2], z[3],
             dot_sequence(basis(z), wc), delta, cost_rate,
-            math.hypot(*wc), math.hypot(*self.wa.tolist()),
+            _norm(wc), _norm(self.wa.tolist()),
         ]
 
     # --- learning -----------------------------------------------------------------------------
@@ -235,9 +242,9 @@ class OtcCore(ControllerCore):
             # exact solution of (OTC-8) for a held regressor: the residual omega'Wc + cost decays
             # as exp(-alpha_c ww/(ww+1)^2 t); only the component of Wc along omega moves.
             s0 = dot_sequence(omega, self.wc.tolist()) + last["cost_rate"]
-            decay = math.exp(-pr["alpha_c"] * ww / normalisation(ww) * dt)
+            decay = exp(-pr["alpha_c"] * ww / normalisation(ww) * dt)
             self.wc = self.wc - np.array(omega) * (s0 * (1.0 - decay) / ww)
-        decay_a = math.exp(-pr["alpha_a"] * dt)
+        decay_a = exp(-pr["alpha_a"] * dt)
         wa = self.wc + (self.wa - self.wc) * decay_a
         if last["lyap_rate"] > 0.0 and pr["alpha_s"] > 0.0:
             # stabilising term of (OTC-9): alpha_s/2 grad(sigma) g R^-1 g' z, g R^-1 g' z = [0; D^-1 R^-1 D^-1 z2]

@@ -1,6 +1,7 @@
 # Declarations for the compiled cores (orchestration/fmu_build/compiled.py): C types for saturation.py, which
 # stays the one source of the formulas and runs as it is wherever the cores are not compiled.
 cimport cython
+from fmu_controller.elementary cimport atan2, cos, hypot, sin
 
 @cython.locals(c1=double, c2=double)
 cpdef (double, double, bint) clip_box(double v1, double v2, double bound)

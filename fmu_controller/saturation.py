@@ -20,7 +20,7 @@ published numbers stay reproducible; docs/paper-notes.md (2.6) and docs/baseline
 
 ``clip_box`` and ``saturate_norm`` are also used on their own (the SOTC's chi_vd^a and its actuator
 limit). Every loop here has an iteration bound that does not depend on the input, and every radial
-result satisfies ``math.hypot(v1, v2) <= bound`` exactly in floating point (also for subnormal or
+result satisfies ``hypot(v1, v2) <= bound`` exactly in floating point (also for subnormal or
 tiny bounds).
 """
 from __future__ import annotations
@@ -28,6 +28,7 @@ from __future__ import annotations
 import math
 
 from fmi_slave.parameters import ParameterSpec, integer_code
+from fmu_controller.elementary import atan2, cos, hypot, sin
 
 LIMIT_HANDLINGS = ("radial", "joint", "accel", "none")
 RADIAL, JOINT, ACCEL, NONE = range(4)
@@ -54,12 +55,12 @@ PROJECTION_BISECTIONS = 200
 
 def in_disc(v1: float, v2: float, bound: float, h: float | None = None) -> bool:
     """v1^2 + v2^2 <= bound^2 evaluated exactly (integer arithmetic on the floats' exact values), and the
-    two rounded forms ``math.hypot(v1, v2)`` and ``sqrt(v1*v1 + v2*v2)`` (also ``np.linalg.norm``'s) <=
-    bound: then every norm a host computes, a correctly rounded ``hypot`` such as C's and numpy's
-    included, is <= bound as well. A test of
-    ``math.hypot`` alone let numpy's ``hypot`` report 4.000000000000001 for a torque limited to 4.
-    ``h``: ``math.hypot(v1, v2)`` when the caller has it already."""
-    h = math.hypot(v1, v2) if h is None else h
+    two rounded forms ``hypot(v1, v2)`` (``elementary``'s) and ``sqrt(v1*v1 + v2*v2)`` (also
+    ``np.linalg.norm``'s) <= bound: then every norm a host computes, any ``hypot`` within 1 ulp such as
+    C's, numpy's and Python's included, is <= bound as well. A test of a rounded ``hypot`` alone let
+    numpy's ``hypot`` report 4.000000000000001 for a torque limited to 4.
+    ``h``: ``hypot(v1, v2)`` when the caller has it already."""
+    h = hypot(v1, v2) if h is None else h
     if h <= bound * CLEARLY_INSIDE:  # every rounded norm is within a few ulps of the exact one
         return True
     if not (h <= bound and math.sqrt(v1 * v1 + v2 * v2) <= bound):
@@ -91,7 +92,7 @@ def saturate_norm(v1: float, v2: float, bound: float) -> tuple[float, float, flo
     """Scale (v1, v2) down to Euclidean norm ``bound`` if it is larger (direction kept).
 
     Returns (v1', v2', norm of the input, saturated); the result satisfies ``in_disc(v1', v2', bound)``."""
-    norm = math.hypot(v1, v2)
+    norm = hypot(v1, v2)
     if in_disc(v1, v2, bound, norm):
         return v1, v2, norm, False
     k = bound / norm if norm > bound else 1.0  # (at norm == bound a rounded norm can still exceed it)
@@ -127,14 +128,14 @@ def accel_projection(
     When the torque cannot be delivered, deliver the one that keeps the designed error dynamics closest
     to their design. In D's eigenbasis the KKT system is diagonal; l is found by bisection
     (||tau(l)|| decreases with l), at most ``PROJECTION_BISECTIONS`` steps."""
-    n = math.hypot(t1, t2)
+    n = hypot(t1, t2)
     if in_disc(t1, t2, bound, n):
         return t1, t2, False
     half_tr, half_diff = 0.5 * (d11 + d22), 0.5 * (d11 - d22)
-    rad = math.hypot(half_diff, d12)
+    rad = hypot(half_diff, d12)
     da, db = half_tr + rad, half_tr - rad  # eigenvalues of D (> 0)
-    ang = 0.5 * math.atan2(2.0 * d12, d11 - d22)
-    c, s = math.cos(ang), math.sin(ang)
+    ang = 0.5 * atan2(2.0 * d12, d11 - d22)
+    c, s = cos(ang), sin(ang)
     qa, qb = c * t1 + s * t2, -s * t1 + c * t2
     aa, ab = 1.0 / (da * da), 1.0 / (db * db)  # eigenvalues of D^-2
     hi = max(aa, ab) * n / bound if bound > 0.0 else math.inf  # ||tau(hi)|| <= bound

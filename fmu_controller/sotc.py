@@ -25,7 +25,7 @@ from __future__ import annotations
 import math
 import operator
 from array import array
-from math import fsum, hypot, nan  # Python's own (math.f is C's libm f in the compiled core; C's hypot rounds differently)
+from math import fsum, nan  # Python's own (math.f is C's libm f in the compiled core)
 from typing import Any, ClassVar, Sequence
 
 from fmi_slave.parameters import ParameterError, ParameterSpec, nonnegative, positive
@@ -40,6 +40,7 @@ from fmu_controller.saturation import (
     limit_without_metric,
     saturate_norm,
 )
+from fmu_controller.elementary import hypot, tanh
 from fmu_controller.fixed_linalg import add_scaled, buffer, cholesky, cholesky_solve, dot, scale_into
 from fmu_controller.sotc_math import (N_BASIS, CriticConstants, basis, critic_row, directional_into, gradient,
                                       implicit_system, normalisation, policy_arguments, probing_signal, value_hessian)
@@ -55,7 +56,7 @@ from fmu_plant.dynamics import (
     inertia_entries,
 )
 
-TANH1 = math.tanh(1.0)
+TANH1 = tanh(1.0)
 
 W0_BOUND = 1e8  # |W0_i| far beyond this (1e300) or r_i below 1e-6 overflow (28) at the first sample
 
@@ -351,7 +352,7 @@ class SotcCore(ControllerCore):
     def _policy_arguments(self, z: tuple[float, ...], dinv: tuple[float, float, float]) -> tuple:
         """Step 2, eq. (28): the tanh arguments x of mu_hat = -s tanh(x), and their tanh."""
         x = policy_arguments(self.constants, z[0], z[1], z[2], z[3], self.W, dinv[0], dinv[1], dinv[2])
-        return x, (math.tanh(x[0]), math.tanh(x[1]), math.tanh(x[2]), math.tanh(x[3]))
+        return x, (tanh(x[0]), tanh(x[1]), tanh(x[2]), tanh(x[3]))
 
     def optimal_virtual_velocity(self, z: tuple[float, ...]) -> tuple[float, float]:
         """chi_vd* of (28) at the error z under the current W (it does not depend on D^-1)."""

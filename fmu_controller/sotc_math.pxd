@@ -1,9 +1,12 @@
 # Declarations for the compiled cores (orchestration/fmu_build/compiled.py): C types for sotc_math.py, which
-# stays the one source of the formulas and runs as it is wherever the cores are not compiled. ``math.f`` is
-# C's libm f here (what Python's math calls: same bits), the kernels take C doubles and buffers (double[::1],
-# array('d')) and return C tuples: a sample creates no Python object.
+# stays the one source of the formulas and runs as it is wherever the cores are not compiled. The elementary
+# functions are elementary.pxd's C functions (``math`` is libc's, for inf only), the kernels take C doubles and
+# buffers (double[::1], array('d')) and return C tuples: a sample creates no Python object.
 cimport cython
 from libc cimport math
+from fmu_controller.elementary cimport atanh, cos, exp, log, log1p, sin, sinh, tanh
+
+cdef double LN2  # a C constant: no module lookup per sample
 
 cdef class CriticConstants:
     cdef public double s, r1, r2, r3, r4, theta1, theta2, theta3, theta4, lam11, lam12, lam21, lam22

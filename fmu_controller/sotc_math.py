@@ -10,7 +10,8 @@ small, ``math`` on floats is several times faster than numpy, and the controller
 functions 10,000 times per simulated run. The kernels take scalars and float64 buffers (typed as C
 doubles by ``sotc_math.pxd`` when compiled, so a sample creates no Python object); the versions on
 sequences (``basis_directional``, ``value_gradient``, ``omega_of_arg``) are thin wrappers for tests and
-the other controllers.
+the other controllers. exp, log, tanh, sin ... are ``elementary``'s, not libm's, so every machine gives the
+same bits (docs/paper-notes.md, section 2.10b).
 
 Symbols: ``s`` is the saturation level of the optimal input (sigma in the chosen reading, see
 ``docs/paper-notes.md``), ``x`` the *pre-saturation argument* of the control law (28), i.e.
@@ -24,9 +25,10 @@ from typing import Sequence
 
 import numpy as np
 
+from fmu_controller.elementary import atanh, cos, exp, log, log1p, sin, sinh, tanh
 from fmu_controller.fixed_linalg import as_buffer, buffer
 
-LN2 = math.log(2.0)
+LN2 = log(2.0)
 
 # (i, j) of z_i z_j for each of the 10 basis terms of section 4, in the paper's order:
 # zeta(z) = [zp1^2, zp1 zp2, zp1 zv1, zp1 zv2, zp2^2, zp2 zv1, zp2 zv2, zv1^2, zv1 zv2, zv2^2]
@@ -44,9 +46,9 @@ def log_cosh(x: float) -> float:
     |x| + ln(1 + e^{-2|x|}) - ln 2 (finite for every finite x)."""
     a = abs(x)
     if a < 1.0:
-        h = math.sinh(0.5 * a)
-        return math.log1p(2.0 * h * h)
-    return a + math.log1p(math.exp(-2.0 * a)) - LN2
+        h = sinh(0.5 * a)
+        return log1p(2.0 * h * h)
+    return a + log1p(exp(-2.0 * a)) - LN2
 
 
 def _x_tanh_minus_log_cosh(x: float) -> float:
@@ -55,9 +57,9 @@ def _x_tanh_minus_log_cosh(x: float) -> float:
     subtracting two numbers of size |x|."""
     a = abs(x)
     if a < 1.0:
-        return a * math.tanh(a) - log_cosh(a)
-    e = math.exp(-2.0 * a)
-    return LN2 - math.log1p(e) - 2.0 * a * e / (1.0 + e)
+        return a * tanh(a) - log_cosh(a)
+    e = exp(-2.0 * a)
+    return LN2 - log1p(e) - 2.0 * a * e / (1.0 + e)
 
 
 def omega_term_of_arg(x: float, s: float, r: float) -> float:
@@ -100,13 +102,13 @@ def omega_of_mu(mu: Sequence[float], s: float, r: Sequence[float]) -> float:
         q = m / s
         if not abs(q) < 1.0:
             return math.inf
-        total += 2.0 * s * ri * m * math.atanh(q) + s * s * ri * math.log1p(-q * q)
+        total += 2.0 * s * ri * m * atanh(q) + s * s * ri * log1p(-q * q)
     return total
 
 
 def omega_integrand(u: float, s: float, r: float) -> float:
     """Integrand of eq. (13) for one component: 2 s r atanh(u / s). (For quadrature in tests.)"""
-    return 2.0 * s * r * math.atanh(u / s)
+    return 2.0 * s * r * atanh(u / s)
 
 
 # --- critic basis of section 4, eq. (27) ----------------------------------------------------------
@@ -277,18 +279,18 @@ def probing_signal(t: float, amplitude: float = 0.5) -> float:
     PE = 0.5 (sin^2 t cos t + sin^2(2t) cos(0.1t) + sin^2(1.2t) cos(0.5t) + sin^5 t
               + sin^2(1.12t) + cos(2.4t) sin^3(2.4t))
     """
-    s1 = math.sin(t)
-    s2 = math.sin(2.0 * t)
-    s12 = math.sin(1.2 * t)
-    s112 = math.sin(1.12 * t)
-    s24 = math.sin(2.4 * t)
+    s1 = sin(t)
+    s2 = sin(2.0 * t)
+    s12 = sin(1.2 * t)
+    s112 = sin(1.12 * t)
+    s24 = sin(2.4 * t)
     return amplitude * (
-        s1 * s1 * math.cos(t)
-        + s2 * s2 * math.cos(0.1 * t)
-        + s12 * s12 * math.cos(0.5 * t)
-        + s1 ** 5
+        s1 * s1 * cos(t)
+        + s2 * s2 * cos(0.1 * t)
+        + s12 * s12 * cos(0.5 * t)
+        + s1 * s1 * s1 * s1 * s1
         + s112 * s112
-        + math.cos(2.4 * t) * s24 ** 3
+        + cos(2.4 * t) * (s24 * s24 * s24)
     )
 
 

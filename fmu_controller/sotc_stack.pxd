@@ -1,8 +1,8 @@
 # Declarations for the compiled cores (orchestration/fmu_build/compiled.py): C types for sotc_stack.py, which
 # stays the one source of the loops and runs as it is wherever the cores are not compiled. The stack's rows
-# and matrices are contiguous float64 buffers (array('d')), C arrays here; ``math.f`` is C's libm f.
+# and matrices are contiguous float64 buffers (array('d')), C arrays here; tanh is elementary.pxd's.
 cimport cython
-from libc cimport math
+from fmu_controller.elementary cimport tanh
 from fmu_controller.fixed_linalg cimport cholesky, forward_substitute, smallest_eigenvalue, sturm_count, trace
 from fmu_controller.sotc_math cimport CriticConstants, critic_row, normalisation, policy_arguments
 

@@ -34,12 +34,12 @@ Every sum runs in a fixed order over float64 buffers (``fixed_linalg``): the bit
 """
 from __future__ import annotations
 
-import math
 from array import array
 from typing import Any, Sequence
 
 import numpy as np
 
+from fmu_controller.elementary import tanh
 from fmu_controller.fixed_linalg import (EPS, as_buffer, buffer, cholesky, dot, forward_substitute,
                                          smallest_eigenvalue, sturm_count, trace)
 from fmu_controller.sotc_math import N_BASIS, CriticConstants, critic_row, normalisation, policy_arguments
@@ -124,8 +124,8 @@ def replay_current(K: CriticConstants, n: int, W: array, z: array, dinv: array, 
         zp1, zp2, zv1, zv2 = z[4 * i], z[4 * i + 1], z[4 * i + 2], z[4 * i + 3]
         i11, i12, i22 = dinv[3 * i], dinv[3 * i + 1], dinv[3 * i + 2]
         x1, x2, x3, x4 = policy_arguments(K, zp1, zp2, zv1, zv2, W, i11, i12, i22)
-        rew[i] = critic_row(K, zp1, zp2, zv1, zv2, x1, x2, x3, x4, -s * math.tanh(x1), -s * math.tanh(x2),
-                            -s * math.tanh(x3), -s * math.tanh(x4), fe[2 * i], fe[2 * i + 1], i11, i12, i22,
+        rew[i] = critic_row(K, zp1, zp2, zv1, zv2, x1, x2, x3, x4, -s * tanh(x1), -s * tanh(x2),
+                            -s * tanh(x3), -s * tanh(x4), fe[2 * i], fe[2 * i + 1], i11, i12, i22,
                             E, i * N_BASIS)[4]
 
 

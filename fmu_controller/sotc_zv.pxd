@@ -1,9 +1,10 @@
 # Declarations for the compiled cores (orchestration/fmu_build/compiled.py): C types for sotc_zv.py, which
-# stays the one source of the formulas and runs as it is wherever the cores are not compiled. ``math.f`` is
-# C's libm f here (what Python's math calls: same bits). The guess-free bisection (``solve_tanh_system``,
+# stays the one source of the formulas and runs as it is wherever the cores are not compiled. tanh and atanh are
+# elementary.pxd's C functions, ``math`` is libc's (sqrt, isfinite). The guess-free bisection (``solve_tanh_system``,
 # a rare fallback with closures) stays Python code, compiled as such.
 cimport cython
 from libc cimport math
+from fmu_controller.elementary cimport atanh, tanh
 from fmu_controller.sotc_math cimport CriticConstants, gradient
 
 @cython.locals(s=double, g1=double, g2=double, t1=double, t2=double)

@@ -8,6 +8,7 @@ from __future__ import annotations
 import math
 from array import array
 
+from fmu_controller.elementary import atanh, tanh
 from fmu_controller.sotc_math import CriticConstants, gradient
 
 # the implicit z_v (``solve_zv``): plain and damped Newton iterations, step halvings, and
@@ -24,8 +25,8 @@ def zv_residual(K: CriticConstants, zp1: float, zp2: float, zv1: float, zv2: flo
     equation for z_v, with x_i = grad_phi_i J_hat / (2 s r_i) the tanh argument of eq. (28)."""
     s = K.s
     g1, g2, _, _ = gradient(zp1, zp2, zv1, zv2, W)
-    t1 = math.tanh(g1 / (2.0 * s * K.r1))
-    t2 = math.tanh(g2 / (2.0 * s * K.r2))
+    t1 = tanh(g1 / (2.0 * s * K.r1))
+    t2 = tanh(g2 / (2.0 * s * K.r2))
     return t1, t2, a1 * zv1 - s * t1 - c1, a2 * zv2 - s * t2 - c2
 
 
@@ -131,7 +132,7 @@ def _bisect(f, lo: float, hi: float, f_lo: float) -> float:
 def _solve_tanh_1d(c: float, k: float) -> float:
     """A root of x - k tanh(x) - c (one exists: the sign changes on [-b, b], b = |c| + |k| + 1)."""
     b = abs(c) + abs(k) + 1.0
-    return _bisect(lambda x: x - k * math.tanh(x) - c, -b, b, -1.0)
+    return _bisect(lambda x: x - k * tanh(x) - c, -b, b, -1.0)
 
 
 def _along_curve(a0: float, b0: float, kaa: float, kab: float, kba: float, kbb: float) -> tuple[float, float] | None:
@@ -148,18 +149,18 @@ def _along_curve(a0: float, b0: float, kaa: float, kab: float, kba: float, kbb: 
     K = abs(kab)
 
     def h(x: float) -> float:
-        return x - a0 - kaa * math.tanh(x)
+        return x - a0 - kaa * tanh(x)
 
     def t_b(x: float) -> float:
         return min(1.0, max(-1.0, h(x) / kab))
 
     def phi(x: float) -> float:
         tb = t_b(x)
-        return tb - math.tanh(b0 + kba * math.tanh(x) + kbb * tb)
+        return tb - tanh(b0 + kba * tanh(x) + kbb * tb)
 
     L = abs(a0) + abs(kaa) + K + 1.0  # |h(x)| > K for |x| >= L
     if kaa > 1.0:
-        xs = math.atanh(math.sqrt(1.0 - 1.0 / kaa))
+        xs = atanh(math.sqrt(1.0 - 1.0 / kaa))
         pieces = ((-L, -xs, 1.0), (-xs, xs, -1.0), (xs, L, 1.0))  # (from, to, direction of h)
     else:
         pieces = ((-L, L, 1.0),)
@@ -171,12 +172,12 @@ def _along_curve(a0: float, b0: float, kaa: float, kab: float, kba: float, kbb: 
         hi = q if hq <= K else _bisect(lambda x: direction * h(x) - K, p, q, hp - K)
         f_lo, f_hi = phi(lo), phi(hi)
         if f_lo == 0.0:
-            return math.tanh(lo), t_b(lo)
+            return tanh(lo), t_b(lo)
         if f_hi == 0.0:
-            return math.tanh(hi), t_b(hi)
+            return tanh(hi), t_b(hi)
         if (f_lo < 0.0) != (f_hi < 0.0):
             x = _bisect(phi, lo, hi, f_lo)
-            return math.tanh(x), t_b(x)
+            return tanh(x), t_b(x)
     return None
 
 
@@ -200,6 +201,6 @@ def solve_tanh_system(x01: float, x02: float, k11: float, k12: float, k21: float
             return sol[1], sol[0]
     t1 = t2 = 0.0
     for _ in range(2):  # nearly decoupled: one equation at a time (Gauss-Seidel)
-        t1 = math.tanh(_solve_tanh_1d(x01 + k12 * t2, k11))
-        t2 = math.tanh(_solve_tanh_1d(x02 + k21 * t1, k22))
+        t1 = tanh(_solve_tanh_1d(x01 + k12 * t2, k11))
+        t2 = tanh(_solve_tanh_1d(x02 + k21 * t1, k22))
     return t1, t2

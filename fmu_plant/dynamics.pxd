@@ -1,8 +1,9 @@
 # Declarations for the compiled cores (orchestration/fmu_build/compiled.py): C types for dynamics.py, which
-# stays the one source of the formulas and runs as it is wherever the cores are not compiled. ``math.f`` is
-# C's libm f here (what Python's math calls: same bits; hypot is imported by name, Python's own).
+# stays the one source of the formulas and runs as it is wherever the cores are not compiled. ``math`` is
+# libc's here (sqrt, ceil, isfinite: exact or correctly rounded); cos, sin, tanh and hypot are elementary.pxd's.
 cimport cython
 from libc cimport math
+from fmu_controller.elementary cimport cos, hypot, sin, tanh
 
 ctypedef (double, double, double, double, double, double, double) coef_t  # ArmParameters.coefficients
 

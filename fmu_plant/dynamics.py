@@ -11,16 +11,16 @@ Symbols follow the paper: ``p1, p2, p3`` are its varrho_1..3 (kg m^2), ``f1, f2`
 friction gains of G, ``b1, b2`` optional viscous friction (not in the paper, default 0), ``d`` an
 external disturbance torque added to tau.
 
-Everything here is scalar float math on purpose: for 2x2 matrices, ``math`` on floats is about
-ten times faster than numpy on tiny arrays, and the plant FMU evaluates the right-hand side four
-times per RK4 substep. Matrix-valued helpers (``inertia_matrix`` ...) wrap the same scalar
+Everything here is scalar float math on purpose: for 2x2 matrices, float arithmetic is about ten times
+faster than numpy on tiny arrays, and the plant FMU evaluates the right-hand side four times per RK4
+substep. cos, sin, tanh and hypot are ``fmu_controller.elementary``'s (the same bits on every machine,
+unlike libm's; docs/paper-notes.md, section 2.10b). Matrix-valued helpers (``inertia_matrix`` ...) wrap the same scalar
 formulas for the controllers and tests.
 """
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, fields
-from math import hypot  # Python's hypot (math.f is C's libm f in the compiled core, and C's hypot rounds differently)
 
 import numpy as np
 
@@ -31,6 +31,8 @@ from fmi_slave.parameters import (
     nonnegative,
     positive,
 )
+from fmu_controller.elementary import cos, hypot, sin, tanh
+
 # T and rho, re-exported: the arm model is what a controller imports from fmu_plant
 from fmu_plant.paper_setting import STEP_SIZE as STEP_SIZE
 from fmu_plant.paper_setting import TORQUE_LIMIT as TORQUE_LIMIT
@@ -75,11 +77,11 @@ class ArmParameters:
         checked = check_all(ARM_PARAMETER_SPECS, {f.name: getattr(self, f.name) for f in fields(self)})
         for name, value in checked.items():
             object.__setattr__(self, name, value)
-        margin = self.p2 * (self.p1 - self.p2) - self.p3**2
+        margin = self.p2 * (self.p1 - self.p2) - self.p3 * self.p3
         if not margin > 0.0:
             raise ParameterError(
                 "p3",
-                f"p2 (p1 - p2) = {self.p2 * (self.p1 - self.p2):g} must exceed p3^2 = {self.p3**2:g}, "
+                f"p2 (p1 - p2) = {self.p2 * (self.p1 - self.p2):g} must exceed p3^2 = {self.p3 * self.p3:g}, "
                 "otherwise D(phi) is singular for some phi (valid range: p3 < sqrt(p2 (p1 - p2)))",
             )
         # ||D(phi)^-1|| <= tr D / det D <= (p1 + p2 + 2 p3) / margin for every phi (lambda_min >= det / tr)
@@ -144,17 +146,17 @@ def forward_dynamics(
 # the integrator instead of once per term (dynamics.pxd types them when the cores are compiled).
 
 def _inertia(phi2: float, k: Coefficients) -> tuple[float, float, float]:
-    c2 = math.cos(phi2)
+    c2 = cos(phi2)
     return k[0] + 2.0 * k[2] * c2, k[1] + k[2] * c2, k[1]  # eq. (46)
 
 
 def _coriolis(phi2: float, dphi1: float, dphi2: float, k: Coefficients) -> tuple[float, float, float]:
-    s = k[2] * math.sin(phi2)
+    s = k[2] * sin(phi2)
     return -s * dphi2, -s * (dphi1 + dphi2), s * dphi1  # eq. (46)
 
 
 def _friction(dphi1: float, dphi2: float, k: Coefficients) -> tuple[float, float]:
-    return k[3] * math.tanh(dphi1) + k[5] * dphi1, k[4] * math.tanh(dphi2) + k[6] * dphi2  # eq. (46)
+    return k[3] * tanh(dphi1) + k[5] * dphi1, k[4] * tanh(dphi2) + k[6] * dphi2  # eq. (46)
 
 
 def _bias(phi2: float, dphi1: float, dphi2: float, k: Coefficients) -> tuple[float, float]:

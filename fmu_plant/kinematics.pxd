@@ -1,8 +1,8 @@
 # Declarations for the compiled cores (orchestration/fmu_build/compiled.py): C types for kinematics.py, which
-# stays the one source of the formulas and runs as it is wherever the cores are not compiled. ``math.f`` is
-# C's libm f here (what Python's math calls: same bits; CPython's atan2 only adds cases for inf and nan).
+# stays the one source of the formulas and runs as it is wherever the cores are not compiled. cos, sin, acos
+# and atan2 are elementary.pxd's C functions.
 cimport cython
-from libc cimport math
+from fmu_controller.elementary cimport acos, atan2, cos, sin
 
 cpdef (double, double) elbow_position(double phi1, double l1)
 @cython.locals(a=double)

@@ -1,22 +1,23 @@
 """Planar two-link kinematics: forward (49), inverse (48), and the Jacobian used to map path
 velocities and accelerations to joint space analytically.
 
-Angles in rad, lengths in m. ``phi2`` is the relative (elbow) angle, as in the paper.
+Angles in rad, lengths in m. ``phi2`` is the relative (elbow) angle, as in the paper. cos, sin, acos and
+atan2 are ``fmu_controller.elementary``'s (the same bits on every machine; docs/paper-notes.md, 2.10b).
 """
 from __future__ import annotations
 
-import math
+from fmu_controller.elementary import acos, atan2, cos, sin
 
 
 def elbow_position(phi1: float, l1: float) -> tuple[float, float]:
     """Position of the elbow joint (end of link 1)."""
-    return l1 * math.cos(phi1), l1 * math.sin(phi1)
+    return l1 * cos(phi1), l1 * sin(phi1)
 
 
 def forward_kinematics(phi1: float, phi2: float, l1: float, l2: float) -> tuple[float, float]:
     """End-effector E = (X, Y), eq. (49)."""
     a = phi1 + phi2
-    return l1 * math.cos(phi1) + l2 * math.cos(a), l1 * math.sin(phi1) + l2 * math.sin(a)
+    return l1 * cos(phi1) + l2 * cos(a), l1 * sin(phi1) + l2 * sin(a)
 
 
 def inverse_kinematics(x: float, y: float, l1: float, l2: float) -> tuple[float, float]:
@@ -30,15 +31,15 @@ def inverse_kinematics(x: float, y: float, l1: float, l2: float) -> tuple[float,
         raise ValueError(
             f"point ({x:g}, {y:g}) is out of reach: its distance must lie in [{abs(l1 - l2):g}, {l1 + l2:g}] m"
         )
-    phi2 = math.acos(c2)
-    phi1 = math.atan2(y, x) - math.atan2(l2 * math.sin(phi2), l1 + l2 * math.cos(phi2))
+    phi2 = acos(c2)
+    phi1 = atan2(y, x) - atan2(l2 * sin(phi2), l1 + l2 * cos(phi2))
     return phi1, phi2
 
 
 def jacobian(phi1: float, phi2: float, l1: float, l2: float) -> tuple[float, float, float, float]:
     """(j11, j12, j21, j22) of J = d(X, Y)/d(phi1, phi2)."""
     a = phi1 + phi2
-    s1, c1, sa, ca = math.sin(phi1), math.cos(phi1), math.sin(a), math.cos(a)
+    s1, c1, sa, ca = sin(phi1), cos(phi1), sin(a), cos(a)
     return -l1 * s1 - l2 * sa, -l2 * sa, l1 * c1 + l2 * ca, l2 * ca
 
 
@@ -54,14 +55,14 @@ def joint_rates(
     j11, j12, j21, j22 = jacobian(phi1, phi2, l1, l2)
     det = j11 * j22 - j12 * j21
     if abs(det) < 1e-9:
-        raise ValueError(f"kinematic singularity: sin(phi2) = {math.sin(phi2):.3g}")
+        raise ValueError(f"kinematic singularity: sin(phi2) = {sin(phi2):.3g}")
     dq1 = (j22 * dx - j12 * dy) / det
     dq2 = (j11 * dy - j21 * dx) / det
     a = phi1 + phi2
     da = dq1 + dq2
     # dJ/dt dphi, differentiating each entry of J along the motion
-    jd1 = (-l1 * math.cos(phi1) * dq1 - l2 * math.cos(a) * da) * dq1 - l2 * math.cos(a) * da * dq2
-    jd2 = (-l1 * math.sin(phi1) * dq1 - l2 * math.sin(a) * da) * dq1 - l2 * math.sin(a) * da * dq2
+    jd1 = (-l1 * cos(phi1) * dq1 - l2 * cos(a) * da) * dq1 - l2 * cos(a) * da * dq2
+    jd2 = (-l1 * sin(phi1) * dq1 - l2 * sin(a) * da) * dq1 - l2 * sin(a) * da * dq2
     rx, ry = ddx - jd1, ddy - jd2
     ddq1 = (j22 * rx - j12 * ry) / det
     ddq2 = (j11 * ry - j21 * rx) / det

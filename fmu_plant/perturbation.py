@@ -12,11 +12,11 @@ from an FMU state all see the same noise at t_k, whatever happened before.
 """
 from __future__ import annotations
 
-import math
 
 import numpy as np
 
 from fmi_slave.parameters import ParameterSpec, nonnegative
+from fmu_controller.elementary import sin
 
 
 def _torque(name: str, description: str) -> ParameterSpec:
@@ -44,7 +44,7 @@ MAX_SEED = 999_999
 def disturbance_torque(t: float, step1: float, step2: float, step_time: float, sin1: float, sin2: float,
                        omega: float) -> tuple[float, float]:
     on = 1.0 if t >= step_time else 0.0
-    s = math.sin(omega * t)
+    s = sin(omega * t)
     return step1 * on + sin1 * s, step2 * on + sin2 * s
 
 

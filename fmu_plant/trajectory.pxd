@@ -1,8 +1,8 @@
 # Declarations for the compiled cores (orchestration/fmu_build/compiled.py): C types for trajectory.py, which
-# stays the one source of the formulas and runs as it is wherever the cores are not compiled. ``math.f`` is
-# C's libm f here (what Python's math calls: same bits); the circle's validation, with hypot, runs once.
+# stays the one source of the formulas and runs as it is wherever the cores are not compiled. sin and cos
+# are elementary.pxd's C functions; the circle's validation, with hypot, runs once.
 cimport cython
-from libc cimport math
+from fmu_controller.elementary cimport cos, hypot, sin
 from fmu_plant.kinematics cimport inverse_kinematics, joint_rates
 
 @cython.locals(a=double, s=double, c=double, r=double, w=double)

@@ -17,6 +17,7 @@ from fmi_slave.parameters import (
     check_all,
     positive,
 )
+from fmu_controller.elementary import cos, hypot, sin
 from fmu_plant.kinematics import inverse_kinematics, joint_rates
 
 TRAJECTORY_PARAMETER_SPECS: tuple[ParameterSpec, ...] = (
@@ -51,7 +52,7 @@ class CircleTrajectory:
         for name, value in checked.items():
             object.__setattr__(self, name, value)
         # the whole circle must stay inside the reachable annulus and off the singular boundary
-        d = math.hypot(self.center_x, self.center_y)
+        d = hypot(self.center_x, self.center_y)
         reach_out, reach_in = self.l1 + self.l2, abs(self.l1 - self.l2)
         if d + self.radius >= reach_out or d - self.radius <= reach_in:
             raise ParameterError(
@@ -73,7 +74,7 @@ def circle_path(t: float, center_x: float, center_y: float, radius: float, rate:
                 phase: float) -> tuple[float, float, float, float, float, float]:
     """(X, Y, dX, dY, ddX, ddY) of eq. (47) at time t (the circle's parameters as in ``CircleTrajectory``)."""
     a = rate * t + phase
-    s, c = math.sin(a), math.cos(a)
+    s, c = sin(a), cos(a)
     r, w = radius, rate
     return (
         center_x + r * s,

@@ -41,16 +41,17 @@ class FmuSource:
     equations: tuple[str, ...] = ()  # modules whose docstrings summarise the FMU's equations
 
 
+# every FMU bundles fmu_controller: the plant's cores call its elementary functions (fmu_controller.elementary);
+# only the modules a script imports go in (packaging.import_closure)
+BUNDLED = ("fmi_slave", "fmu_plant", "fmu_controller")
 FMU_SOURCES: dict[str, FmuSource] = {
     s.model: s
     for s in (
-        FmuSource("ArmPlant", "fmu_plant/arm_plant_fmu.py", ("fmi_slave", "fmu_plant"),
-                  ("fmu_plant/dynamics.py", "fmu_plant/kinematics.py")),
-        FmuSource("ReferenceTrajectory", "fmu_plant/reference_trajectory_fmu.py", ("fmi_slave", "fmu_plant"),
+        FmuSource("ArmPlant", "fmu_plant/arm_plant_fmu.py", BUNDLED, ("fmu_plant/dynamics.py", "fmu_plant/kinematics.py")),
+        FmuSource("ReferenceTrajectory", "fmu_plant/reference_trajectory_fmu.py", BUNDLED,
                   ("fmu_plant/trajectory.py", "fmu_plant/kinematics.py")),
-        *(FmuSource(c.model, c.script, ("fmi_slave", "fmu_plant", "fmu_controller"), (c.equations,))
-          for c in CONTROLLERS.values()),
-        *(FmuSource(m, f"fmu_plant/{s}_fmu.py", ("fmi_slave", "fmu_plant"), ("fmu_plant/perturbation.py",)) for m, s in (("Disturbance", "disturbance"), ("MeasurementNoise", "measurement_noise"))),
+        *(FmuSource(c.model, c.script, BUNDLED, (c.equations,)) for c in CONTROLLERS.values()),
+        *(FmuSource(m, f"fmu_plant/{s}_fmu.py", BUNDLED, ("fmu_plant/perturbation.py",)) for m, s in (("Disturbance", "disturbance"), ("MeasurementNoise", "measurement_noise"))),
     )
 }
 

@@ -15,7 +15,8 @@ stem, while a renamed exported symbol would no longer match the ELF hash table a
 and with ``CYTHON_COMPRESS_STRINGS=0``, else Cython stores the module names compressed. The
 fully qualified module name the extension registers is renamed with the rest, so two builds of one FMU
 in one process each run their own code (tests/fmu/test_compiled_cores.py). The compiled cores give the
-pure-Python outputs bit for bit (same test; ``-ffp-contract=off``, and C's libm is what ``math`` calls).
+pure-Python outputs bit for bit (same test; ``-ffp-contract=off``; the elementary functions are
+``fmu_controller/elementary.py``'s own, libm's only sqrt, which IEEE 754 rounds correctly everywhere).
 """
 from __future__ import annotations
 
@@ -31,10 +32,10 @@ import tempfile
 from pathlib import Path
 
 SWITCH = "SOTC_COSIM_COMPILE"  # "0": never compile the cores; unset or "1": compile them where possible
-# the hot path of a step (controller evaluate/learn, the plant's RK4, the reference and its inverse
-# kinematics, the limiters)
-HOT = ("fmu_controller/sotc.py", "fmu_controller/sotc_math.py", "fmu_controller/sotc_zv.py",
-       "fmu_controller/sotc_stack.py", "fmu_controller/saturation.py", "fmu_controller/fixed_linalg.py",
+# the hot path of a step (the elementary functions, first: the others cimport them; controller
+# evaluate/learn, the plant's RK4, the reference and its inverse kinematics, the limiters)
+HOT = ("fmu_controller/elementary.py", "fmu_controller/sotc.py", "fmu_controller/sotc_math.py",
+       "fmu_controller/sotc_zv.py", "fmu_controller/sotc_stack.py", "fmu_controller/saturation.py", "fmu_controller/fixed_linalg.py",
        "fmu_plant/dynamics.py", "fmu_plant/trajectory.py", "fmu_plant/kinematics.py")
 # names stay plain bytes (renamed); no fused multiply-add, so the compiled cores round as the .py does
 CFLAGS = "-O2 -g0 -fvisibility=hidden -DCYTHON_COMPRESS_STRINGS=0 -ffp-contract=off"

@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from fmu_controller.elementary import hypot
 from fmu_plant.dynamics import TORQUE_LIMIT
 
 # tolerance of "at the limit": ||tau|| >= limit - LIMIT_TOLERANCE counts (a norm scaled to the
@@ -179,7 +180,7 @@ class TrackingMetrics:
             f = ed + e
             zz = (e[:, 0] ** 2 + e[:, 1] ** 2) + (f[:, 0] ** 2 + f[:, 1] ** 2)  # z'z of ``tracking_cost``
         ae = np.abs(e)
-        norm = np.hypot(tau[:, 0], tau[:, 1])
+        norm = np.array([hypot(a, b) for a, b in tau.tolist()]).reshape(m)  # the cores' hypot: same bits anywhere
         e2 = e * e
         late = t >= TRANSIENT_END - 1e-12
         self.late[0] = ordered_sum(e2[late], self.late[0])

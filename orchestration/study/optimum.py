@@ -6,7 +6,7 @@ The problem, for one initial state (phi(0), dphi(0)) over ``horizon`` = N T:
 * **Decision**: the torques tau_0 .. tau_{N-1}, each held over one sample T (zero-order hold, as the
   master runs every controller), with ||tau_k|| <= rho (section 2.1; rho = ``TORQUE_LIMIT``).
 * **Model**: the plant core's own step, ``fmu_plant.dynamics.rk4_step`` with the plant FMU's
-  default substeps (``paper_setting.SUBSTEPS``), evaluated symbolically: its ``.py`` is loaded once more with ``math`` bound to
+  default substeps (``paper_setting.SUBSTEPS``), evaluated symbolically: its ``.py`` is loaded once more with cos, sin and tanh bound to
   CasADi's functions (``symbolic_dynamics``), so the optimiser integrates exactly the formulas of
   eq. (46) the plant runs, with the same constants (``ArmParameters``), not a restatement.
 * **Reference**: eqs. (47)-(48) from ``fmu_plant.trajectory.CircleTrajectory`` sampled at t_k (it does
@@ -37,7 +37,6 @@ import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from types import SimpleNamespace
 
 import numpy as np
 
@@ -73,14 +72,15 @@ def casadi():
 @functools.lru_cache(maxsize=1)
 def symbolic_dynamics():
     """A second copy of ``fmu_plant.dynamics`` from its ``.py`` (also when the compiled core is the one
-    imported), whose ``math`` is CasADi's: its functions then accept symbols as well as floats."""
+    imported), whose cos, sin and tanh (``elementary``'s in the core) are CasADi's: its functions then accept
+    symbols as well as floats."""
     ca = casadi()
     source = Path(dynamics.__file__).with_name("dynamics.py")
     spec = importlib.util.spec_from_file_location("_optimum_symbolic_dynamics", source)
     module = importlib.util.module_from_spec(spec)
     sys.modules[spec.name] = module  # dataclasses look their module up while the class is made
     spec.loader.exec_module(module)
-    module.math = SimpleNamespace(cos=ca.cos, sin=ca.sin, tanh=ca.tanh)
+    module.cos, module.sin, module.tanh = ca.cos, ca.sin, ca.tanh
     return module
 
 

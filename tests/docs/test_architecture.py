@@ -15,7 +15,7 @@ from support.imports import PACKAGES, cycles, graph, modules, room, third_party
 ALLOWED = {
     "fmi_slave": set(),
     "fmi3_slave": {"fmi_slave"},
-    "fmu_plant": {"fmi_slave"},
+    "fmu_plant": {"fmi_slave", "fmu_controller"},  # of fmu_controller only ELEMENTARY (below)
     "fmu_controller": {"fmi_slave", "fmu_plant"},
     "orchestration/run": {"fmi_slave", "fmi3_slave", "fmu_plant", "fmu_controller", "orchestration"},
     "orchestration/fmu_build": {"fmi_slave", "fmu_plant", "fmu_controller", "orchestration"},
@@ -34,6 +34,7 @@ ALLOWED = {
 BASE = {"orchestration.paths", "orchestration.progress", "orchestration.markdown", "orchestration.exit_codes",
         "orchestration.outputs", "orchestration.toml_files", "orchestration.scratch"}
 ARM_MODEL = {"fmu_plant.dynamics", "fmu_plant.kinematics", "fmu_plant.trajectory"}
+ELEMENTARY = "fmu_controller.elementary"  # the one module of fmu_controller the plant may import
 CORE_FOLDERS = ("fmi_slave", "fmi3_slave", "fmu_plant", "fmu_controller")
 MAX_MODULE_LINES = 500
 MAX_FUNCTION_LINES = 80
@@ -69,6 +70,13 @@ def test_the_fmu_packages_need_no_pythonfmu_and_controllers_only_the_arm_model()
                    for t in targets if t.startswith("fmu_plant") and t not in ARM_MODEL)
     assert wrong == []
     assert not any(t.startswith("orchestration") for m, ts in GRAPH.items() if m.startswith(CORE_FOLDERS) for t in ts)
+
+
+def test_the_plant_imports_of_fmu_controller_only_the_elementary_functions():
+    assert not any(t.startswith(PACKAGES) for t in GRAPH[ELEMENTARY])  # so no package cycle runs through it
+    wrong = sorted(f"{m} -> {t}" for m, targets in GRAPH.items() if m.startswith("fmu_plant")
+                   for t in targets if t.startswith("fmu_controller") and t != ELEMENTARY)
+    assert wrong == []
 
 
 def test_orchestration_is_grouped_by_role():

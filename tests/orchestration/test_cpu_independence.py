@@ -1,10 +1,13 @@
 """One result on every machine: the reference runs of ``support/bit_runs.py`` give the same
-bits under every OpenBLAS kernel and with numpy's CPU dispatch limited, for the compiled and the
-Python build of the cores, and equal the stored ``tests/data/reference_bits.json``.
+bits under every OpenBLAS kernel, with numpy's CPU dispatch limited and with glibc's libm on the code
+paths of a CPU without FMA or AVX, for the compiled and the Python build of the cores, and equal the
+stored ``tests/data/reference_bits.json``.
 
 A kernel is forced with ``OPENBLAS_CORETYPE`` (numpy's and scipy's OpenBLAS both read it); numpy's own
 SIMD loops are held to the baseline with ``NPY_DISABLE_CPU_FEATURES`` (the features this machine's numpy
-dispatches to beyond it). The compiled build is the installed package (its pure loop) and the default
+dispatches to beyond it); glibc's CPU-specific variants (its libm's exp, sin ... among them) are switched
+off with ``GLIBC_TUNABLES=glibc.cpu.hwcaps=...`` (the cores call no libm function but sqrt, which IEEE 754
+rounds correctly: ``fmu_controller/elementary.py``). The compiled build is the installed package (its pure loop) and the default
 FMU build; the Python build is the source tree's ``.py`` on PYTHONPATH and the FMUs built with
 ``SOTC_COSIM_COMPILE=0``."""
 from __future__ import annotations
@@ -27,7 +30,9 @@ REPO = Path(__file__).resolve().parents[2]
 SCRIPT = REPO / "tests" / "support" / "bit_runs.py"
 KERNELS = ("Prescott", "Sandybridge", "Haswell", "SkylakeX", "Zen")
 NUMPY_BASELINE = " ".join(numpy_dispatch.__cpu_dispatch__)  # every target beyond numpy's compiled-in baseline
-ENVIRONMENTS = {**{k: {"OPENBLAS_CORETYPE": k} for k in KERNELS}, "numpy baseline": {"NPY_DISABLE_CPU_FEATURES": NUMPY_BASELINE}}
+NO_FMA = "glibc.cpu.hwcaps=-AVX2,-FMA,-AVX,-AVX512F"  # glibc as on a CPU without FMA, AVX2, AVX, AVX-512
+ENVIRONMENTS = {**{k: {"OPENBLAS_CORETYPE": k} for k in KERNELS}, "numpy baseline": {"NPY_DISABLE_CPU_FEATURES": NUMPY_BASELINE},
+                "glibc without FMA": {"GLIBC_TUNABLES": NO_FMA}}
 REFERENCE = json.loads((DATA / "reference_bits.json").read_text())
 
 
@@ -44,7 +49,7 @@ def first_difference(got: dict, want: dict) -> str | None:
 
 
 def bits(environment: dict[str, str], build: str, fmu_dir: Path) -> dict:
-    env = {k: v for k, v in os.environ.items() if k not in ("OPENBLAS_CORETYPE", "NPY_DISABLE_CPU_FEATURES")}
+    env = {k: v for k, v in os.environ.items() if k not in ("OPENBLAS_CORETYPE", "NPY_DISABLE_CPU_FEATURES", "GLIBC_TUNABLES")}
     env.pop("PYTHONPATH", None)
     if build == "python":
         env["PYTHONPATH"] = str(REPO)  # the source tree's .py before the installed (compiled) package

@@ -6,8 +6,10 @@
 
 The cases: every shipped scenario's controller under every limit handling it accepts and every
 controller's tuned design under every handling, GRID_TIME seconds in the pure loop (probing, the CL
-stack filling and its first swaps); 100 s of ``paper`` and of its radial variant through the FMUs of
-FMU_DIR (its build decides whether their cores are compiled). The pure loop runs
+stack filling and its first swaps); the SOTC's stored tuned designs (every seed, every handling) over the
+whole experiment they are judged on, the fair evaluation's run (``orchestration.study.fair``: its
+EVAL_STOP_TIME, at the first point of each held-out set); 100 s of ``paper`` and of its radial variant
+through the FMUs of FMU_DIR (its build decides whether their cores are compiled). The pure loop runs
 whatever ``fmu_controller`` this interpreter imports (the installed, compiled package, or the source
 tree's ``.py`` with PYTHONPATH set to it).
 """
@@ -50,6 +52,22 @@ def pure_loop_cases() -> dict[str, dict[str, str]]:
     return out
 
 
+def fair_cases() -> dict[str, dict[str, str]]:
+    from orchestration.study import fair
+    from orchestration.study.tuning import HANDLINGS
+
+    out = {}
+    for handling in HANDLINGS:
+        for label, (fmu, params) in fair.configurations(handling, ("SotcController",)).items():
+            if "tuned" not in label or "learning off" in label:
+                continue
+            for which in fair.SETS:
+                m = fair.run_point(fmu, params, fair.evaluation_points(which)[0])
+                out[f"fair {label} handling {handling} {which} point 0"] = {
+                    k: "failed" if v is None else v.hex() for k, v in m.items()}
+    return out
+
+
 def fmu_cases(fmu_dir: Path) -> dict[str, dict[str, str]]:
     from support.reference_runs import comparable_summary
 
@@ -70,7 +88,7 @@ def fmu_cases(fmu_dir: Path) -> dict[str, dict[str, str]]:
 
 def main(argv: list[str]) -> int:
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # tests/, for support.*
-    cases = {**pure_loop_cases(), **fmu_cases(Path(argv[0]))}
+    cases = {**pure_loop_cases(), **fair_cases(), **fmu_cases(Path(argv[0]))}
     text = json.dumps(cases, indent=0, sort_keys=True)
     if argv[1:] == ["--write"]:
         (DATA / "reference_bits.json").write_text(text + "\n")

@@ -80,6 +80,13 @@ def test_within_one_ulp_on_ten_thousand_points():
     assert max(errors.values()) <= 1.0, errors
 
 
+def _loaded(name: str, path: Path):
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
 def compiled_module(tmp_path: Path):
     """elementary.py compiled by the cores' own compile step (orchestration/fmu_build/compiled.py)."""
     reason = compiled.unavailable()
@@ -98,10 +105,7 @@ def compiled_module(tmp_path: Path):
     finally:
         compiled.HOT = original
     so = next(lib.glob("elementary.*.so"), None) or next(lib.glob("elementary.*.pyd"))
-    spec = importlib.util.spec_from_file_location("lib.fmu_controller.elementary", so)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return _loaded("lib.fmu_controller.elementary", so)
 
 
 @pytest.mark.slow
@@ -222,9 +226,8 @@ def test_atan2_and_hypot_within_one_ulp_over_the_whole_range(y, x):
 
 
 def test_constants_are_the_derived_ones():
-    spec = importlib.util.spec_from_file_location("elementary_coefficients", ROOT / "docs/elementary_coefficients.py")
-    derive = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(derive)
-    derived = derive.constants()
-    assert {name: getattr(el, name) for name in derived} == derived
-    assert abs(el.PIO2_BIG - el._pi_scaled(el.BIG_BITS + 8) // 512) <= 4  # Machin's truncation: a few units at most
+    """On the ``.py`` itself: where the installed package is compiled, its constants are C variables."""
+    derived = _loaded("elementary_coefficients", ROOT / "docs/elementary_coefficients.py").constants()
+    source = _loaded("elementary_source", ROOT / "fmu_controller/elementary.py")
+    assert {name: getattr(source, name) for name in derived} == derived
+    assert abs(source.PIO2_BIG - source._pi_scaled(source.BIG_BITS + 8) // 512) <= 4  # Machin's truncation: a few units at most
