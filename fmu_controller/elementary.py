@@ -440,8 +440,9 @@ def _angle(n: float, x: float, extra: float) -> float:
     sign = -1.0 if swap == (x > 0.0) else 1.0
     if n <= P2_M1000 * d:
         c_hi, rest = 0.0, n / d + sign * extra
-    else:  # exact scalings into the range where Veltkamp's split cannot overflow (n > 2^-1000 d)
-        scale = P2_M200 if d > P2_900 else P2_600 if d < P2_M900 else 1.0
+    else:  # exact scalings into the range where Veltkamp's split neither overflows nor, for a tiny n, loses
+        # the low parts of its products to the subnormal range (n > 2^-1000 d; n < 2^-900 implies d <= 2^300)
+        scale = P2_M200 if d > P2_900 else P2_600 if d < P2_M900 or n < P2_M900 else 1.0
         c_hi, rest = _atan_ratio(n * scale, d * scale, sign * extra)
     if swap:
         return _two_sum_plus(HALF_PI_HI, HALF_PI_LO, sign, c_hi, rest)
