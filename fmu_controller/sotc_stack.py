@@ -305,8 +305,9 @@ class CLStack:
         """The row a new sample eta replaces under ``maxeig``/``maxeig-raw``, or -1 (no swap); ``spectrum``
         as ``spectrum(shift)`` gives it. The least gain is max(1 % of lambda_min, the margin); ``shift`` moves
         it, the rank's threshold and the tie window alike (0 but in a study of the decisions). By Weyl's
-        inequality a swap raises any eigenvalue of M by at most |eta|^2 / (1 + |eta|^2)^2, so a sample not
-        above the least gain is refused at once."""
+        inequality a swap raises any eigenvalue of M by at most |eta|^2 / (1 + |eta|^2)^2, so at full rank
+        a sample whose weight is not above the least gain cannot pass; it is refused at once, and below
+        full rank too (the weight of a rank-raising sample must itself clear the margin)."""
         c = self._c
         c[:] = as_buffer(eta)
         ee = dot(c, c, N_BASIS)
