@@ -8,7 +8,7 @@ from __future__ import annotations
 import pytest
 
 from fmu_controller.fixed_linalg import EPS, MAX_HALVINGS, buffer, halvings
-from fmu_controller.saturation import RADIAL
+from fmu_controller.saturation import LIMIT_HANDLINGS, RADIAL
 from fmu_controller.sotc import SotcCore
 from fmu_controller.sotc_math import N_BASIS
 from fmu_controller.sotc_stack import SWAP_MARGIN
@@ -34,7 +34,7 @@ def test_the_earlier_tolerance_decides_on_rounding():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("case", [c for c in CASES if c is not PAPER_RADIAL], ids=lambda c: f"{c[0]} handling {c[1]}")
+@pytest.mark.parametrize("case", [c for c in CASES if c is not PAPER_RADIAL], ids=lambda c: f"{c[0].strip('`')} {LIMIT_HANDLINGS[c[1]]}")
 def test_no_decision_rests_on_rounding(case):
     counts = _counts(case)
     assert counts["offers"] > 1000 and counts["flips"] == 0, counts
