@@ -199,9 +199,10 @@ def halvings(width: float, resolution: float) -> int:
     return k
 
 
-def smallest_of_tridiagonal(d: array, e: array, n: int, resolution: float) -> float:
-    """lambda_min of the tridiagonal (d, e) by bisection, to within ``resolution`` (or one ulp), in at most
-    ``halvings`` of the Gershgorin interval plus two (a midpoint's rounding can leave a half a little wider)."""
+def smallest_of_tridiagonal(d: array, e: array, n: int, resolution: float, k: int = 1) -> float:
+    """The k-th smallest eigenvalue of the tridiagonal (d, e) (k = 1: lambda_min) by bisection, to within
+    ``resolution`` (or one ulp), in at most ``halvings`` of the Gershgorin interval plus two (a midpoint's
+    rounding can leave a half a little wider)."""
     lo, hi = gershgorin(d, e, n)
     for it in range(halvings(hi - lo, resolution) + 2):
         if hi - lo <= resolution:
@@ -209,16 +210,17 @@ def smallest_of_tridiagonal(d: array, e: array, n: int, resolution: float) -> fl
         mid = 0.5 * (lo + hi)
         if mid <= lo or mid >= hi:
             break
-        if sturm_count(d, e, n, mid) >= 1:
+        if sturm_count(d, e, n, mid) >= k:
             hi = mid
         else:
             lo = mid
     return 0.5 * (lo + hi)
 
 
-def smallest_eigenvalue(M: array, n: int, d: array, e: array, A: array, v: array, p: array) -> float:
-    """lambda_min of the symmetric M, bisected to within eps trace(M) (the rounding level of its entries,
-    far below the CL stack's swap margin, ``sotc_stack.SWAP_MARGIN``);
+def smallest_eigenvalue(M: array, n: int, d: array, e: array, A: array, v: array, p: array, k: int = 1) -> float:
+    """The k-th smallest eigenvalue of the symmetric M (k = 1: lambda_min), bisected to within
+    eps trace(M) (the rounding level of its entries, far below the CL stack's swap margin,
+    ``sotc_stack.SWAP_MARGIN``);
     d (n) and e (n - 1) receive M's tridiagonal form, for ``sturm_count``; A, v, p are scratch."""
     tridiagonalize(M, n, d, e, A, v, p)
-    return smallest_of_tridiagonal(d, e, n, EPS * abs(trace(M, n)))
+    return smallest_of_tridiagonal(d, e, n, EPS * abs(trace(M, n)), k)

@@ -23,17 +23,17 @@ Two readings of what is replayed (``replay``):
 Which samples are kept (``selection``):
 
 * ``maxeig`` (chosen): fill the P rows, then swap a new sample in only for a gain well above what
-  rounding can produce, the margin SWAP_MARGIN trace(M) = 1e4 eps trace(M). Rounding moves M's entries by
+  rounding can produce, the margin SWAP_MARGIN trace(M) = 1e3 eps trace(M). Rounding moves M's entries by
   a few eps trace(M) each, hence (Weyl's inequality) its eigenvalues by about n eps trace(M) (n = 10);
-  the margin is a thousand times that, because below full rank the trial eigenvalues pile up just under
-  the margin (every swap that clears it is taken), where a hundred times still left decisions to
-  rounding (measured: ``docs/paper-notes.md`` 2.10a). Eigenvalues below the margin do not count: the numerical
-  rank counts the others, and a stack below full rank has lambda_min 0. Below full rank a swap must
-  raise that rank (a new eigenvalue at or above the margin); at full rank it must raise lambda_min(M)
-  by more than 1 % and by more than the margin. Among swaps equal to within the margin, the oldest row
-  goes. lambda_min is bisected to eps trace(M) (``fixed_linalg``), far below the margin;
-  ``orchestration.study.swap_margin`` re-decides every offer with the thresholds moved by
-  eps trace(M) and counts the decisions that change;
+  the margin is a hundred times that. Eigenvalues below the margin do not count: the numerical rank
+  counts the others, and a stack below full rank has lambda_min 0. A swap must raise one eigenvalue by
+  more than the margin: at full rank lambda_min(M), and by more than 1 % too; below full rank the
+  largest eigenvalue below the margin, which then clears it (the rank rises). A gain over the stack's
+  own eigenvalue, not a level to reach: trial eigenvalues pile up just under a level, and an eigenvalue
+  of M drifts across it with W (the ``current`` replay), so a level left decisions to rounding. Among
+  swaps equal to within the margin, the oldest row goes. Eigenvalues are bisected to eps trace(M)
+  (``fixed_linalg``), a thousandth of the margin; ``orchestration.study.swap_margin`` re-decides every
+  offer with the thresholds moved by eps trace(M) and counts the decisions that change;
 * ``fill`` keeps the first P records; ``fifo`` the newest P;
 * ``maxeig-raw``: the earlier rule, the largest computed lambda_min of the P trial stacks and a 1 %
   gain, with no tolerance (it decides on rounding noise while the stack is rank-deficient).
@@ -55,7 +55,7 @@ from fmu_controller.sotc_math import N_BASIS, CriticConstants, critic_row, norma
 SELECTIONS = ("maxeig", "fill", "fifo", "maxeig-raw")
 REPLAYS = ("current", "stored")
 MAXEIG_GAIN = 1.01  # a swap must raise lambda_min(M) by more than 1 % ...
-SWAP_MARGIN = 1e4 * EPS  # ... and by more than SWAP_MARGIN trace(M), a thousand times M's rounding level n eps trace(M)
+SWAP_MARGIN = 1e3 * EPS  # ... and by more than SWAP_MARGIN trace(M), a hundred times M's rounding level n eps trace(M)
 _WIDTHS = {"eta": N_BASIS, "z": 4, "dinv": 3, "fe": 2}
 INTERPRETED = __file__.endswith(".py")  # False in the compiled core (an extension module)
 _LOWER = np.tril(np.ones((N_BASIS, N_BASIS), dtype=bool))  # entries (a, c), c <= a, that cl_matrix sums
@@ -289,8 +289,8 @@ class CLStack:
         self._put(row, eta, rew, z, dinv, fe, t)
         return True
 
-    def _smallest(self, M) -> float:
-        return smallest_eigenvalue(M, N_BASIS, self._d, self._e, self._A, self._v, self._p)
+    def _smallest(self, M, k: int = 1) -> float:
+        return smallest_eigenvalue(M, N_BASIS, self._d, self._e, self._A, self._v, self._p, k)
 
     def _put(self, row: int, eta: list, rew: float, z: Sequence[float], dinv: Sequence[float],
              fe: Sequence[float], t: float) -> None:
@@ -303,11 +303,12 @@ class CLStack:
 
     def _swap_row(self, eta: list, spectrum: tuple[float, int, float], shift: float = 0.0) -> int:
         """The row a new sample eta replaces under ``maxeig``/``maxeig-raw``, or -1 (no swap); ``spectrum``
-        as ``spectrum(shift)`` gives it. The least gain is max(1 % of lambda_min, the margin); ``shift`` moves
-        it, the rank's threshold and the tie window alike (0 but in a study of the decisions). By Weyl's
-        inequality a swap raises any eigenvalue of M by at most |eta|^2 / (1 + |eta|^2)^2, so at full rank
-        a sample whose weight is not above the least gain cannot pass; it is refused at once, and below
-        full rank too (the weight of a rank-raising sample must itself clear the margin)."""
+        as ``spectrum(shift)`` gives it. A swap must raise lambda_k, the k-th smallest eigenvalue of M
+        (k = 1 at full rank, else the largest of the n - rank below the margin), from max(lambda_k, 0) by
+        more than the least gain max(1 % of that, the margin); ``shift`` moves the gain, the rank's
+        threshold and the tie window alike (0 but in a study of the decisions). By Weyl's inequality a swap
+        raises lambda_k by at most |eta|^2 / (1 + |eta|^2)^2, so a sample not above the least gain is
+        refused at once."""
         c = self._c
         c[:] = as_buffer(eta)
         ee = dot(c, c, N_BASIS)
@@ -316,52 +317,43 @@ class CLStack:
         if self.selection == "maxeig-raw":
             lam = self._smallest(self.M)
             return -1 if ee * c_sc <= (MAXEIG_GAIN - 1.0) * lam else self._swap_raw(c_sc, lam)
-        gain = max((MAXEIG_GAIN - 1.0) * lam, margin) + shift
+        k = max(1, N_BASIS - rank)
+        low = lam if rank == N_BASIS else max(self._smallest(self.M, k), 0.0)
+        gain = max((MAXEIG_GAIN - 1.0) * low, margin) + shift
         if ee * c_sc <= gain:
             return -1
-        if rank == N_BASIS:
-            return self._swap_full(c_sc, lam + gain, margin + shift)
-        return self._swap_deficient(c_sc, rank, margin + shift)
+        return self._swap_raising(c_sc, k, low + gain, margin + shift)
 
-    def _swap_full(self, c_sc: float, thr: float, window: float) -> int:
-        """Full rank: only trials with lambda_min > thr count, ties within ``window``. B = M + c c^T - thr I
-        must be positive definite (else no trial is), and then trial j can be only if
-        sc_j |L^-1 eta_j|^2 < 1 (B = L L^T); its computed lambda_min decides."""
-        N, B, L, y, c = N_BASIS, self._work, self._L, self._y, self._c
-        trial_matrix(self.M, 0.0, self.E, 0, c_sc, c, B)  # M + c c^T (row 0 taken with weight 0)
-        for a in range(N):
-            B[a * N + a] -= thr
-        if not cholesky(B, N, L) or not rows_within(L, self.E, self.sc, self.P, y, self._inside):
+    def _swap_raising(self, c_sc: float, k: int, thr: float, window: float) -> int:
+        """Of the trials whose k-th smallest eigenvalue exceeds thr, the largest to within ``window``, then
+        the oldest row. For k = 1 a necessary test first (``_may_pass``); the computed eigenvalue decides."""
+        B, found = self._work, []
+        if k == 1 and not self._may_pass(c_sc, thr):
             return -1
-        found = []
         for j in range(self.P):
-            if self._inside[j]:
-                trial_matrix(self.M, self.sc[j], self.E, j, c_sc, c, B)
-                lam = self._smallest(B)
+            if k > 1 or self._inside[j]:
+                trial_matrix(self.M, self.sc[j], self.E, j, c_sc, self._c, B)
+                lam = self._smallest(B, k)
                 if lam > thr:
-                    found.append((j, N, lam))
+                    found.append((j, lam))
         return self._oldest_best(found, window)
 
-    def _swap_deficient(self, c_sc: float, rank: int, level: float) -> int:
-        """Below full rank: a swap must raise the rank (eigenvalues at or above ``level``, the margin);
-        among those the largest lambda_min, ties within ``level``."""
-        N, B, found = N_BASIS, self._work, []
-        for j in range(self.P):
-            trial_matrix(self.M, self.sc[j], self.E, j, c_sc, self._c, B)
-            lam = self._smallest(B)
-            rank_j = N - sturm_count(self._d, self._e, N, level)
-            if rank_j > rank:
-                found.append((j, rank_j, lam if rank_j == N else 0.0))
-        return self._oldest_best(found, level)
+    def _may_pass(self, c_sc: float, thr: float) -> bool:
+        """Whether any trial can have lambda_min > thr: B = M + c c^T - thr I must be positive definite,
+        and then trial j can only if sc_j |L^-1 eta_j|^2 < 1 (B = L L^T; marks them in ``_inside``)."""
+        N, B, L = N_BASIS, self._work, self._L
+        trial_matrix(self.M, 0.0, self.E, 0, c_sc, self._c, B)  # M + c c^T (row 0 taken with weight 0)
+        for a in range(N):
+            B[a * N + a] -= thr
+        return cholesky(B, N, L) and rows_within(L, self.E, self.sc, self.P, self._y, self._inside) > 0
 
     def _oldest_best(self, found: list, window: float) -> int:
-        """Of (row, rank, lambda_min) candidates, the highest rank, then the largest lambda_min to
-        within ``window``, then the oldest row (then the lowest index); -1 if there is none."""
+        """Of (row, eigenvalue) candidates, the largest eigenvalue to within ``window``, then the oldest
+        row (then the lowest index); -1 if there is none."""
         if not found:
             return -1
-        top = max(rank for _, rank, _ in found)
-        best = max(lam for _, rank, lam in found if rank == top)
-        ties = [j for j, rank, lam in found if rank == top and lam >= best - window]
+        best = max(lam for _, lam in found)
+        ties = [j for j, lam in found if lam >= best - window]
         return min(ties, key=lambda j: (self.t[j], j))
 
     def _swap_raw(self, c_sc: float, lam: float) -> int:
