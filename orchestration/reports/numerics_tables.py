@@ -41,12 +41,12 @@ def cl_rule_table() -> str:
 
 def swap_flips_table() -> str:
     """Every offer of a sample to the full CL stack re-decided with its thresholds moved by +-eps trace(M)
-    (``orchestration.study.swap_margin``), for `paper` under each handling and every stored tuned SOTC
-    design on the nominal 100 s `paper` loop: the offers, and the swaps and flips under the margin, under
+    (``orchestration.study.swap_margin``), for `paper` under each handling, every stored tuned SOTC design
+    and the study's stress changes of radial `paper`, on the nominal 100 s `paper` loop: the offers, and the swaps and flips under the margin, under
     a tenth of it and under the earlier tolerance n eps trace(M) (counts of the one nominal run each)."""
     margins = (SWAP_MARGIN, SWAP_MARGIN / 10.0, swap_margin.ROUNDING)
     rows = []
-    for label, code, params in swap_margin.cases():
+    for label, code, params in swap_margin.cases() + swap_margin.stress_cases():
         key = tuple(sorted(params.items()))
         counts = [swap_margin.flip_counts(key, m) for m in margins]
         rows.append([label, LIMIT_HANDLINGS[code], counts[0]["offers"],

@@ -8,14 +8,20 @@ and by -eps trace(M), one rounding of M's scale. An offer where either re-decisi
 of ``SWAP_MARGIN``) it measures the earlier rule the same way; no selection of the core keeps it.
 
 ``flip_counts`` runs a configuration in the pure loop (``orchestration.study.pure_loop``) with this
-stack in the SOTC core; ``CASES`` are `paper` under every handling of the bound and every stored tuned
-SOTC design (``orchestration.study.tuning``, every seed), each on its nominal 100 s `paper` loop.
+stack in the SOTC core; ``cases`` are `paper` under every handling of the bound and every stored tuned
+SOTC design (``orchestration.study.tuning``, every seed), ``stress_cases`` a few changes of radial
+`paper` that keep the stack near rank deficiency or let it drift slowly, each on its nominal 100 s
+`paper` loop. A flip is possible wherever a threshold is: the rule takes a swap once its gain clears
+the threshold, so the best gain on offer creeps up to it from below, and when it creeps by less than
+eps trace(M) per offer a rounding decides that one offer. The margin keeps decisions off rounding noise
+(eigenvalues and ties at rounding level); the stress cases show the crossings that remain.
 """
 from __future__ import annotations
 
 import functools
 
 from fmu_controller.fixed_linalg import EPS, trace
+from fmu_controller.saturation import RADIAL
 from fmu_controller.sotc import SotcCore
 from fmu_controller.sotc_math import N_BASIS
 from fmu_controller.sotc_stack import SWAP_MARGIN, CLStack
@@ -45,6 +51,12 @@ class FlipCountingStack(CLStack):
         return row
 
 
+# changes of `paper` that keep the stack near rank deficiency or let it drift slowly (under radial, the handling
+# that flipped most)
+STRESS = (("PE amplitude 5e-4", {"pe_amplitude": 5e-4}), ("no PE", {"pe_amplitude": 0.0}), ("P = 10", {"P": 10.0}),
+          ("20 s of PE", {"pe_duration": 20.0}), ("records every 0.01 s", {"cl_record_interval": 0.01}))
+
+
 def cases() -> list[tuple[str, int, dict[str, float]]]:
     """(label, limit handling, SOTC parameters): `paper` under each handling, then each stored tuned design."""
     out = [("`paper`", code, controller_of("paper", limit_handling=float(code))[1]) for code in HANDLINGS]
@@ -53,6 +65,12 @@ def cases() -> list[tuple[str, int, dict[str, float]]]:
             params = controller_of("paper", limit_handling=float(code), **tuned_parameters("SotcController", code, seed))[1]
             out.append((f"tuned SOTC, seed {seed}", code, params))
     return out
+
+
+def stress_cases() -> list[tuple[str, int, dict[str, float]]]:
+    """``cases``' form for the ``STRESS`` changes of radial `paper`."""
+    return [(f"`paper`, {label}", RADIAL, controller_of("paper", limit_handling=float(RADIAL), **ov)[1])
+            for label, ov in STRESS]
 
 
 @functools.lru_cache(maxsize=None)

@@ -2,7 +2,8 @@
 its thresholds moved by +eps trace(M) and by -eps trace(M), picks the same row
 (``orchestration.study.swap_margin``), in `paper` under every handling of the bound and in every stored
 tuned SOTC design, each on its nominal 100 s `paper` loop. The earlier tolerance n eps trace(M) in the
-margin's place does flip: the count can fail."""
+margin's place does flip: the count can fail. (The study's stress cases still flip now and then, where a
+gain creeps across its threshold by less than eps trace(M) per offer: docs/paper-notes.md 2.10a.)"""
 from __future__ import annotations
 
 import pytest
@@ -34,7 +35,7 @@ def test_the_earlier_tolerance_decides_on_rounding():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("case", [c for c in CASES if c is not PAPER_RADIAL], ids=lambda c: f"{c[0].strip('`')} {LIMIT_HANDLINGS[c[1]]}")
+@pytest.mark.parametrize("case", [c for c in CASES if c is not PAPER_RADIAL], ids=lambda c: f"{c[0].replace('`', '')} {LIMIT_HANDLINGS[c[1]]}")
 def test_no_decision_rests_on_rounding(case):
     counts = _counts(case)
     assert counts["offers"] > 1000 and counts["flips"] == 0, counts
