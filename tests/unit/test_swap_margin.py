@@ -6,9 +6,11 @@ margin's place does flip: the count can fail. (The study's stress cases still fl
 gain creeps across its threshold by less than eps trace(M) per offer: docs/paper-notes.md 2.10a.)"""
 from __future__ import annotations
 
+import math
+
 import pytest
 
-from fmu_controller.fixed_linalg import EPS, MAX_HALVINGS, buffer, halvings
+from fmu_controller.fixed_linalg import EPS, MAX_HALVINGS, buffer, halvings, smallest_eigenvalue
 from fmu_controller.saturation import LIMIT_HANDLINGS, RADIAL
 from fmu_controller.sotc import SotcCore
 from fmu_controller.sotc_math import N_BASIS
@@ -60,3 +62,18 @@ def test_the_bisection_halves_as_often_as_its_interval_needs():
     assert halvings(1.0, 1.0) == 0
     assert halvings(1.0, 0.0) == MAX_HALVINGS
     assert halvings(3.0, EPS) == 54  # 3 / 2^54 <= 2^-52 < 3 / 2^53
+
+
+def test_the_k_th_smallest_eigenvalue_is_bisected():
+    """The second-difference matrix (2 on the diagonal, -1 beside it) has the eigenvalues
+    2 - 2 cos(k pi / (n + 1)), k = 1 .. n: the swap rule's lambda_k below full rank."""
+    N = N_BASIS
+    M = buffer(N * N)
+    for a in range(N):
+        M[a * N + a] = 2.0
+        if a:
+            M[a * N + a - 1] = M[(a - 1) * N + a] = -1.0
+    d, e, A, v, p = buffer(N), buffer(N), buffer(N * N), buffer(N), buffer(N)
+    for k in range(1, N + 1):
+        got = smallest_eigenvalue(M, N, d, e, A, v, p, k)
+        assert got == pytest.approx(2.0 - 2.0 * math.cos(k * math.pi / (N + 1)), abs=4 * N * EPS * 2 * N)
