@@ -2,10 +2,10 @@
 
 ``FlipCountingStack`` is the controller's ``CLStack`` that, at each offer of a sample to the full stack
 under ``maxeig``, decides as the core does and then twice more with every threshold (the margin at or
-above which an eigenvalue counts, the least gain of lambda_min, the tie window) moved by +eps trace(M)
+above which an eigenvalue counts, the least gain of lambda_k, the tie window) moved by +eps trace(M)
 and by -eps trace(M), one rounding of M's scale. An offer where either re-decision picks another row
 (or none) is a flip. With ``margin=ROUNDING`` (the earlier rule's tolerance n eps trace(M) in the place
-of ``SWAP_MARGIN``) it measures the earlier rule the same way; no selection of the core keeps it.
+of ``SWAP_MARGIN``) it measures today's rule with that tolerance; no selection of the core keeps it.
 
 ``flip_counts`` runs a configuration in the pure loop (``orchestration.study.pure_loop``) with this
 stack in the SOTC core; ``cases`` are `paper` under every handling of the bound and every stored tuned
