@@ -29,7 +29,9 @@ cpdef void tridiagonalize(double[::1] M, int n, double[::1] d, double[::1] e, do
 cpdef int sturm_count(double[::1] d, double[::1] e, int n, double x)
 @cython.locals(lo=double, hi=double, r=double, i=int)
 cpdef (double, double) gershgorin(double[::1] d, double[::1] e, int n)
+@cython.locals(k=int, span=double)
+cpdef int halvings(double width, double resolution)
 @cython.locals(lo=double, hi=double, mid=double, it=int)
-cpdef double smallest_of_tridiagonal(double[::1] d, double[::1] e, int n, double resolution)
+cpdef double smallest_of_tridiagonal(double[::1] d, double[::1] e, int n, double resolution, int k=*)
 cpdef double smallest_eigenvalue(double[::1] M, int n, double[::1] d, double[::1] e, double[::1] A, double[::1] v,
-                                 double[::1] p)
+                                 double[::1] p, int k=*)

@@ -28,7 +28,7 @@ from array import array
 from typing import Sequence
 
 EPS = 2.220446049250313e-16  # the unit roundoff of float64, 2^-52
-MAX_HALVINGS = 200  # bisection stops when the interval stops shrinking, or after this many halvings
+MAX_HALVINGS = 200  # bisection never halves more often than this (a zero resolution: until the interval stops shrinking)
 
 
 def buffer(n: int) -> array:
@@ -188,24 +188,39 @@ def gershgorin(d: array, e: array, n: int) -> tuple[float, float]:
     return lo, hi
 
 
-def smallest_of_tridiagonal(d: array, e: array, n: int, resolution: float) -> float:
-    """lambda_min of the tridiagonal (d, e) by bisection, to within ``resolution`` (or one ulp)."""
+def halvings(width: float, resolution: float) -> int:
+    """The least k with width / 2^k <= resolution, at most ``MAX_HALVINGS``: how often a bisection must
+    halve an interval of ``width``. Counted by doubling ``resolution`` (exact in binary floating point), so
+    no logarithm of the C library decides it."""
+    k, span = 0, resolution
+    while span < width and k < MAX_HALVINGS:
+        span *= 2.0
+        k += 1
+    return k
+
+
+def smallest_of_tridiagonal(d: array, e: array, n: int, resolution: float, k: int = 1) -> float:
+    """The k-th smallest eigenvalue of the tridiagonal (d, e) (k = 1: lambda_min) by bisection, to within
+    ``resolution`` (or one ulp), in at most ``halvings`` of the Gershgorin interval plus two (a midpoint's
+    rounding can leave a half a little wider)."""
     lo, hi = gershgorin(d, e, n)
-    for it in range(MAX_HALVINGS):
+    for it in range(halvings(hi - lo, resolution) + 2):
         if hi - lo <= resolution:
             break
         mid = 0.5 * (lo + hi)
         if mid <= lo or mid >= hi:
             break
-        if sturm_count(d, e, n, mid) >= 1:
+        if sturm_count(d, e, n, mid) >= k:
             hi = mid
         else:
             lo = mid
     return 0.5 * (lo + hi)
 
 
-def smallest_eigenvalue(M: array, n: int, d: array, e: array, A: array, v: array, p: array) -> float:
-    """lambda_min of the symmetric M, to within eps trace(M) (the rounding level of its entries);
+def smallest_eigenvalue(M: array, n: int, d: array, e: array, A: array, v: array, p: array, k: int = 1) -> float:
+    """The k-th smallest eigenvalue of the symmetric M (k = 1: lambda_min), bisected to within
+    eps trace(M) (the rounding level of its entries, far below the CL stack's swap margin,
+    ``sotc_stack.SWAP_MARGIN``);
     d (n) and e (n - 1) receive M's tridiagonal form, for ``sturm_count``; A, v, p are scratch."""
     tridiagonalize(M, n, d, e, A, v, p)
-    return smallest_of_tridiagonal(d, e, n, EPS * abs(trace(M, n)))
+    return smallest_of_tridiagonal(d, e, n, EPS * abs(trace(M, n)), k)

@@ -22,10 +22,18 @@ Two readings of what is replayed (``replay``):
 
 Which samples are kept (``selection``):
 
-* ``maxeig`` (chosen): fill the P rows, then swap a new sample in only if that raises lambda_min(M)
-  by more than 1 % *and* by more than the rounding tolerance tol = n eps trace(M); a stack whose
-  numerical rank (eigenvalues above tol) is below n has lambda_min 0 and takes a swap that raises
-  its rank. Among swaps equal to within tol, the oldest row goes. Decisions never rest on rounding;
+* ``maxeig`` (chosen): fill the P rows, then swap a new sample in only for a gain well above what
+  rounding can produce, the margin SWAP_MARGIN trace(M) = 1e3 eps trace(M). Rounding moves M's entries by
+  a few eps trace(M) each, hence (Weyl's inequality) its eigenvalues by about n eps trace(M) (n = 10);
+  the margin is a hundred times that. Eigenvalues below the margin do not count: the numerical rank
+  counts the others, and a stack below full rank has lambda_min 0. A swap must raise one eigenvalue by
+  more than the margin: at full rank lambda_min(M), and by more than 1 % too; below full rank the
+  largest eigenvalue below the margin, which then clears it (the rank rises). A gain over the stack's
+  own eigenvalue, not a level to reach: trial eigenvalues pile up just under a level, and an eigenvalue
+  of M drifts across it with W (the ``current`` replay), so a level left decisions to rounding. Among
+  swaps equal to within the margin, the oldest row goes. Eigenvalues are bisected to eps trace(M)
+  (``fixed_linalg``), a thousandth of the margin; ``orchestration.study.swap_margin`` re-decides every
+  offer with the thresholds moved by eps trace(M) and counts the decisions that change;
 * ``fill`` keeps the first P records; ``fifo`` the newest P;
 * ``maxeig-raw``: the earlier rule, the largest computed lambda_min of the P trial stacks and a 1 %
   gain, with no tolerance (it decides on rounding noise while the stack is rank-deficient).
@@ -47,7 +55,7 @@ from fmu_controller.sotc_math import N_BASIS, CriticConstants, critic_row, norma
 SELECTIONS = ("maxeig", "fill", "fifo", "maxeig-raw")
 REPLAYS = ("current", "stored")
 MAXEIG_GAIN = 1.01  # a swap must raise lambda_min(M) by more than 1 % ...
-RANK_TOL = N_BASIS * EPS  # ... and by more than RANK_TOL trace(M), the rounding level of M's entries
+SWAP_MARGIN = 1e3 * EPS  # ... and by more than SWAP_MARGIN trace(M), a hundred times M's rounding level n eps trace(M)
 _WIDTHS = {"eta": N_BASIS, "z": 4, "dinv": 3, "fe": 2}
 INTERPRETED = __file__.endswith(".py")  # False in the compiled core (an extension module)
 _LOWER = np.tril(np.ones((N_BASIS, N_BASIS), dtype=bool))  # entries (a, c), c <= a, that cl_matrix sums
@@ -162,6 +170,8 @@ class CLStack:
     ``constants`` are the controller's own (``sotc_math.CriticConstants``): the ``current`` replay
     re-evaluates eta_i and r_i with them."""
 
+    margin = SWAP_MARGIN  # relative to trace(M); a class attribute, so that a study can measure another
+
     def __init__(self, P: int, selection: str, replay: str, constants: CriticConstants):
         self.P, self.selection, self.replay_form = P, selection, replay
         self.constants = constants
@@ -236,14 +246,15 @@ class CLStack:
         cl_rate(self.M, self.b, Wb, self._rate)
         return self._rate
 
-    def spectrum(self) -> tuple[float, int, float]:
-        """(lambda_min, numerical rank, tol) of the CL matrix of the last ``terms``; lambda_min is 0
-        below full rank (eigenvalues at or below tol = n eps trace(M) are rounding)."""
+    def spectrum(self, shift: float = 0.0) -> tuple[float, int, float]:
+        """(lambda_min, numerical rank, margin) of the CL matrix of the last ``terms``: margin =
+        ``margin`` trace(M), the rank counts the eigenvalues at or above margin + shift, and lambda_min is
+        0 below full rank. ``shift`` is 0 but where a study re-decides with moved thresholds (``_swap_row``)."""
         n = N_BASIS
-        tol = RANK_TOL * trace(self.M, n)
+        margin = self.margin * trace(self.M, n)
         lam = self._smallest(self.M)
-        rank = n - sturm_count(self._d, self._e, n, tol) if tol > 0.0 else 0
-        return (lam if rank == n else 0.0), rank, tol
+        rank = n - sturm_count(self._d, self._e, n, margin + shift) if margin > 0.0 else 0
+        return (lam if rank == n else 0.0), rank, margin
 
     def min_eig_at(self, W: list) -> float:
         """lambda_min of the CL matrix at the weights W (0 when empty or rank-deficient)."""
@@ -278,8 +289,8 @@ class CLStack:
         self._put(row, eta, rew, z, dinv, fe, t)
         return True
 
-    def _smallest(self, M) -> float:
-        return smallest_eigenvalue(M, N_BASIS, self._d, self._e, self._A, self._v, self._p)
+    def _smallest(self, M, k: int = 1) -> float:
+        return smallest_eigenvalue(M, N_BASIS, self._d, self._e, self._A, self._v, self._p, k)
 
     def _put(self, row: int, eta: list, rew: float, z: Sequence[float], dinv: Sequence[float],
              fe: Sequence[float], t: float) -> None:
@@ -290,59 +301,59 @@ class CLStack:
         self.rew[row], self.t[row] = float(rew), float(t)
         self.refresh()
 
-    def _swap_row(self, eta: list, spectrum: tuple[float, int, float]) -> int:
-        """The row a new sample eta replaces under ``maxeig``/``maxeig-raw``, or -1 (no swap). By
-        Weyl's inequality a swap raises lambda_min(M) by at most |eta|^2 / (1 + |eta|^2)^2, so small
-        samples are refused at once."""
+    def _swap_row(self, eta: list, spectrum: tuple[float, int, float], shift: float = 0.0) -> int:
+        """The row a new sample eta replaces under ``maxeig``/``maxeig-raw``, or -1 (no swap); ``spectrum``
+        as ``spectrum(shift)`` gives it. A swap must raise lambda_k, the k-th smallest eigenvalue of M
+        (k = 1 at full rank, else the largest of the n - rank below the margin), from max(lambda_k, 0) by
+        more than the least gain max(1 % of that, the margin); ``shift`` moves the gain, the rank's
+        threshold and the tie window alike (0 but in a study of the decisions). By Weyl's inequality a swap
+        raises lambda_k by at most |eta|^2 / (1 + |eta|^2)^2, so a sample not above the least gain is
+        refused at once."""
         c = self._c
         c[:] = as_buffer(eta)
         ee = dot(c, c, N_BASIS)
         c_sc = 1.0 / normalisation(ee)
-        lam, rank, tol = spectrum
+        lam, rank, margin = spectrum
         if self.selection == "maxeig-raw":
             lam = self._smallest(self.M)
             return -1 if ee * c_sc <= (MAXEIG_GAIN - 1.0) * lam else self._swap_raw(c_sc, lam)
-        if ee * c_sc <= (MAXEIG_GAIN - 1.0) * lam + tol:
+        k = max(1, N_BASIS - rank)
+        low = lam if rank == N_BASIS else max(self._smallest(self.M, k), 0.0)
+        gain = max((MAXEIG_GAIN - 1.0) * low, margin) + shift
+        if ee * c_sc <= gain:
             return -1
-        if rank == N_BASIS:
-            return self._swap_full(c_sc, MAXEIG_GAIN * lam + tol, tol)
-        return self._swap_deficient(c_sc, rank, tol)
+        return self._swap_raising(c_sc, k, low + gain, margin + shift)
 
-    def _swap_full(self, c_sc: float, thr: float, tol: float) -> int:
-        """Full rank: only trials with lambda_min > thr count. B = M + c c^T - thr I must be positive
-        definite (else no trial is), and then trial j is iff sc_j |L^-1 eta_j|^2 < 1 (B = L L^T)."""
-        N, B, L, y, c = N_BASIS, self._work, self._L, self._y, self._c
-        trial_matrix(self.M, 0.0, self.E, 0, c_sc, c, B)  # M + c c^T (row 0 taken with weight 0)
+    def _swap_raising(self, c_sc: float, k: int, thr: float, window: float) -> int:
+        """Of the trials whose k-th smallest eigenvalue exceeds thr, the largest to within ``window``, then
+        the oldest row. For k = 1 a necessary test first (``_may_pass``); the computed eigenvalue decides."""
+        B, found = self._work, []
+        if k == 1 and not self._may_pass(c_sc, thr):
+            return -1
+        for j in range(self.P):
+            if k > 1 or self._inside[j]:
+                trial_matrix(self.M, self.sc[j], self.E, j, c_sc, self._c, B)
+                lam = self._smallest(B, k)
+                if lam > thr:
+                    found.append((j, lam))
+        return self._oldest_best(found, window)
+
+    def _may_pass(self, c_sc: float, thr: float) -> bool:
+        """Whether any trial can have lambda_min > thr: B = M + c c^T - thr I must be positive definite,
+        and then trial j can only if sc_j |L^-1 eta_j|^2 < 1 (B = L L^T; marks them in ``_inside``)."""
+        N, B, L = N_BASIS, self._work, self._L
+        trial_matrix(self.M, 0.0, self.E, 0, c_sc, self._c, B)  # M + c c^T (row 0 taken with weight 0)
         for a in range(N):
             B[a * N + a] -= thr
-        if not cholesky(B, N, L) or not rows_within(L, self.E, self.sc, self.P, y, self._inside):
-            return -1
-        found = []
-        for j in range(self.P):
-            if self._inside[j]:
-                trial_matrix(self.M, self.sc[j], self.E, j, c_sc, c, B)
-                found.append((j, N, self._smallest(B)))
-        return self._oldest_best(found, tol)
+        return cholesky(B, N, L) and rows_within(L, self.E, self.sc, self.P, self._y, self._inside) > 0
 
-    def _swap_deficient(self, c_sc: float, rank: int, tol: float) -> int:
-        """Below full rank: a swap must raise the numerical rank; among those the largest lambda_min."""
-        N, B, found = N_BASIS, self._work, []
-        for j in range(self.P):
-            trial_matrix(self.M, self.sc[j], self.E, j, c_sc, self._c, B)
-            lam = self._smallest(B)
-            rank_j = N - sturm_count(self._d, self._e, N, tol)
-            if rank_j > rank:
-                found.append((j, rank_j, lam if rank_j == N else 0.0))
-        return self._oldest_best(found, tol)
-
-    def _oldest_best(self, found: list, tol: float) -> int:
-        """Of (row, rank, lambda_min) candidates, the highest rank, then the largest lambda_min to
-        within tol, then the oldest row (then the lowest index); -1 if there is none."""
+    def _oldest_best(self, found: list, window: float) -> int:
+        """Of (row, eigenvalue) candidates, the largest eigenvalue to within ``window``, then the oldest
+        row (then the lowest index); -1 if there is none."""
         if not found:
             return -1
-        top = max(rank for _, rank, _ in found)
-        best = max(lam for _, rank, lam in found if rank == top)
-        ties = [j for j, rank, lam in found if rank == top and lam >= best - tol]
+        best = max(lam for _, lam in found)
+        ties = [j for j, lam in found if lam >= best - window]
         return min(ties, key=lambda j: (self.t[j], j))
 
     def _swap_raw(self, c_sc: float, lam: float) -> int:

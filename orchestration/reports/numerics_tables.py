@@ -1,5 +1,5 @@
 """Generated tables of docs/paper-notes.md on numerics (the fixed-order, CPU-independent cores): the CL stack's swap rule against the
-earlier rule, where the bound (5) holds chi_vd^a (whose derivative the core then sets to 0), and the learned W."""
+earlier rule, whether its decisions rest on rounding, where the bound (5) holds chi_vd^a (whose derivative the core then sets to 0), and the learned W."""
 from __future__ import annotations
 
 from typing import Any
@@ -7,9 +7,11 @@ from typing import Any
 import numpy as np
 
 from fmu_controller.saturation import ACCEL, LIMIT_HANDLINGS, RADIAL
-from fmu_controller.sotc_stack import SELECTIONS
+from fmu_controller.fixed_linalg import EPS
+from fmu_controller.sotc_stack import SELECTIONS, SWAP_MARGIN
 from orchestration.markdown import stable, stable_pair, table
 from orchestration.reports import perturbed
+from orchestration.study import swap_margin
 from orchestration.study.comparison import handling_code
 from orchestration.study.sotc_study import setting_params, sotc_settings
 from orchestration.study.tuning import tuned_parameters
@@ -35,6 +37,24 @@ def cl_rule_table() -> str:
                          stable(s["min_eig"], _of("min_eig", ss), ".2g")])
     return table(["limit handling", "cl_selection", "MSE j1 / j2", "realised cost", "swaps in 100 s",
                   "lambda_min(M) at 100 s"], rows)
+
+
+def swap_flips_table() -> str:
+    """Every offer of a sample to the full CL stack re-decided with its thresholds moved by +-eps trace(M)
+    (``orchestration.study.swap_margin``), for `paper` under each handling, every stored tuned SOTC design
+    and the study's stress changes of radial `paper`, on the nominal 100 s `paper` loop: the offers, and the swaps and flips under the margin, under
+    a tenth of it and under the earlier tolerance n eps trace(M) (counts of the one nominal run each)."""
+    margins = (SWAP_MARGIN, SWAP_MARGIN / 10.0, swap_margin.ROUNDING)
+    rows = []
+    for label, code, params in swap_margin.cases() + swap_margin.stress_cases():
+        key = tuple(sorted(params.items()))
+        counts = [swap_margin.flip_counts(key, m) for m in margins]
+        rows.append([label, LIMIT_HANDLINGS[code], counts[0]["offers"],
+                     *(f"{c['swaps']} / {c['flips']}" for c in counts)])
+    names = ("margin", "a tenth of it", "the earlier tolerance")
+    return table(["design", "limit handling", "offers to the full stack",
+                  *(f"swaps / flips, {n} ({m / EPS:.0f} eps trace(M))" for n, m in zip(names, margins))],
+                 rows, "llrrrr")
 
 
 def _bounded(setting: str, overrides: dict[str, float]) -> list[str]:
