@@ -1,6 +1,6 @@
 # Declarations for the compiled cores (orchestration/fmu_build/compiled.py): C types for elementary.py, which
 # stays the one source of the algorithms and runs as it is wherever the cores are not compiled. ``math`` is
-# libc's here: sqrt (correctly rounded by IEEE 754, as Python's) and copysign (exact), no Python call.
+# libc's here: sqrt (correctly rounded by IEEE 754, as Python's), copysign and ldexp (exact), no Python call.
 cimport cython
 from libc cimport math
 
@@ -24,7 +24,7 @@ cdef int EXP_N, LOG_N, TANH_N, SINH_N, SIN_N, COS_N, ATAN_N, POW2_N
 @cython.locals(acc=double, i=int)
 cdef double _horner(double x, const double* coeffs, int n)
 cdef double _nearest(double v)
-@cython.locals(a=double, p=double, i=int)
+@cython.locals(e=int)
 cdef double _pow2(double k)
 cdef double _scale(double y, double k)
 @cython.locals(i=int)

@@ -104,14 +104,10 @@ def _nearest(v: float) -> float:
 
 
 def _pow2(k: float) -> float:
-    """2^k for an integer-valued k in [-1022, 1023], by exact products."""
-    a = abs(k)
-    p = 1.0
-    for i in range(POW2_N):
-        if a >= POW2_E[i]:
-            a -= POW2_E[i]
-            p *= POW2_UP[i]
-    return p if k >= 0.0 else 1.0 / p
+    """2^k for an integer-valued k in [-1022, 1023]: ldexp(1, k), exact (a power of two is representable and
+    ldexp only sets the exponent; libm's only other function here, beside sqrt and copysign)."""
+    e = int(k)
+    return math.ldexp(1.0, e)
 
 
 def _scale(y: float, k: float) -> float:

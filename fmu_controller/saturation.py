@@ -60,11 +60,20 @@ def in_disc(v1: float, v2: float, bound: float, h: float | None = None) -> bool:
     C's, numpy's and Python's included, is <= bound as well. A test of a rounded ``hypot`` alone let
     numpy's ``hypot`` report 4.000000000000001 for a torque limited to 4.
     ``h``: ``hypot(v1, v2)`` when the caller has it already."""
-    h = hypot(v1, v2) if h is None else h
+    return _in_disc(v1, v2, bound, hypot(v1, v2) if h is None else h)
+
+
+def _in_disc(v1: float, v2: float, bound: float, h: float) -> bool:
+    """``in_disc`` with h = hypot(v1, v2) given (C types when compiled: the common case builds no object)."""
     if h <= bound * CLEARLY_INSIDE:  # every rounded norm is within a few ulps of the exact one
         return True
     if not (h <= bound and math.sqrt(v1 * v1 + v2 * v2) <= bound):
         return False
+    return _exactly_in_disc(v1, v2, bound)
+
+
+def _exactly_in_disc(v1: float, v2: float, bound: float) -> bool:
+    """v1^2 + v2^2 <= bound^2 in integer arithmetic on the floats' exact values."""
     (n1, d1), (n2, d2), (nb, db) = v1.as_integer_ratio(), v2.as_integer_ratio(), bound.as_integer_ratio()
     d = max(d1, d2, db)  # powers of two: each divides the largest
     a, b, c = n1 * (d // d1), n2 * (d // d2), nb * (d // db)
@@ -78,12 +87,12 @@ def shrink_into_disc(v1: float, v2: float, bound: float) -> tuple[float, float]:
     second candidate fits (the k of one ulp, as a one-ulp walk would give); where one-ulp steps cannot
     move the product (subnormal entries), the doubling step still ends within ``SHRINK_STEPS`` tries,
     at k = 0 at the latest (bound >= 0)."""
-    if in_disc(v1, v2, bound):
+    if _in_disc(v1, v2, bound, hypot(v1, v2)):
         return v1, v2
     k = 0.0
     for i in range(SHRINK_STEPS):
         k = 1.0 - math.ldexp(1.0, i - 53)
-        if in_disc(v1 * k, v2 * k, bound):
+        if _in_disc(v1 * k, v2 * k, bound, hypot(v1 * k, v2 * k)):
             break
     return v1 * k, v2 * k
 
@@ -93,7 +102,7 @@ def saturate_norm(v1: float, v2: float, bound: float) -> tuple[float, float, flo
 
     Returns (v1', v2', norm of the input, saturated); the result satisfies ``in_disc(v1', v2', bound)``."""
     norm = hypot(v1, v2)
-    if in_disc(v1, v2, bound, norm):
+    if _in_disc(v1, v2, bound, norm):
         return v1, v2, norm, False
     k = bound / norm if norm > bound else 1.0  # (at norm == bound a rounded norm can still exceed it)
     s1, s2 = shrink_into_disc(v1 * k, v2 * k, bound)
@@ -129,7 +138,7 @@ def accel_projection(
     to their design. In D's eigenbasis the KKT system is diagonal; l is found by bisection
     (||tau(l)|| decreases with l), at most ``PROJECTION_BISECTIONS`` steps."""
     n = hypot(t1, t2)
-    if in_disc(t1, t2, bound, n):
+    if _in_disc(t1, t2, bound, n):
         return t1, t2, False
     half_tr, half_diff = 0.5 * (d11 + d22), 0.5 * (d11 - d22)
     rad = hypot(half_diff, d12)
@@ -140,7 +149,8 @@ def accel_projection(
     aa, ab = 1.0 / (da * da), 1.0 / (db * db)  # eigenvalues of D^-2
     hi = max(aa, ab) * n / bound if bound > 0.0 else math.inf  # ||tau(hi)|| <= bound
     if not math.isfinite(hi):  # a bound too small to represent the multiplier: the disc is a point
-        return (*shrink_into_disc(t1 * 0.0, t2 * 0.0, bound), True)
+        s1, s2 = shrink_into_disc(t1 * 0.0, t2 * 0.0, bound)
+        return s1, s2, True
     lo = 0.0
     for _ in range(PROJECTION_BISECTIONS):
         mid = 0.5 * (lo + hi)
@@ -152,7 +162,8 @@ def accel_projection(
         if hi - lo <= 1e-15 * hi:
             break
     fa, fb = aa / (aa + hi) * qa, ab / (ab + hi) * qb
-    return (*shrink_into_disc(c * fa - s * fb, s * fa + c * fb, bound), True)
+    s1, s2 = shrink_into_disc(c * fa - s * fb, s * fa + c * fb, bound)
+    return s1, s2, True
 
 
 def limit_torque(code: int, t1: float, t2: float, bound: float,

@@ -83,9 +83,10 @@ class ControllerSlave(DescribedSlave):
         inputs or of the learning state; NaN for the input-dependent ones while an input is bad."""
         if self._stale and self._initialized:
             self._evaluate()
+        outputs = self._core.outputs  # a list, or the float64 buffer a kernel rewrites (sotc_kernel)
         if self._invalid_inputs is None:
-            return self._core.outputs
-        return [math.nan if dependent else v for v, dependent in zip(self._core.outputs, self._input_dependent)]
+            return outputs if type(outputs) is list else outputs.tolist()  # the FMI layer takes lists only
+        return [math.nan if dependent else v for v, dependent in zip(outputs, self._input_dependent)]
 
     def _inputs(self) -> tuple[list[float], list[float]]:
         return [getattr(self, n) for n in MEASUREMENT_PORTS], [getattr(self, n) for n in REFERENCE_PORTS]

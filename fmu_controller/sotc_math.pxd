@@ -22,8 +22,9 @@ cpdef double omega_of_arg(object x, double s, object r)
 @cython.locals(omega=double)
 cpdef (double, double) reward(CriticConstants K, double zp1, double zp2, double zv1, double zv2, double x1,
                               double x2, double x3, double x4)
-@cython.locals(a=double, b=double, c=double, d=double)
+cpdef void basis_into(double[::1] out, double a, double b, double c, double d)
 cpdef list basis(object z)
+cpdef (double, double) hessian_phi_times(double[::1] W, double v1, double v2, double v3, double v4)
 cpdef void directional_into(double[::1] out, int o, double a, double b, double c, double d, double p, double q,
                             double u, double w)
 cpdef (double, double, double, double) gradient(double a, double b, double c, double d, double[::1] W)

@@ -114,10 +114,18 @@ def omega_integrand(u: float, s: float, r: float) -> float:
 # --- critic basis of section 4, eq. (27) ----------------------------------------------------------
 
 
+def basis_into(out, a: float, b: float, c: float, d: float) -> None:
+    """out[0:10] = zeta(z) at z = (a, b, c, d): the 10 quadratic terms of section 4 (Kronecker-product
+    basis, zeta(0) = 0); ``out`` is a float64 buffer."""
+    out[0], out[1], out[2], out[3], out[4] = a * a, a * b, a * c, a * d, b * b
+    out[5], out[6], out[7], out[8], out[9] = b * c, b * d, c * c, c * d, d * d
+
+
 def basis(z: Sequence[float]) -> list[float]:
-    """zeta(z): the 10 quadratic terms of section 4 (Kronecker-product basis, zeta(0) = 0)."""
-    a, b, c, d = z
-    return [a * a, a * b, a * c, a * d, b * b, b * c, b * d, c * c, c * d, d * d]
+    """zeta(z) of ``basis_into`` on a sequence, as a list."""
+    out = buffer(N_BASIS)
+    basis_into(out, z[0], z[1], z[2], z[3])
+    return out.tolist()
 
 
 def basis_jacobian(z: Sequence[float]) -> np.ndarray:
@@ -251,6 +259,12 @@ def value_hessian(W: Sequence[float]) -> tuple[tuple[float, ...], ...]:
         (w3, w6, 2.0 * w8, w9),
         (w4, w7, w9, 2.0 * w10),
     )
+
+
+def hessian_phi_times(W: array, v1: float, v2: float, v3: float, v4: float) -> tuple[float, float]:
+    """The z_phi rows of value_hessian(W) v, summed left to right (the chain rule of chi_vd* in ``sotc``)."""
+    return (2.0 * W[0] * v1 + W[1] * v2 + W[2] * v3 + W[3] * v4,
+            W[1] * v1 + 2.0 * W[4] * v2 + W[5] * v3 + W[6] * v4)
 
 
 def weights_to_matrix(W: Sequence[float]) -> np.ndarray:

@@ -34,7 +34,7 @@ from pathlib import Path
 SWITCH = "SOTC_COSIM_COMPILE"  # "0": never compile the cores; unset or "1": compile them where possible
 # the hot path of a step (the elementary functions, first: the others cimport them; controller
 # evaluate/learn, the plant's RK4, the reference and its inverse kinematics, the limiters)
-HOT = ("fmu_controller/elementary.py", "fmu_controller/sotc.py", "fmu_controller/sotc_math.py",
+HOT = ("fmu_controller/elementary.py", "fmu_controller/sotc.py", "fmu_controller/sotc_kernel.py", "fmu_controller/sotc_math.py",
        "fmu_controller/sotc_zv.py", "fmu_controller/sotc_stack.py", "fmu_controller/saturation.py", "fmu_controller/fixed_linalg.py",
        "fmu_plant/dynamics.py", "fmu_plant/trajectory.py", "fmu_plant/kinematics.py")
 # names stay plain bytes (renamed); no fused multiply-add, so the compiled cores round as the .py does

@@ -1,13 +1,15 @@
 """The numpy path the interpreted core takes (``sotc_stack.cl_matrix_numpy``) gives the bits of the
 loops ``cl_matrix`` runs (C in the compiled core, Python otherwise), on hypothesis-drawn rows (including
-zeros, signed zeros, tiny and huge entries). Runs in either build: CI's installed package is compiled."""
+zeros, signed zeros, tiny and huge entries); likewise ``math.fsum``, which the interpreted SOTC kernel calls,
+and the exact-sum loop of the compiled one. Runs in either build: CI's installed package is compiled."""
+import math
 from array import array
 
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from fmu_controller import sotc_stack
+from fmu_controller import sotc_kernel, sotc_stack
 from fmu_controller.fixed_linalg import buffer
 
 N = 10
@@ -45,3 +47,25 @@ def loops(*args) -> None:
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(sotc_stack, "INTERPRETED", False)
         sotc_stack.cl_matrix(*args)
+
+
+summands = st.one_of(st.floats(allow_nan=True, allow_infinity=True),
+                     st.sampled_from([0.0, -0.0, 1e-300, 5e-324, 1.0, 1e16, -1e16, 1.7e308, -1.7e308]))
+
+
+def fsum_outcome(fn, x: array):
+    """fn's sum of x as bits, or the type of what it raised."""
+    try:
+        return array("d", [fn(x)]).tobytes()
+    except (OverflowError, ValueError) as exc:
+        return type(exc)
+
+
+@settings(max_examples=300, deadline=None)
+@given(values=st.lists(summands, min_size=0, max_size=10))
+def test_exact_sum_loop_gives_the_bits_of_math_fsum(values):
+    """J_hat's sum in the compiled SOTC kernel (Shewchuk's partials over a C array) and ``math.fsum``, which
+    the interpreted kernel calls: the same bits, inf and nan alike, the same error on an overflow or -inf + inf."""
+    x, n = array("d", values), len(values)
+    loop = fsum_outcome(lambda v: sotc_kernel.exact_sum_loop(v, n, buffer(max(n, 1))), x)
+    assert loop == fsum_outcome(math.fsum, x)

@@ -102,7 +102,7 @@ def test_evaluate_does_not_change_the_learning_state():
     ctrl.evaluate(0.6, y, r)
     first = list(ctrl.outputs)
     ctrl.evaluate(0.6, y, r)
-    assert ctrl.outputs == first
+    assert list(ctrl.outputs) == first  # outputs: one buffer, rewritten by each evaluate
     assert (json.dumps(ctrl.get_state()["stack"]), list(ctrl.W)) == before
 
 
