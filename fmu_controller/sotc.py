@@ -214,12 +214,21 @@ class SotcCore(ControllerCore):
         self.bound5 = self.rho - self.sigma * TANH1  # eq. (5)
         self.constants = CriticConstants(self.s, self.r, self.theta, self.lam1, self.lam2, self.backstepping,
                                          self.eta_coupled)
-        self.stack = CLStack(self.P, forms["cl_selection"], forms["cl_replay"], self.constants)
-        self._kernel = SotcKernel(self, 2 + len(_EXTRA))
+        stack = CLStack(self.P, forms["cl_selection"], forms["cl_replay"], self.constants)
+        self._kernel = SotcKernel(self, stack, 2 + len(_EXTRA))
         self.outputs = self._kernel.outputs  # one float64 buffer, rewritten by every evaluate
         self.reset()
 
     # --- learning state ----------------------------------------------------------------------------
+
+    @property
+    def stack(self) -> CLStack:
+        """The CL stack the kernel offers every sample to (replacing it here replaces it there)."""
+        return self._kernel.stack
+
+    @stack.setter
+    def stack(self, value: CLStack) -> None:
+        self._kernel.stack = value
 
     @property
     def W(self) -> array:

@@ -91,8 +91,8 @@ class SotcKernel:
     """What one SOTC sample reads and writes, typed (``sotc_kernel.pxd``); built from a ``SotcCore``'s
     settled parameters and sharing its critic constants, arm model and CL stack."""
 
-    def __init__(self, core: Any, n_outputs: int) -> None:
-        self.K, self.model, self.stack = core.constants, core.model, core.stack
+    def __init__(self, core: Any, stack: Any, n_outputs: int) -> None:
+        self.K, self.model, self.stack = core.constants, core.model, stack
         self.lam11, self.lam12 = core.lam1
         self.lam21, self.lam22 = core.lam2
         self.r1, self.r2 = core.r[0], core.r[1]
