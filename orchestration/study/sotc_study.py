@@ -25,7 +25,7 @@ import numpy as np
 import scipy.linalg
 
 from fmu_controller.sotc import SotcCore
-from fmu_controller.sotc_math import matrix_to_weights, weights_to_matrix
+from fmu_controller.sotc_math import N_BASIS, matrix_to_weights, weights_to_matrix
 from fmu_plant.dynamics import STEP_SIZE, TORQUE_LIMIT, ArmParameters, inertia_matrix
 from fmu_plant.paper_setting import INITIAL_STATE
 from orchestration.run.metrics import weight_total_variation
@@ -208,7 +208,8 @@ def cmd_euler(args: argparse.Namespace) -> None:
                 t = k * STEP_SIZE
                 ctrl.evaluate(t, state, traj.sample(t)[:6])
                 pend = ctrl._pending
-                G = np.outer(pend["xi"], pend["eta"]) + (pend["cl_M"] if pend["cl_M"] is not None else 0.0)
+                M = np.array(ctrl.stack.M).reshape(N_BASIS, N_BASIS) if pend["cl"] else 0.0  # the CL sum's M W + b
+                G = np.outer(pend["xi"], pend["eta"]) + M
                 lam = STEP_SIZE * ctrl.alpha1 * np.linalg.eigvalsh(0.5 * (G + G.T))[-1]
                 if lam > worst:
                     worst, t_worst = lam, t
