@@ -14,7 +14,7 @@ from fmu_controller.saturation import LIMIT_HANDLINGS
 from orchestration.markdown import number, table
 from orchestration.study.fair import MEASURES, SETS, measure, stored, tuned_label
 from orchestration.study.statistics import Interval, PairedVerdict, geometric_interval, level, paired
-from orchestration.study.tuning import CONTROLLERS, CONVERGED, HANDLINGS, last_half_improvement
+from orchestration.study.tuning import CONTROLLERS, CONVERGED, HANDLINGS, last_half_improvement, still_improving
 from orchestration.study.tuning import stored as stored_tuning
 
 # The tuning criterion is the MSE on the training points (orchestration.study.tuning): a verdict on another
@@ -56,7 +56,7 @@ def tuning_summary() -> str:
     data = stored_tuning()
     worst = max(_searches(), key=lambda s: last_half_improvement(s[3]["criterion"]))
     over = [f"{LABELS[f]} {h} seed {s} ({100 * last_half_improvement(r['criterion']):.1f} %)" for f, h, s, r in _searches()
-            if last_half_improvement(r["criterion"]) >= CONVERGED]
+            if still_improving(r["criterion"])]
     searches = sum(1 for _ in _searches())
     hours = data["trial_seconds"] / 3600
     rule = (f"best-so-far improves by less than {100 * CONVERGED:g} % over the last half of the trials")

@@ -151,11 +151,16 @@ def last_half_improvement(values: list[float | None]) -> float:
     return 1.0 if math.isinf(half) else (half - end) / half
 
 
+def still_improving(values: list[float | None]) -> bool:
+    """Whether a search's best-so-far improves by ``CONVERGED`` or more over the last half of its trials."""
+    return last_half_improvement(values) >= CONVERGED
+
+
 def unconverged(data: dict[str, Any]) -> list[str]:
     """The searches of a store ("<controller> <handling> seed <seed>") whose best-so-far still improves by
     ``CONVERGED`` or more over the last half of its trials."""
     return [f"{fmu} {h} seed {s}" for fmu, c in data["controllers"].items() for h, per in c["handlings"].items()
-            for s, r in per["seeds"].items() if last_half_improvement(r["criterion"]) >= CONVERGED]
+            for s, r in per["seeds"].items() if still_improving(r["criterion"])]
 
 
 # --- the stored search --------------------------------------------------------------------------------
