@@ -312,6 +312,7 @@ BLOCKS: dict[str, Block] = {
     "integrator": Block("docs/integration.md", integrator_table, False),
     "results": Block("docs/results.md", results_table, True),
     "results-summary": Block("README.md", results_summary, True),
+    "readme-verdict": Block("README.md", lambda: fair_tables.headline(ROOT), False),
     "results-verdict": Block("docs/results.md", results_verdict, True),
     "handlings": Block("docs/baselines.md", handlings_table, True),
     "tuning": Block("docs/baselines.md", fair_tables.tuning_table, False),

@@ -14,7 +14,7 @@ from fmu_controller.saturation import LIMIT_HANDLINGS
 from orchestration.markdown import number, table
 from orchestration.study.fair import MEASURES, SETS, measure, stored, tuned_label
 from orchestration.study.statistics import Interval, PairedVerdict, geometric_interval, level, paired
-from orchestration.study.tuning import CONTROLLERS, CONVERGED, HANDLINGS, last_half_improvement, still_improving
+from orchestration.study.tuning import CONTROLLERS, CONVERGED, HANDLINGS, last_half_improvement, still_improving, unconverged
 from orchestration.study.tuning import stored as stored_tuning
 
 # The tuning criterion is the MSE on the training points (orchestration.study.tuning): a verdict on another
@@ -158,8 +158,9 @@ def readme_family(seeds: list) -> int:
     return len(SETS) * (len(seeds) * len(BASELINES) * len(MEASURES) + 1 + len(seeds))
 
 
-def verdict(root: Path) -> str:
-    """The verdict's sentences (docs/robustness.md): the tuned SOTC against each tuned baseline, and what learning adds."""
+def _verdicts(root: Path) -> tuple[dict, int, dict]:
+    """The family's verdicts, each per tuning seed: {(set, baseline, measure): {seed: PairedVerdict}} for the
+    tuned SOTC against each tuned baseline, and {set: (nominal, {seed: ...})} for learning on against off."""
     data = stored(root)
     seeds = data["seeds"]
     m = readme_family(seeds)
@@ -167,24 +168,56 @@ def verdict(root: Path) -> str:
     def v(a, b, which, name):
         return paired(measure(data, VERDICT_HANDLING, a, which, name), measure(data, VERDICT_HANDLING, b, which, name), m)
 
+    against = {(which, f, name): {s: v(tuned_label(SOTC, s), tuned_label(f, s), which, name) for s in seeds}
+               for which in SETS for f in BASELINES for name in MEASURES}
+    sotc = LABELS[SOTC]
+    learning = {which: (v(f"{sotc} nominal", f"{sotc} nominal, learning off", which, "tail"),
+                        {s: v(tuned_label(SOTC, s), f"{tuned_label(SOTC, s)}, learning off", which, "tail") for s in seeds})
+                for which in SETS}
+    return against, m, learning
+
+
+def verdict(root: Path) -> str:
+    """The verdict's sentences (docs/robustness.md): the tuned SOTC against each tuned baseline, and what learning adds."""
+    data = stored(root)
+    against, m, learning = _verdicts(root)
     lines = [f"Family: the {m} verdicts below, {_family_text(m)}; a verdict holds only where every tuning seed "
              "gives it, and is marked marginal where a corrected bound lies within 1 % of 1. The tuning criterion "
              "is the MSE; the tail verdicts judge what no search was tuned for."]
     for which in SETS:
-        parts = []
-        for f in BASELINES:
-            said = [_across({s: v(tuned_label(SOTC, s), tuned_label(f, s), which, name) for s in seeds},
-                            NOT_TUNED_FOR.get(name, name)) for name in MEASURES]
-            parts.append(f"against {LABELS[f]} tuned: " + ", ".join(said))
+        parts = [f"against {LABELS[f]} tuned: " + ", ".join(_across(against[which, f, name], NOT_TUNED_FOR.get(name, name))
+                                                            for name in MEASURES) for f in BASELINES]
         lines.append(f"On the {which} set ({data['n_points']} points never used for tuning, {data['stop_time']:g} s, "
                      f"all under {VERDICT_HANDLING}), the tuned SOTC (A), each seed against the same seed of B, is "
                      + "; ".join(parts) + ".")
-    sotc = LABELS[SOTC]
     for which in SETS:
-        nominal = v(f"{sotc} nominal", f"{sotc} nominal, learning off", which, "tail")
-        tuned = _across({s: v(tuned_label(SOTC, s), f"{tuned_label(SOTC, s)}, learning off", which, "tail")
-                         for s in seeds}, "at the tuned designs")
+        nominal, tuned = learning[which]
         lines.append(f"What the critic's learning adds on the {which} set (post-transient error, not tuned for; "
                      f"learning on (A) against off): at the nominal design {nominal.said} (A / B {_ratio(nominal)}); "
-                     f"{tuned}.")
+                     f"{_across(tuned, 'at the tuned designs')}.")
     return "\n".join(f"- {line}" for line in lines)
+
+
+def headline(root: Path) -> str:
+    """README: only what every tuning seed gives, clear of the marginal band, on the criterion the tuning judged
+    (the MSE): the tuned SOTC better or worse than a tuned baseline. Everything else is in docs/robustness.md."""
+    data = stored(root)
+    against, m, _ = _verdicts(root)
+    held = []
+    for (which, f, name), per in against.items():
+        said = {v.verdict for v in per.values()}
+        if name in NOT_TUNED_FOR or len(said) > 1 or said == {"not distinguishable"} or any(v.marginal for v in per.values()):
+            continue
+        ratios = [v.ratio.value for v in per.values()]
+        held.append(f"{said.pop()} than {LABELS[f]} on the {which} set ({name}, A / B {number(min(ratios), '.3g')} "
+                    f"to {number(max(ratios), '.3g')} over the seeds)")
+    tuning = stored_tuning()
+    converged = "every search converged by the stated rule" if not unconverged(tuning) else "NOT every search converged"
+    lines = [f"Tuned for the MSE by one protocol (seeds {', '.join(map(str, data['seeds']))}, {tuning['budget']} trials "
+             f"per search, {converged}),",
+             f"judged under {VERDICT_HANDLING} on {data['n_points']} points per set that no search saw, {m} paired "
+             "verdicts corrected together. What every seed gives:", ""]
+    lines += [f"- the tuned SOTC is {h}" for h in held] or [
+        "- no MSE verdict of the tuned SOTC against a tuned baseline (each depends on the seed or is marginal)"]
+    return "\n".join(lines + ["", "Every other comparison depends on the tuning seed, is marginal or judges what no search "
+                               "was tuned for: [docs/robustness.md](docs/robustness.md#the-verdict)."])

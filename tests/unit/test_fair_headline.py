@@ -1,0 +1,49 @@
+"""The README's verdict line states only what every tuning seed gives on the tuned-for measure, clear of
+the marginal band; everything else is left to docs/robustness.md."""
+from __future__ import annotations
+
+import pytest
+
+from orchestration.reports import fair_tables
+from orchestration.study.statistics import Interval, PairedVerdict
+
+
+def _v(verdict: str, value: float, low: float, high: float) -> PairedVerdict:
+    return PairedVerdict(Interval(value, low, high, 16, 0), verdict, 0, 0, 8)
+
+
+BETTER = _v("better", 0.8, 0.7, 0.9)
+WORSE = _v("worse", 1.3, 1.1, 1.5)
+MARGINAL_WORSE = _v("worse", 1.2, 1.005, 1.4)
+NEITHER = _v("not distinguishable", 1.0, 0.9, 1.1)
+
+
+@pytest.fixture
+def said(monkeypatch):
+    def headline(per_pair: dict) -> str:
+        against = {("initial states", f, name): per_pair.get((f, name), {0: NEITHER, 1: NEITHER})
+                   for f in fair_tables.BASELINES for name in ("mse", "tail")}
+        monkeypatch.setattr(fair_tables, "_verdicts", lambda root: (against, 44, {}))
+        monkeypatch.setattr(fair_tables, "stored", lambda root: {"seeds": [0, 1], "n_points": 16})
+        monkeypatch.setattr(fair_tables, "stored_tuning", lambda: {"budget": 256})
+        monkeypatch.setattr(fair_tables, "unconverged", lambda data: [])
+        return fair_tables.headline(None)
+    return headline
+
+
+def test_a_verdict_every_seed_gives_is_stated(said):
+    text = said({("CtController", "mse"): {0: WORSE, 1: _v("worse", 1.1, 1.05, 1.2)}})
+    assert "the tuned SOTC is worse than CT on the initial states set (mse, A / B 1.1 to 1.3 over the seeds)" in text
+    assert "every search converged" in text
+
+
+@pytest.mark.parametrize("per_seed", [{0: BETTER, 1: NEITHER}, {0: WORSE, 1: MARGINAL_WORSE}, {0: NEITHER, 1: NEITHER}],
+                         ids=["depends on the seed", "marginal for one seed", "not distinguishable"])
+def test_what_not_every_seed_gives_clearly_is_not_stated(said, per_seed):
+    text = said({("CtController", "mse"): per_seed})
+    assert "the tuned SOTC is" not in text and "no MSE verdict" in text
+
+
+def test_the_tail_is_never_a_headline(said):
+    text = said({("LqrController", "tail"): {0: WORSE, 1: WORSE}})
+    assert "tail" not in text.split("Every other")[0] and "no MSE verdict" in text
