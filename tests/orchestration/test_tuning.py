@@ -1,5 +1,6 @@
 """The tuning protocol and its Optuna journal (orchestration.study.tuning, .optimize), in process; the
 command itself, resumed after Ctrl-C, is tests/shipped/test_shipped_tune.py."""
+import functools
 import math
 
 import optuna
@@ -62,3 +63,26 @@ def test_a_search_resumed_from_its_journal_gives_the_trials_of_one_run(tmp_path)
     assert optimize.run_search(cut, fmu, handling, seed, 2) == 2
     assert optimize.run_search(cut, fmu, handling, seed, 3) == 1  # resumed: one more trial
     assert _trials(cut, fmu, handling, seed) == _trials(once, fmu, handling, seed)
+
+
+@functools.lru_cache(maxsize=None)
+def _first_number(fmu: str, handling: int) -> float:
+    """What the first trial (the nominal design, the same in every seed's search) reports after its first point."""
+    return next(tuning.running_criterion(fmu, tuning.parameters(fmu, tuning.initial_design(fmu, 0)[0], handling)))
+
+
+@pytest.mark.parametrize("seed", tuning.SEEDS)
+@pytest.mark.parametrize("handling", tuning.HANDLINGS)
+@pytest.mark.parametrize("fmu", tuning.CONTROLLERS)
+def test_every_search_of_the_protocol_resumes_from_its_journal(fmu, handling, seed, tmp_path):
+    """Each of the searches `sotc-cosim tune` runs by default (every controller, handling and seed): its
+    journal, holding the first trial as a run reports it, is taken up again, not refused; the first number
+    goes through Optuna's journal (JSON) and must come back as the same double."""
+    journal = tmp_path / "t.journal"
+    study = optimize._open(journal, fmu, handling, seed)
+    design = tuning.initial_design(fmu, seed)[0]
+    dist = {n: optuna.distributions.FloatDistribution(lo, hi, log=True) for n, (lo, hi, _) in tuning.SEARCH_SPACES[fmu].items()}
+    study.add_trial(optuna.trial.create_trial(params=design, distributions=dist, value=1.0,
+                                              intermediate_values={0: _first_number(fmu, handling)}))
+    assert optimize.run_search(journal, fmu, handling, seed, 1) == 0  # resumed: nothing to run, nothing refused
+    assert _trials(journal, fmu, handling, seed)[0][1] == {0: _first_number(fmu, handling)}
