@@ -40,6 +40,7 @@ from rerun.encodings import Vec2DBatch
 
 from orchestration.outputs import OutputError, PathLock
 from orchestration.recording.rrd_file import RecordingFile
+from orchestration.recording.writer_process import BLOCK_SIZE
 from orchestration.recording.blueprint import (
     VIEW_DESCRIPTIONS,
     run_blueprint,
@@ -47,9 +48,6 @@ from orchestration.recording.blueprint import (
 from orchestration.run.master import RunResult
 from orchestration.run.scenario import Scenario
 
-# Samples per block handed over by the master (and flushed to the file): chosen by
-# ``sotc-cosim bench recording``, see README "Recordings".
-BLOCK_SIZE = 1000
 COMPARE_BLOCK = 10_000  # samples per send_columns when a finished run is written at once
 
 JOINT_COLORS = ((31, 119, 180), (255, 127, 14), (120, 120, 120))  # joint 1, joint 2, norm
@@ -57,10 +55,6 @@ ACTUAL, DESIRED, LIMIT = (220, 60, 40), (40, 110, 220), (150, 150, 150)
 DESIRED_DRAW_ORDER = 40.0  # above the runs' paths and arms (Rerun's default for 2D lines is 20)
 PALETTE = ((31, 119, 180), (255, 127, 14), (44, 160, 44), (214, 39, 40), (148, 103, 189),
            (140, 86, 75), (227, 119, 194), (127, 127, 127), (188, 189, 34), (23, 190, 207))
-
-
-def default_recording_path(scenario_name: str) -> Path:
-    return Path("recordings") / f"{scenario_name.replace('/', '_')}.rrd"
 
 
 def step_nanos(step_size: float) -> int:
