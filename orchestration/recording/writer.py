@@ -31,7 +31,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterable, Sequence
+from typing import TYPE_CHECKING, Iterable, Sequence
 
 import numpy as np
 import pyarrow as pa
@@ -45,8 +45,10 @@ from orchestration.recording.blueprint import (
     VIEW_DESCRIPTIONS,
     run_blueprint,
 )
-from orchestration.run.master import RunResult
 from orchestration.run.scenario import Scenario
+
+if TYPE_CHECKING:  # not imported: the master brings fmpy, which the writer process has no use for
+    from orchestration.run.master import RunResult
 
 COMPARE_BLOCK = 10_000  # samples per send_columns when a finished run is written at once
 

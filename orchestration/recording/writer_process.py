@@ -18,12 +18,14 @@ naming how it ended, and its temporary file is removed; it never leaves the pare
 """
 from __future__ import annotations
 
+import dataclasses
 import errno
 import os
 import signal
 import sys
 from multiprocessing.connection import Pipe
 from pathlib import Path
+from types import SimpleNamespace
 
 from orchestration.outputs import OutputError, PathLock, temporary_path
 from orchestration.run.interrupt import SIGNALS
@@ -138,6 +140,14 @@ class WriterProcess:
             self.ended = "had ended"
 
 
+def _plain(result) -> SimpleNamespace:
+    """A ``RunResult`` and its log records as plain namespaces: unpickling the master's classes would
+    import the master, and fmpy with it, in the writer process."""
+    values = {f.name: getattr(result, f.name) for f in dataclasses.fields(result)}
+    values["logs"] = [SimpleNamespace(**vars(r)) for r in result.logs]
+    return SimpleNamespace(**values, samples=result.samples)
+
+
 class ChildRecorder:
     """``RunRecorder``'s interface (a ``RunObserver`` and context manager), written by ``writer``."""
 
@@ -166,7 +176,7 @@ class ChildRecorder:
 
     def finish(self, result) -> None:
         if self.output_error is None:  # after a failed write, or the writer's end: nothing more to write
-            self._call("finish", result)
+            self._call("finish", _plain(result))
 
     def __enter__(self) -> "ChildRecorder":
         self.lock = PathLock(self.path, "recording").acquire()
