@@ -73,7 +73,7 @@ def run_each(scenarios, paths, recording_for=None, keep_samples: bool = True, re
         if target is None:
             result = run(scenario, paths, observer=observers or None, keep_samples=keep_samples)
         else:
-            from orchestration.recording.writer_process import BLOCK_SIZE
+            from orchestration.recording import BLOCK_SIZE
 
             # a thinned recording gets proportionally longer blocks: chunks of the usual size, and
             # fewer of them (the recording stream's bookkeeping grows with their number)
@@ -126,7 +126,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 
 def _run_and_report(args: argparse.Namespace, writer) -> int:
-    from orchestration.recording.writer_process import default_recording_path
+    from orchestration.recording import default_recording_path
     from orchestration.run.summary import format_table, write_summary
 
     def check(scenarios) -> None:

@@ -40,7 +40,7 @@ from rerun.encodings import Vec2DBatch
 
 from orchestration.outputs import OutputError, PathLock
 from orchestration.recording.rrd_file import RecordingFile
-from orchestration.recording.writer_process import BLOCK_SIZE
+from orchestration.recording import BLOCK_SIZE
 from orchestration.recording.blueprint import (
     VIEW_DESCRIPTIONS,
     run_blueprint,

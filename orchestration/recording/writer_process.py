@@ -30,15 +30,6 @@ from types import SimpleNamespace
 from orchestration.outputs import OutputError, PathLock, temporary_path
 from orchestration.run.interrupt import SIGNALS
 
-# Samples per block handed over by the master (and flushed to the file): chosen by
-# ``sotc-cosim bench recording``, see README "Recordings".
-BLOCK_SIZE = 1000
-
-
-def default_recording_path(scenario_name: str) -> Path:
-    return Path("recordings") / f"{scenario_name.replace('/', '_')}.rrd"
-
-
 class _Described:
     """An error of the parent as the child's ``RunRecorder.close`` reports it (its repr)."""
 
