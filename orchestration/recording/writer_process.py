@@ -45,28 +45,33 @@ def _serve(conn) -> None:
     from orchestration.recording.writer import RunRecorder  # the import this process exists for
 
     recorder = None
-    while True:
-        try:
+    try:
+        while True:
             op, args = conn.recv()
-        except EOFError:  # the parent is gone: finish what it left open
-            if recorder is not None:
-                recorder.close(_Described("the command ended before the run did"))
-            return
-        try:
-            if op == "open":
-                recorder = RunRecorder(*args)
-                recorder.lock = PathLock(recorder.path, "recording")  # the parent holds it: never acquired here
-            elif op == "close":
-                recorder.close(None if args[0] is None else _Described(args[0]))
-            else:
-                getattr(recorder, op)(*args)
-            answer = ("ok", None)
-        except Exception as exc:  # sent back as it was raised
-            answer = ("error", exc)
-        try:
-            conn.send(answer)
-        except Exception:  # an exception that does not pickle: its type and message
-            conn.send(("error", RuntimeError(f"{type(answer[1]).__name__}: {answer[1]}")))
+            try:
+                if op == "open":
+                    recorder = RunRecorder(*args)
+                    recorder.lock = PathLock(recorder.path, "recording")  # the parent holds it: never acquired here
+                elif op == "close":
+                    recorder.close(None if args[0] is None else _Described(args[0]))
+                else:
+                    getattr(recorder, op)(*args)
+                answer = ("ok", None)
+            except Exception as exc:  # sent back as it was raised
+                answer = ("error", exc)
+            _answer(conn, answer)
+    except (EOFError, OSError):  # the parent is gone (the pipe closed or broke): finish what it left open
+        if recorder is not None:
+            recorder.close(_Described("the command ended before the run did"))
+
+
+def _answer(conn, answer: tuple) -> None:
+    try:
+        conn.send(answer)
+    except OSError:
+        raise
+    except Exception:  # an exception that does not pickle: its type and message
+        conn.send(("error", RuntimeError(f"{type(answer[1]).__name__}: {answer[1]}")))
 
 
 class WriterGone(Exception):
