@@ -23,6 +23,9 @@ import sys
 
 DIGESTS = "compiled_cores.sha256"
 FALLBACKS: list[str] = []  # why a module of this FMU runs as .py: logged by every instance
+# the resources folders verified in this process: pythonfmu's binary runs the FMU script again when it
+# instantiates, and an extension is loaded once per process (its first import), so once is enough
+_VERIFIED: set[str] = set()
 
 
 class _SourceInstead(importlib.abc.MetaPathFinder):
@@ -93,8 +96,11 @@ def verify_compiled_cores(model: str, resources: str) -> None:
     The fallback takes the whole set: compiled cores ``cimport`` one another, and an extension whose
     cimported module runs as ``.py`` fails to import (``no attribute '__pyx_capi__'``). So when one
     extension is not loaded, none of this FMU's extensions is: whatever cimports what now or later."""
+    if resources in _VERIFIED:
+        return
     damaged = problems(resources)
     if not damaged:
+        _VERIFIED.add(resources)
         return
     sources = {}
     first = next(iter(damaged))
@@ -108,3 +114,4 @@ def verify_compiled_cores(model: str, resources: str) -> None:
         FALLBACKS.append(f"{model} FMU: resources/{rel} is not loaded: {why}; "
                          f"{module.split('.')[-1]}.py runs instead (same results, slower)")
     sys.meta_path.insert(0, _SourceInstead(sources))
+    _VERIFIED.add(resources)

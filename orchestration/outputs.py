@@ -27,18 +27,21 @@ class OutputError(Exception):
     """An output that could not be written: ``path`` and the ``errno`` of the failure."""
 
     def __init__(self, path: Path | str, err: int, detail: str = ""):
-        self.path, self.errno = Path(path), err
+        self.path, self.errno, self.detail = Path(path), err, detail
         why = os.strerror(err) + (f": {detail}" if detail else "")
         super().__init__(f"cannot write {self.path}: [Errno {err}] {why}")
+
+    def __reduce__(self):  # pickled as it was made (a recording's writer process sends it back)
+        return type(self), (self.path, self.errno, self.detail)
 
     @classmethod
     def of(cls, path: Path | str, exc: OSError) -> "OutputError":
         return cls(path, exc.errno or errno.EIO, "" if exc.errno else str(exc))
 
 
-def temporary_path(path: Path) -> Path:
-    """A hidden file beside ``path`` that only this process writes."""
-    return path.with_name(f".{path.name}.{os.getpid()}.part")
+def temporary_path(path: Path, pid: int | None = None) -> Path:
+    """A hidden file beside ``path`` that only this process (or process ``pid``) writes."""
+    return path.with_name(f".{path.name}.{os.getpid() if pid is None else pid}.part")
 
 
 @contextmanager

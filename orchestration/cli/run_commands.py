@@ -51,9 +51,10 @@ def prepare(names: list, stop_time: float | None, fmu_dir: Path, check=None, fmi
 
 
 def run_each(scenarios, paths, recording_for=None, keep_samples: bool = True, record_every: int = 1,
-              progress_label: str | None = None) -> list:
+              progress_label: str | None = None, writer=None) -> list:
     """Run every scenario (a failure is reported and the next one still runs); ``recording_for``
-    maps a scenario to the .rrd path its run streams to, or None for no recording;
+    maps a scenario to the .rrd path its run streams to, or None for no recording; ``writer``: the
+    ``WriterProcess`` that writes them (else this process does);
     ``progress_label``: show the progress under that label. Returns (result, summary) pairs;
     ``keep_samples=False`` streams each run (bounded memory: the summary is computed on the way
     and the result holds no samples)."""
@@ -72,12 +73,12 @@ def run_each(scenarios, paths, recording_for=None, keep_samples: bool = True, re
         if target is None:
             result = run(scenario, paths, observer=observers or None, keep_samples=keep_samples)
         else:
-            from orchestration.recording.writer import BLOCK_SIZE, RunRecorder
+            from orchestration.recording import BLOCK_SIZE
 
             # a thinned recording gets proportionally longer blocks: chunks of the usual size, and
             # fewer of them (the recording stream's bookkeeping grows with their number)
             block = min(BLOCK_SIZE * record_every, MAX_BLOCK)
-            with RunRecorder(target, every=record_every) as recorder:
+            with _recorder(target, record_every, writer) as recorder:
                 result = run(scenario, paths, observer=[*observers, recorder], block_size=block,
                              keep_samples=keep_samples)
             if recorder.output_error is not None:  # the disk took no more: stop, the finished runs are kept
@@ -92,6 +93,16 @@ def run_each(scenarios, paths, recording_for=None, keep_samples: bool = True, re
     return out
 
 
+def _recorder(target: Path, every: int, writer):
+    if writer is not None:
+        from orchestration.recording.writer_process import ChildRecorder
+
+        return ChildRecorder(writer, target, every)
+    from orchestration.recording.writer import RunRecorder
+
+    return RunRecorder(target, every=every)
+
+
 def exit_code(summaries: list[dict]) -> int:
     if interrupt.requested():
         return interrupt.exit_code()
@@ -99,20 +110,31 @@ def exit_code(summaries: list[dict]) -> int:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    from orchestration.run.summary import format_table, write_summary
-
     if args.summary and len(args.scenarios) > 1:
         raise ScenarioError("--summary takes one scenario; run them one by one")
     if args.recording and len(args.scenarios) > 1:
         raise ScenarioError("--recording takes one scenario; without it each run writes recordings/<scenario>.rrd")
+    if args.no_recording or "rerun" in sys.modules:  # imported already (a caller's process): written here
+        return _run_and_report(args, None)
+    from orchestration.recording.writer_process import WriterProcess
+
+    writer = WriterProcess()  # first: it imports Rerun while this process loads and runs the FMUs
+    try:
+        return _run_and_report(args, writer)
+    finally:
+        writer.close()
+
+
+def _run_and_report(args: argparse.Namespace, writer) -> int:
+    from orchestration.recording import default_recording_path
+    from orchestration.run.summary import format_table, write_summary
+
     def check(scenarios) -> None:
         if args.summary:
             check_output_file(args.summary, "--summary")
         if args.recording:
             check_output_file(args.recording, "--recording", locked=True)
         elif not args.no_recording:
-            from orchestration.recording.writer import default_recording_path
-
             for scenario in scenarios:
                 check_output_file(default_recording_path(scenario.name), "recording", locked=True)
 
@@ -122,8 +144,6 @@ def _cmd_run(args: argparse.Namespace) -> int:
     def recording_for(scenario):
         if args.no_recording:
             return None
-        from orchestration.recording.writer import default_recording_path
-
         target = args.recording or default_recording_path(scenario.name)
         if target in written:  # the same scenario twice: keep both
             target = target.with_name(f"{target.stem}-{len(written) + 1}{target.suffix}")
@@ -131,7 +151,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         return target
 
     summaries = [s for _, s in run_each(scenarios, paths, recording_for, keep_samples=False,
-                                          record_every=args.record_every)]
+                                          record_every=args.record_every, writer=writer)]
     if args.summary:
         write_summary(summaries[0], args.summary)
     print(format_table(summaries))

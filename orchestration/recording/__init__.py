@@ -3,5 +3,14 @@
 Rerun's file writer logs a failed write to stderr itself; ``recording.writer.RecordingFile`` reports it
 as one ``OutputError`` instead, so that log line is off unless the user sets ``RUST_LOG``."""
 import os
+from pathlib import Path
 
 os.environ.setdefault("RUST_LOG", "warn,re_log_encoding::rrd::file_sink=off,re_sdk::recording_stream=off")
+
+# Samples per block handed over by the master (and flushed to the file): chosen by
+# ``sotc-cosim bench recording``, see README "Recordings".
+BLOCK_SIZE = 1000
+
+
+def default_recording_path(scenario_name: str) -> Path:
+    return Path("recordings") / f"{scenario_name.replace('/', '_')}.rrd"

@@ -31,7 +31,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterable, Sequence
+from typing import TYPE_CHECKING, Iterable, Sequence
 
 import numpy as np
 import pyarrow as pa
@@ -40,16 +40,16 @@ from rerun.encodings import Vec2DBatch
 
 from orchestration.outputs import OutputError, PathLock
 from orchestration.recording.rrd_file import RecordingFile
+from orchestration.recording import BLOCK_SIZE
 from orchestration.recording.blueprint import (
     VIEW_DESCRIPTIONS,
     run_blueprint,
 )
-from orchestration.run.master import RunResult
 from orchestration.run.scenario import Scenario
 
-# Samples per block handed over by the master (and flushed to the file): chosen by
-# ``sotc-cosim bench recording``, see README "Recordings".
-BLOCK_SIZE = 1000
+if TYPE_CHECKING:  # not imported: the master brings fmpy, which the writer process has no use for
+    from orchestration.run.master import RunResult
+
 COMPARE_BLOCK = 10_000  # samples per send_columns when a finished run is written at once
 
 JOINT_COLORS = ((31, 119, 180), (255, 127, 14), (120, 120, 120))  # joint 1, joint 2, norm
@@ -57,10 +57,6 @@ ACTUAL, DESIRED, LIMIT = (220, 60, 40), (40, 110, 220), (150, 150, 150)
 DESIRED_DRAW_ORDER = 40.0  # above the runs' paths and arms (Rerun's default for 2D lines is 20)
 PALETTE = ((31, 119, 180), (255, 127, 14), (44, 160, 44), (214, 39, 40), (148, 103, 189),
            (140, 86, 75), (227, 119, 194), (127, 127, 127), (188, 189, 34), (23, 190, 207))
-
-
-def default_recording_path(scenario_name: str) -> Path:
-    return Path("recordings") / f"{scenario_name.replace('/', '_')}.rrd"
 
 
 def step_nanos(step_size: float) -> int:

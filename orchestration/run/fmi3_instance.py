@@ -14,7 +14,6 @@ from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
-from fmpy import extract
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi3 import FMU3Slave, fmi3Boolean, fmi3Float64, fmi3ValueReference
 
@@ -22,6 +21,7 @@ from fmi3_slave.arrays import element_names
 from orchestration.run.fmi3_direct import element_count, element_starts
 from orchestration.run.parameter_check import model_description, parameter_values, set_parameters
 from orchestration.run.scenario import ScenarioError
+from orchestration.run.unpacked import unpacked
 
 _WARNING = 1  # fmi3Warning: anything worse fails the call
 
@@ -34,12 +34,12 @@ def _checked(status: int, function: str) -> None:
 class Instance3:
     """``master._Loaded`` for an FMI 3.0 FMU (``sink.append((status, message))`` receives its log)."""
 
-    def __init__(self, name: str, fmu_file: Path, workdir: Path, sink):
+    def __init__(self, name: str, fmu_file: Path, sink):
         self.name = name
         self.md = model_description(fmu_file)
         if getattr(self.md, self.INTERFACE) is None:
             raise ScenarioError(f"{fmu_file} does not support {self.INTERFACE}")
-        self.unzipdir = extract(str(fmu_file), unzipdir=str(workdir / name))
+        self.unzipdir = unpacked(fmu_file)
         floats = [v for v in self.md.modelVariables if v.type == "Float64" and v.causality in ("input", "output")]
         outputs = [v for v in floats if v.causality == "output"]
         self.output_names = [n for v in outputs for n in element_names(v.name, element_count(v))]

@@ -17,15 +17,12 @@ An algebraic loop (a cycle of feedthrough) is refused before the run starts.
 """
 from __future__ import annotations
 
-import shutil
-import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Protocol, Sequence
 
 import numpy as np
-from fmpy import extract
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Slave, fmi2Real, fmi2True, fmi2ValueReference, fmi2Warning
 
@@ -33,6 +30,7 @@ from orchestration.run import interrupt
 from orchestration.run.fmi_direct import forget_callbacks, make_callbacks
 from orchestration.run.parameter_check import model_description, parameter_values, set_parameters
 from orchestration.run.scenario import Scenario, ScenarioError
+from orchestration.run.unpacked import unpacked
 
 STATUS_LABELS = ("OK", "WARNING", "DISCARD", "ERROR", "FATAL", "PENDING")
 
@@ -111,12 +109,12 @@ class _LogSink:
 class _Loaded:
     """One FMU instance with its value references and preallocated ctypes buffers."""
 
-    def __init__(self, name: str, fmu_file: Path, workdir: Path, logs: list[LogRecord], clock: _Clock):
+    def __init__(self, name: str, fmu_file: Path, logs: list[LogRecord], clock: _Clock):
         self.name = name
         self.md = model_description(fmu_file)  # parsed once per FMU file (runs, sweep points, the CLI's check)
         if self.md.coSimulation is None:
             raise ScenarioError(f"{fmu_file} does not support co-simulation")
-        self.unzipdir = extract(str(fmu_file), unzipdir=str(workdir / name))
+        self.unzipdir = unpacked(fmu_file)
         self.vars = {v.name: v for v in self.md.modelVariables}
         self.output_names = [v.name for v in self.md.modelVariables if v.causality == "output" and v.type == "Real"]
         self.inputs = {v.name for v in self.md.modelVariables if v.causality == "input"}
@@ -159,7 +157,7 @@ class _Loaded:
         set_parameters(self.md, self.name, values, {"Real": (self.fmu.setReal, float),
                                                      "Integer": (self.fmu.setInteger, int)})
 
-def _instance(inst, fmu_file: Path, workdir: Path, logs: list[LogRecord], clock: _Clock):
+def _instance(inst, fmu_file: Path, logs: list[LogRecord], clock: _Clock):
     """The instance of an FMI 2.0 FMU, or of an FMI 3.0 one (``fmi3_instance``: the same interface;
     ``fmi3_exchange`` for its Model Exchange interface)."""
     fmi3 = model_description(fmu_file).fmiVersion.startswith("3")
@@ -169,12 +167,12 @@ def _instance(inst, fmu_file: Path, workdir: Path, logs: list[LogRecord], clock:
                                 f"{fmu_file} is FMI 2.0 (run with --fmi 3)")
         from orchestration.run.fmi3_exchange import ExchangeInstance
 
-        return ExchangeInstance(inst.name, fmu_file, workdir, _LogSink(inst.name, logs, clock))
+        return ExchangeInstance(inst.name, fmu_file, _LogSink(inst.name, logs, clock))
     if fmi3:
         from orchestration.run.fmi3_instance import Instance3
 
-        return Instance3(inst.name, fmu_file, workdir, _LogSink(inst.name, logs, clock))
-    return _Loaded(inst.name, fmu_file, workdir, logs, clock)
+        return Instance3(inst.name, fmu_file, _LogSink(inst.name, logs, clock))
+    return _Loaded(inst.name, fmu_file, logs, clock)
 
 
 def _checked(status: int, function: str) -> None:
@@ -278,8 +276,7 @@ class _Session:
     """One run: the loaded instances, one sample buffer per instance, and how far the samples were
     recorded and handed to the observer."""
 
-    def __init__(self, scenario: Scenario, observer, block_size: int, keep_samples: bool,
-                 temp_root: Path | None = None):
+    def __init__(self, scenario: Scenario, observer, block_size: int, keep_samples: bool):
         self.scenario, self.observer, self.block_size, self.keep = scenario, observer, block_size, keep_samples
         self.logs: list[LogRecord] = []
         self.clock = _Clock()
@@ -288,7 +285,6 @@ class _Session:
         n_steps = scenario.steps
         self.rows = n_steps + 1 if keep_samples else min(block_size, n_steps + 1)  # rows held per instance
         self.times = np.arange(n_steps + 1, dtype=float) * scenario.step_size if keep_samples else None
-        self.workdir = Path(tempfile.mkdtemp(prefix="sotc_run_", dir=temp_root))
         self.loaded: dict[str, _Loaded] = {}
         self.records: dict[str, np.ndarray] = {}
         self.k = -1  # the sample being computed
@@ -312,7 +308,7 @@ class _Session:
         for inst in scenario.instances.values():
             if inst.fmu not in fmu_paths:
                 raise ScenarioError(f"instance '{inst.name}': no built FMU for model '{inst.fmu}'")
-            ld = self.loaded[inst.name] = _instance(inst, fmu_paths[inst.fmu], self.workdir, self.logs, self.clock)
+            ld = self.loaded[inst.name] = _instance(inst, fmu_paths[inst.fmu], self.logs, self.clock)
             self.fmus[inst.name] = {"guid": ld.md.guid or "", "version": ld.md.version or "",
                                     "generation_tool": ld.md.generationTool or ""}
         links = _resolve_links(scenario, self.loaded)
@@ -390,7 +386,6 @@ def run(
     observer: RunObserver | Sequence[RunObserver] | None = None,
     block_size: int = 1000,
     keep_samples: bool = True,
-    temp_root: Path | None = None,
 ) -> RunResult:
     """Run ``scenario`` with the FMUs at ``fmu_paths`` (model identifier -> .fmu file).
 
@@ -400,14 +395,14 @@ def run(
     Instances are always freed. A ``ScenarioError`` (the scenario itself is wrong) is raised.
     ``observer`` (optional, one or a list) is handed the samples every ``block_size`` samples and at
     the end. ``keep_samples=False`` streams: the master then holds one block per instance, not the
-    run (memory bounded for any stop time), and the result carries no sample arrays. The FMUs are
-    unpacked in a temporary folder (under ``temp_root`` if given), removed when the run ends.
+    run (memory bounded for any stop time), and the result carries no sample arrays. The FMUs run
+    from this user's cache of unpacked FMUs, checked at every load (``orchestration.run.unpacked``).
     """
     if block_size < 1:
         raise ScenarioError(f"block_size must be >= 1, got {block_size}")
     if observer is not None and not hasattr(observer, "block"):
         observer = _Fanout(observer)
-    session = _Session(scenario, observer, block_size, keep_samples, temp_root)
+    session = _Session(scenario, observer, block_size, keep_samples)
     error: str | None = None
     interrupted, observer_ok = False, True
     started = time.perf_counter()
@@ -424,7 +419,6 @@ def run(
     finally:
         wall = time.perf_counter() - started
         _free(session.loaded)
-        shutil.rmtree(session.workdir, ignore_errors=True)
     result = session.result(wall, error, interrupted)
     session.finish(result, observer_ok)
     return result

@@ -155,13 +155,13 @@ def run_point(task: dict[str, Any], blobs: dict[str, tuple[str, bytes]]) -> dict
         paths = _fmu_cache({m: blobs[m] for m in {i.fmu for i in scenario.instances.values()}})
         if rrd_file is None:
             guard = PointGuard(task["time_limit"], task["state_bound"], stride)
-            result = run(scenario, paths, observer=guard, block_size=GUARD_BLOCK, temp_root=scratch)
+            result = run(scenario, paths, observer=guard, block_size=GUARD_BLOCK)
         else:
             from orchestration.recording.writer import PointRecorder
 
             with PointRecorder(rrd_file, point.settings, task["key"]) as recorder:
                 guard = PointGuard(task["time_limit"], task["state_bound"], stride, recorder)
-                result = run(scenario, paths, observer=guard, block_size=GUARD_BLOCK, temp_root=scratch)
+                result = run(scenario, paths, observer=guard, block_size=GUARD_BLOCK)
         summary = summarize(result)
         reason = guard.reason or (result.error if result.failed else None)
     except Exception as exc:  # a refused scenario, an FMU that cannot load, a bug: this point fails

@@ -348,3 +348,19 @@ def test_fig9_bounds_hold_the_arm_base_and_the_whole_circle_with_a_margin():
     margin = 0.1
     assert WORKSPACE_X[0] + margin <= xs.min() and xs.max() <= WORKSPACE_X[1] - margin
     assert WORKSPACE_Y[0] + margin <= ys.min() and ys.max() <= WORKSPACE_Y[1] - margin
+
+
+def test_the_commands_writer_process_records_what_a_run_recorder_records(fmu_dir, ct_run, tmp_path):
+    """``sotc-cosim run`` writes through its child process: the same entities, steps and values as
+    the in-process ``RunRecorder`` of the same run (``ct_run``)."""
+    from support.cli import run as cli
+
+    proc = cli(["run", "paper-ct", "--recording", "child.rrd", "--fmu-dir", str(fmu_dir)], tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    mine, reference = read_entities(tmp_path / "child.rrd"), ct_run[2]
+    assert sorted(mine) == sorted(reference)
+    for entity in reference:
+        assert sorted(mine[entity]) == sorted(reference[entity]), entity
+        for column, values in reference[entity].items():
+            if entity != "/events/run":  # its text says the run's wall time
+                assert np.array_equal(mine[entity][column], values), (entity, column)
