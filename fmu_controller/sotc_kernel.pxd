@@ -11,6 +11,7 @@ from fmu_controller.fixed_linalg cimport add_scaled, cholesky, cholesky_solve, d
 from fmu_controller.sotc_math cimport (CriticConstants, basis_into, critic_row, directional_into, gradient,
                                        hessian_phi_times, implicit_system, normalisation, policy_arguments,
                                        probing_signal)
+from fmu_controller.sotc_stack cimport CLStack
 from fmu_controller.sotc_zv cimport solve_zv
 from fmu_plant.dynamics cimport bias_torque, forward_dynamics, inertia_entries
 
@@ -24,7 +25,8 @@ cpdef double exact_sum(double[::1] x, int n, double[::1] p)
 
 cdef class SotcKernel:
     cdef public CriticConstants K
-    cdef public object model, stack
+    cdef public object model
+    cdef public CLStack stack
     cdef public double lam11, lam12, lam21, lam22, r1, r2, alpha1, alpha2, rho, s, bound5
     cdef public double pe_amplitude, pe_duration, cl_record_interval, cl_start_time, next_record_t
     cdef public bint pe_in_critic, cl_enabled, backstepping, fv_drift, implicit, actuator_per_joint

@@ -6,7 +6,7 @@ are one call each into a ``SotcKernel``, which holds everything a sample reads a
 critic weights, the eta/xi/dW/dt buffers of the last sample, the pending sample ``advance`` integrates, and
 the outputs, written into one preallocated float64 buffer (``outputs``) in ``SotcCore.output_names()``
 order. Compiled, ``sotc_kernel.pxd`` makes the kernel an extension type with C doubles and C arrays, so a
-sample creates no Python object (the CL stack's methods, Python code in ``sotc_stack``, excepted); as
+sample creates no Python object (the CL stack, ``sotc_stack.CLStack``, is one too, called as C); as
 Python, the same code runs on floats and ``array('d')`` buffers. Every expression is the one the core
 computed before it had a kernel, in the same order, so the bits are unchanged.
 """
@@ -232,7 +232,7 @@ class SotcKernel:
         scale_into(wdot, -self.alpha1 * e1, xi, N)
         self.cl = self.cl_enabled and self.stack.count > 0 and t >= self.cl_start_time
         if self.cl:
-            add_scaled(wdot, -self.alpha1, self.stack.terms(self.weights), N)  # - alpha1 (M W + b)
+            add_scaled(wdot, -self.alpha1, self.stack.cl_terms(self.W), N)  # - alpha1 (M W + b)
         law31 = zp1 * zd1 + zp2 * zd2 + zv1 * zd3 + zv2 * zd4 >= 0.0  # z^T zdot >= 0: eq. (31)
         if law31:  # + alpha2/2 grad(zeta) G z with G = g R^-1 g^T = diag(R_phi^-1, D^-1 R_v^-1 D^-1)
             u1, u2 = (i11 * zv1 + i12 * zv2) / K.r3, (i12 * zv1 + i22 * zv2) / K.r4
@@ -301,7 +301,7 @@ class SotcKernel:
             self.has_prev, self.prev_t, self.prev1, self.prev2 = True, t, self.chi1, self.chi2
         if self.cl_enabled and t >= self.next_record_t - 1e-9:
             self.next_record_t += self.cl_record_interval
-            self.stack.record(self.eta_array, self.rew, self.z_array, self.dinv_array, self.fe_array, t, self.cl)
+            self.stack.record(self.eta, self.rew, self.z, self.dinv, self.fe, t, self.cl)
         self.has_pending = False
 
     def _weight_step(self, dt: float) -> None:
