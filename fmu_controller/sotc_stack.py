@@ -1,3 +1,4 @@
+# cython: boundscheck=False, wraparound=False
 """The concurrent-learning (experience replay) stack of the SOTC tuning laws (30)/(31).
 
 Reference: Dien, Luy, Lai & Hai (2023), J. Computer Science and Cybernetics, eqs. (30)/(31) and the
