@@ -63,7 +63,7 @@ cdef class SotcKernel:
                    law31=bint, u1=double, u2=double)
     cdef (double, double, double, double, double, double, double, bint) _critic(
         self, double t, double mu1, double mu2, double mu3, double mu4, double x1, double x2, double x3,
-        double x4) except *
+        double x4, double tx1, double tx2, double tx3, double tx4) except *
     @cython.locals(dca1=double, dca2=double, gd1=double, gd2=double, hz1=double, hz2=double, hstep=double)
     cdef (double, double) _chi_dot(self, double t, double dzp1, double dzp2, double zd1, double zd2, double zd3,
                                    double zd4, double t1, double t2, bint chi_a_bounded) except *

@@ -158,9 +158,11 @@ class SotcKernel:
         if self.fv_drift:  # F_v(z_phi, z_v) of (4)/(6): the drift -D^-1 (H v + G) of (2) at the error coordinates
             fe[0], fe[1] = forward_dynamics(zp2, zv1, zv2, 0.0, 0.0, self.model)
         if self.pe_in_critic:
-            zd1, zd2, zd3, zd4, rew, omega, e1, law31 = self._critic(t, cs1, cs2, ts1 + pe, ts2 + pe, x1, x2, x3, x4)
+            zd1, zd2, zd3, zd4, rew, omega, e1, law31 = self._critic(t, cs1, cs2, ts1 + pe, ts2 + pe, x1, x2, x3, x4,
+                                                                     t1, t2, t3, t4)
         else:
-            zd1, zd2, zd3, zd4, rew, omega, e1, law31 = self._critic(t, cs1, cs2, ts1, ts2, x1, x2, x3, x4)
+            zd1, zd2, zd3, zd4, rew, omega, e1, law31 = self._critic(t, cs1, cs2, ts1, ts2, x1, x2, x3, x4, t1, t2, t3,
+                                                                     t4)
         self.chi1, self.chi2 = ca1 + cs1, ca2 + cs2
         dchi1, dchi2 = self._chi_dot(t, dzp1, dzp2, zd1, zd2, zd3, zd4, t1, t2, chi_a_bounded)
         ta1, ta2, tau_a_bounded, tr1, tr2 = self._feedforward(phi2, dphi1, dphi2, dchi1, dchi2, d11, d12, d22)
@@ -215,16 +217,16 @@ class SotcKernel:
         return zp1, zp2, dzp1, dzp2, zv1, zv2, zv_res, ca1, ca2, chi_a_bounded
 
     def _critic(self, t: float, mu1: float, mu2: float, mu3: float, mu4: float, x1: float, x2: float, x3: float,
-                x4: float) -> tuple:
+                x4: float, tx1: float, tx2: float, tx3: float, tx4: float) -> tuple:
         """Step 3, eqs. (6)/(7) and (29)-(31): zdot = F_bar(z) + g mu_hat (F_v(z_phi, z_v) = fe, the drift
         -D^-1 (H v + G) of (2) at the error coordinates), eta, the reward, the Bellman residual e1 and
-        dW/dt (with the CL sum), every sum in a fixed order; eta, xi and dW/dt go to their buffers."""
+        dW/dt (with the CL sum), every sum in a fixed order; eta, xi and dW/dt go to their buffers. tx = tanh(x)."""
         z, dinv, fe = self.z, self.dinv, self.fe
         zp1, zp2, zv1, zv2, i11, i12, i22 = z[0], z[1], z[2], z[3], dinv[0], dinv[1], dinv[2]
         N, W, K, eta, xi, wdot = N_BASIS, self.W, self.K, self.eta, self.xi, self.wdot
         # eq. (29): eta = grad(zeta) zdot, e1 = W^T eta + z^T Theta z + Omega(mu_hat), Omega of eq. (17)
-        zd1, zd2, zd3, zd4, rew, omega = critic_row(K, zp1, zp2, zv1, zv2, x1, x2, x3, x4, mu1, mu2, mu3, mu4, fe[0],
-                                                    fe[1], i11, i12, i22, eta, 0)
+        zd1, zd2, zd3, zd4, rew, omega = critic_row(K, zp1, zp2, zv1, zv2, x1, x2, x3, x4, tx1, tx2, tx3, tx4,
+                                                    mu1, mu2, mu3, mu4, fe[0], fe[1], i11, i12, i22, eta, 0)
         e1 = dot(W, eta, N) + rew
         # eqs. (30)/(31): dW/dt = -alpha1 xi e1 - alpha1 sum_i xi_i (eta_i^T W + r_i) [+ alpha2/2 grad(zeta) G z],
         # xi = eta / (eta^T eta + 1)^2; the CL sum is M W + b (sotc_stack)

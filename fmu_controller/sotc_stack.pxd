@@ -14,7 +14,7 @@ cpdef void cl_matrix(int n, double[::1] E, double[::1] rew, double[::1] M, doubl
 @cython.locals(N=int, a=int, c=int, acc=double)
 cpdef void cl_rate(double[::1] M, double[::1] b, double[::1] W, double[::1] out)
 @cython.locals(i=int, s=double, zp1=double, zp2=double, zv1=double, zv2=double, i11=double, i12=double, i22=double,
-               x1=double, x2=double, x3=double, x4=double)
+               x1=double, x2=double, x3=double, x4=double, t1=double, t2=double, t3=double, t4=double)
 cpdef void replay_current(CriticConstants K, int n, double[::1] W, double[::1] z, double[::1] dinv, double[::1] fe,
                           double[::1] E, double[::1] rew)
 @cython.locals(N=int, count=int, j=int, k=int, yy=double, within=bint)

@@ -133,9 +133,9 @@ def replay_current(K: CriticConstants, n: int, W: array, z: array, dinv: array, 
         zp1, zp2, zv1, zv2 = z[4 * i], z[4 * i + 1], z[4 * i + 2], z[4 * i + 3]
         i11, i12, i22 = dinv[3 * i], dinv[3 * i + 1], dinv[3 * i + 2]
         x1, x2, x3, x4 = policy_arguments(K, zp1, zp2, zv1, zv2, W, i11, i12, i22)
-        rew[i] = critic_row(K, zp1, zp2, zv1, zv2, x1, x2, x3, x4, -s * tanh(x1), -s * tanh(x2),
-                            -s * tanh(x3), -s * tanh(x4), fe[2 * i], fe[2 * i + 1], i11, i12, i22,
-                            E, i * N_BASIS)[4]
+        t1, t2, t3, t4 = tanh(x1), tanh(x2), tanh(x3), tanh(x4)
+        rew[i] = critic_row(K, zp1, zp2, zv1, zv2, x1, x2, x3, x4, t1, t2, t3, t4, -s * t1, -s * t2, -s * t3,
+                            -s * t4, fe[2 * i], fe[2 * i + 1], i11, i12, i22, E, i * N_BASIS)[4]
 
 
 def rows_within(L: array, E: array, sc: array, P: int, y: array, inside: array) -> int:
