@@ -1,3 +1,4 @@
+# cython: boundscheck=False, wraparound=False
 """Fixed-order linear algebra for the small symmetric problems of the SOTC critic (n = 10).
 
 Every sum here runs in one written order over flat float64 buffers (``array('d')``; matrices row-major,

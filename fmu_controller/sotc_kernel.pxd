@@ -11,6 +11,7 @@ from fmu_controller.fixed_linalg cimport add_scaled, cholesky, cholesky_solve, d
 from fmu_controller.sotc_math cimport (CriticConstants, basis_into, critic_row, directional_into, gradient,
                                        hessian_phi_times, implicit_system, normalisation, policy_arguments,
                                        probing_signal)
+from fmu_controller.sotc_stack cimport CLStack
 from fmu_controller.sotc_zv cimport solve_zv
 from fmu_plant.dynamics cimport bias_torque, forward_dynamics, inertia_entries
 
@@ -24,7 +25,8 @@ cpdef double exact_sum(double[::1] x, int n, double[::1] p)
 
 cdef class SotcKernel:
     cdef public CriticConstants K
-    cdef public object model, stack
+    cdef public object model
+    cdef public CLStack stack
     cdef public double lam11, lam12, lam21, lam22, r1, r2, alpha1, alpha2, rho, s, bound5
     cdef public double pe_amplitude, pe_duration, cl_record_interval, cl_start_time, next_record_t
     cdef public bint pe_in_critic, cl_enabled, backstepping, fv_drift, implicit, actuator_per_joint
@@ -61,7 +63,7 @@ cdef class SotcKernel:
                    law31=bint, u1=double, u2=double)
     cdef (double, double, double, double, double, double, double, bint) _critic(
         self, double t, double mu1, double mu2, double mu3, double mu4, double x1, double x2, double x3,
-        double x4) except *
+        double x4, double tx1, double tx2, double tx3, double tx4) except *
     @cython.locals(dca1=double, dca2=double, gd1=double, gd2=double, hz1=double, hz2=double, hstep=double)
     cdef (double, double) _chi_dot(self, double t, double dzp1, double dzp2, double zd1, double zd2, double zd3,
                                    double zd4, double t1, double t2, bint chi_a_bounded) except *

@@ -6,7 +6,7 @@ are one call each into a ``SotcKernel``, which holds everything a sample reads a
 critic weights, the eta/xi/dW/dt buffers of the last sample, the pending sample ``advance`` integrates, and
 the outputs, written into one preallocated float64 buffer (``outputs``) in ``SotcCore.output_names()``
 order. Compiled, ``sotc_kernel.pxd`` makes the kernel an extension type with C doubles and C arrays, so a
-sample creates no Python object (the CL stack's methods, Python code in ``sotc_stack``, excepted); as
+sample creates no Python object (the CL stack, ``sotc_stack.CLStack``, is one too, called as C); as
 Python, the same code runs on floats and ``array('d')`` buffers. Every expression is the one the core
 computed before it had a kernel, in the same order, so the bits are unchanged.
 """
@@ -158,9 +158,11 @@ class SotcKernel:
         if self.fv_drift:  # F_v(z_phi, z_v) of (4)/(6): the drift -D^-1 (H v + G) of (2) at the error coordinates
             fe[0], fe[1] = forward_dynamics(zp2, zv1, zv2, 0.0, 0.0, self.model)
         if self.pe_in_critic:
-            zd1, zd2, zd3, zd4, rew, omega, e1, law31 = self._critic(t, cs1, cs2, ts1 + pe, ts2 + pe, x1, x2, x3, x4)
+            zd1, zd2, zd3, zd4, rew, omega, e1, law31 = self._critic(t, cs1, cs2, ts1 + pe, ts2 + pe, x1, x2, x3, x4,
+                                                                     t1, t2, t3, t4)
         else:
-            zd1, zd2, zd3, zd4, rew, omega, e1, law31 = self._critic(t, cs1, cs2, ts1, ts2, x1, x2, x3, x4)
+            zd1, zd2, zd3, zd4, rew, omega, e1, law31 = self._critic(t, cs1, cs2, ts1, ts2, x1, x2, x3, x4, t1, t2, t3,
+                                                                     t4)
         self.chi1, self.chi2 = ca1 + cs1, ca2 + cs2
         dchi1, dchi2 = self._chi_dot(t, dzp1, dzp2, zd1, zd2, zd3, zd4, t1, t2, chi_a_bounded)
         ta1, ta2, tau_a_bounded, tr1, tr2 = self._feedforward(phi2, dphi1, dphi2, dchi1, dchi2, d11, d12, d22)
@@ -215,16 +217,16 @@ class SotcKernel:
         return zp1, zp2, dzp1, dzp2, zv1, zv2, zv_res, ca1, ca2, chi_a_bounded
 
     def _critic(self, t: float, mu1: float, mu2: float, mu3: float, mu4: float, x1: float, x2: float, x3: float,
-                x4: float) -> tuple:
+                x4: float, tx1: float, tx2: float, tx3: float, tx4: float) -> tuple:
         """Step 3, eqs. (6)/(7) and (29)-(31): zdot = F_bar(z) + g mu_hat (F_v(z_phi, z_v) = fe, the drift
         -D^-1 (H v + G) of (2) at the error coordinates), eta, the reward, the Bellman residual e1 and
-        dW/dt (with the CL sum), every sum in a fixed order; eta, xi and dW/dt go to their buffers."""
+        dW/dt (with the CL sum), every sum in a fixed order; eta, xi and dW/dt go to their buffers. tx = tanh(x)."""
         z, dinv, fe = self.z, self.dinv, self.fe
         zp1, zp2, zv1, zv2, i11, i12, i22 = z[0], z[1], z[2], z[3], dinv[0], dinv[1], dinv[2]
         N, W, K, eta, xi, wdot = N_BASIS, self.W, self.K, self.eta, self.xi, self.wdot
         # eq. (29): eta = grad(zeta) zdot, e1 = W^T eta + z^T Theta z + Omega(mu_hat), Omega of eq. (17)
-        zd1, zd2, zd3, zd4, rew, omega = critic_row(K, zp1, zp2, zv1, zv2, x1, x2, x3, x4, mu1, mu2, mu3, mu4, fe[0],
-                                                    fe[1], i11, i12, i22, eta, 0)
+        zd1, zd2, zd3, zd4, rew, omega = critic_row(K, zp1, zp2, zv1, zv2, x1, x2, x3, x4, tx1, tx2, tx3, tx4,
+                                                    mu1, mu2, mu3, mu4, fe[0], fe[1], i11, i12, i22, eta, 0)
         e1 = dot(W, eta, N) + rew
         # eqs. (30)/(31): dW/dt = -alpha1 xi e1 - alpha1 sum_i xi_i (eta_i^T W + r_i) [+ alpha2/2 grad(zeta) G z],
         # xi = eta / (eta^T eta + 1)^2; the CL sum is M W + b (sotc_stack)
@@ -232,7 +234,7 @@ class SotcKernel:
         scale_into(wdot, -self.alpha1 * e1, xi, N)
         self.cl = self.cl_enabled and self.stack.count > 0 and t >= self.cl_start_time
         if self.cl:
-            add_scaled(wdot, -self.alpha1, self.stack.terms(self.weights), N)  # - alpha1 (M W + b)
+            add_scaled(wdot, -self.alpha1, self.stack.cl_terms(self.W), N)  # - alpha1 (M W + b)
         law31 = zp1 * zd1 + zp2 * zd2 + zv1 * zd3 + zv2 * zd4 >= 0.0  # z^T zdot >= 0: eq. (31)
         if law31:  # + alpha2/2 grad(zeta) G z with G = g R^-1 g^T = diag(R_phi^-1, D^-1 R_v^-1 D^-1)
             u1, u2 = (i11 * zv1 + i12 * zv2) / K.r3, (i12 * zv1 + i22 * zv2) / K.r4
@@ -301,7 +303,7 @@ class SotcKernel:
             self.has_prev, self.prev_t, self.prev1, self.prev2 = True, t, self.chi1, self.chi2
         if self.cl_enabled and t >= self.next_record_t - 1e-9:
             self.next_record_t += self.cl_record_interval
-            self.stack.record(self.eta_array, self.rew, self.z_array, self.dinv_array, self.fe_array, t, self.cl)
+            self.stack.record(self.eta, self.rew, self.z, self.dinv, self.fe, t, self.cl)
         self.has_pending = False
 
     def _weight_step(self, dt: float) -> None:

@@ -51,44 +51,51 @@ def log_cosh(x: float) -> float:
     return a + log1p(exp(-2.0 * a)) - LN2
 
 
-def _x_tanh_minus_log_cosh(x: float) -> float:
-    """x tanh x - ln cosh x (>= 0, even, -> ln 2 as |x| -> inf), accurate for every finite x: for
-    |x| >= 1 it is rewritten with e = e^{-2|x|} as ln 2 - ln(1 + e) - 2|x| e / (1 + e), which avoids
+def _x_tanh_minus_log_cosh(x: float, t: float) -> float:
+    """x tanh x - ln cosh x (>= 0, even, -> ln 2 as |x| -> inf) for t = tanh x, which the policy (28) has
+    computed already: ``elementary.tanh`` is odd to the bit, so |t| is tanh |x|. Accurate for every finite x:
+    for |x| >= 1 it is rewritten with e = e^{-2|x|} as ln 2 - ln(1 + e) - 2|x| e / (1 + e), which avoids
     subtracting two numbers of size |x|."""
     a = abs(x)
     if a < 1.0:
-        return a * tanh(a) - log_cosh(a)
+        return a * abs(t) - log_cosh(a)
     e = exp(-2.0 * a)
     return LN2 - log1p(e) - 2.0 * a * e / (1.0 + e)
 
 
-def omega_term_of_arg(x: float, s: float, r: float) -> float:
-    """One component of Omega, eq. (17), written in the pre-saturation argument x of mu = -s tanh x.
+def omega_term(x: float, t: float, s: float, r: float) -> float:
+    """One component of Omega, eq. (17), written in the pre-saturation argument x of mu = -s tanh x
+    (t = tanh x).
 
     With mu = -s tanh x, atanh(mu/s) = -x and ln(1 - mu^2/s^2) = ln(1 - tanh^2 x) = -2 ln cosh x, so
         2 s atanh(mu/s) r mu + s^2 r ln(1 - mu^2/s^2) = 2 s^2 r (x tanh x - ln cosh x)   eq. (17)
     which stays finite (-> 2 s^2 r ln 2) even where tanh x rounds to +-1.
     """
-    return 2.0 * s * s * r * _x_tanh_minus_log_cosh(x)
+    return 2.0 * s * s * r * _x_tanh_minus_log_cosh(x, t)
 
 
-def omega4(x1: float, x2: float, x3: float, x4: float, s: float, r1: float, r2: float, r3: float,
-           r4: float) -> float:
-    """Omega(mu) of eq. (17) for mu = -s tanh(x) (componentwise), R = diag(r), summed in order."""
-    return (omega_term_of_arg(x1, s, r1) + omega_term_of_arg(x2, s, r2)
-            + omega_term_of_arg(x3, s, r3) + omega_term_of_arg(x4, s, r4))
+def omega_term_of_arg(x: float, s: float, r: float) -> float:
+    """``omega_term`` of x alone."""
+    return omega_term(x, tanh(x), s, r)
+
+
+def omega4(x1: float, x2: float, x3: float, x4: float, t1: float, t2: float, t3: float, t4: float, s: float,
+           r1: float, r2: float, r3: float, r4: float) -> float:
+    """Omega(mu) of eq. (17) for mu = -s tanh(x) (componentwise, t = tanh(x)), R = diag(r), summed in order."""
+    return (omega_term(x1, t1, s, r1) + omega_term(x2, t2, s, r2)
+            + omega_term(x3, t3, s, r3) + omega_term(x4, t4, s, r4))
 
 
 def omega_of_arg(x: Sequence[float], s: float, r: Sequence[float]) -> float:
     """``omega4`` on sequences."""
-    return omega4(x[0], x[1], x[2], x[3], s, r[0], r[1], r[2], r[3])
+    return omega4(x[0], x[1], x[2], x[3], tanh(x[0]), tanh(x[1]), tanh(x[2]), tanh(x[3]), s, r[0], r[1], r[2], r[3])
 
 
 def reward(K: CriticConstants, zp1: float, zp2: float, zv1: float, zv2: float, x1: float, x2: float, x3: float,
-           x4: float) -> tuple[float, float]:
+           x4: float, t1: float, t2: float, t3: float, t4: float) -> tuple[float, float]:
     """(r, Omega): the cost rate r = z^T Theta z + Omega(mu_hat) of eq. (12) with Omega of (17) at the
-    pre-saturation arguments x of (28), Theta = diag(theta)."""
-    omega = omega4(x1, x2, x3, x4, K.s, K.r1, K.r2, K.r3, K.r4)
+    pre-saturation arguments x of (28) (t = tanh(x)), Theta = diag(theta)."""
+    omega = omega4(x1, x2, x3, x4, t1, t2, t3, t4, K.s, K.r1, K.r2, K.r3, K.r4)
     return (K.theta1 * zp1 * zp1 + K.theta2 * zp2 * zp2 + K.theta3 * zv1 * zv1 + K.theta4 * zv2 * zv2) + omega, omega
 
 
@@ -229,18 +236,19 @@ def error_rate(K: CriticConstants, zp1: float, zp2: float, zv1: float, zv2: floa
 
 
 def critic_row(K: CriticConstants, zp1: float, zp2: float, zv1: float, zv2: float, x1: float, x2: float,
-               x3: float, x4: float, mu1: float, mu2: float, mu3: float, mu4: float, fe1: float, fe2: float,
-               i11: float, i12: float, i22: float, eta, o: int) -> tuple[float, float, float, float, float, float]:
+               x3: float, x4: float, t1: float, t2: float, t3: float, t4: float, mu1: float, mu2: float, mu3: float,
+               mu4: float, fe1: float, fe2: float, i11: float, i12: float, i22: float, eta,
+               o: int) -> tuple[float, float, float, float, float, float]:
     """One sample of the critic, for the controller and for each row of its CL replay alike: the error
     rate zdot of (6)/(7) (``error_rate``), eta = grad(zeta) zdot of (29) into eta[o:o + 10] (with zdot as
     ``K.coupled`` says: (6), or F_bar of (7) as printed, without +z_v, -z_phi), and the reward of (12)/(17)
-    at the tanh arguments x of (28). Returns (zdot_1..4, r, Omega)."""
+    at the tanh arguments x of (28), t = tanh(x). Returns (zdot_1..4, r, Omega)."""
     zd1, zd2, zd3, zd4 = error_rate(K, zp1, zp2, zv1, zv2, mu1, mu2, mu3, mu4, fe1, fe2, i11, i12, i22)
     if K.coupled:
         directional_into(eta, o, zp1, zp2, zv1, zv2, zd1, zd2, zd3, zd4)
     else:  # F_bar of (7) as printed: zdot of (6) without the coupling terms +z_v and -z_phi
         directional_into(eta, o, zp1, zp2, zv1, zv2, zd1 - zv1, zd2 - zv2, zd3 + zp1, zd4 + zp2)
-    rew, omega = reward(K, zp1, zp2, zv1, zv2, x1, x2, x3, x4)
+    rew, omega = reward(K, zp1, zp2, zv1, zv2, x1, x2, x3, x4, t1, t2, t3, t4)
     return zd1, zd2, zd3, zd4, rew, omega
 
 

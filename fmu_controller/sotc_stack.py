@@ -1,3 +1,4 @@
+# cython: boundscheck=False, wraparound=False
 """The concurrent-learning (experience replay) stack of the SOTC tuning laws (30)/(31).
 
 Reference: Dien, Luy, Lai & Hai (2023), J. Computer Science and Cybernetics, eqs. (30)/(31) and the
@@ -132,9 +133,9 @@ def replay_current(K: CriticConstants, n: int, W: array, z: array, dinv: array, 
         zp1, zp2, zv1, zv2 = z[4 * i], z[4 * i + 1], z[4 * i + 2], z[4 * i + 3]
         i11, i12, i22 = dinv[3 * i], dinv[3 * i + 1], dinv[3 * i + 2]
         x1, x2, x3, x4 = policy_arguments(K, zp1, zp2, zv1, zv2, W, i11, i12, i22)
-        rew[i] = critic_row(K, zp1, zp2, zv1, zv2, x1, x2, x3, x4, -s * tanh(x1), -s * tanh(x2),
-                            -s * tanh(x3), -s * tanh(x4), fe[2 * i], fe[2 * i + 1], i11, i12, i22,
-                            E, i * N_BASIS)[4]
+        t1, t2, t3, t4 = tanh(x1), tanh(x2), tanh(x3), tanh(x4)
+        rew[i] = critic_row(K, zp1, zp2, zv1, zv2, x1, x2, x3, x4, t1, t2, t3, t4, -s * t1, -s * t2, -s * t3,
+                            -s * t4, fe[2 * i], fe[2 * i + 1], i11, i12, i22, E, i * N_BASIS)[4]
 
 
 def rows_within(L: array, E: array, sc: array, P: int, y: array, inside: array) -> int:
@@ -168,20 +169,24 @@ class CLStack:
     """P recorded samples and the CL sum M W + b of (30)/(31).
 
     ``constants`` are the controller's own (``sotc_math.CriticConstants``): the ``current`` replay
-    re-evaluates eta_i and r_i with them."""
-
-    margin = SWAP_MARGIN  # relative to trace(M); a class attribute, so that a study can measure another
+    re-evaluates eta_i and r_i with them. Compiled, ``sotc_stack.pxd`` makes this an extension type (C ints
+    and doubles, every buffer also a C array: the recorded rows through ``_eta`` ... ``_t``), whose
+    per-sample methods the kernel calls as C and which creates no Python object per sample; a Python
+    subclass may still override ``_swap_row`` (``orchestration.study.swap_margin``)."""
 
     def __init__(self, P: int, selection: str, replay: str, constants: CriticConstants):
         self.P, self.selection, self.replay_form = P, selection, replay
+        self._current, self._stored = replay == "current", replay == "stored"
+        self._fill, self._fifo, self._raw = selection == "fill", selection == "fifo", selection == "maxeig-raw"
         self.constants = constants
+        self.margin = SWAP_MARGIN  # relative to trace(M); a study may set another after construction
         N = N_BASIS
         self.M, self.b, self.sc = buffer(N * N), buffer(N), buffer(P)  # the CL sum at the last terms()
         self.E, self.rew_now = buffer(P * N), buffer(P)  # eta_i, r_i at the last terms()
         self._rate, self._c = buffer(N), buffer(N)
         self._d, self._e, self._v, self._p, self._y = buffer(N), buffer(N), buffer(N), buffer(N), buffer(N)
         self._work, self._A, self._L = buffer(N * N), buffer(N * N), buffer(N * N)
-        self._inside = buffer(P)
+        self._inside, self._found, self._lams = buffer(P), buffer(P), buffer(P)
         self.clear()
 
     # --- contents --------------------------------------------------------------------------------
@@ -195,7 +200,14 @@ class CLStack:
         self.next_row = 0  # row the FIFO overwrites next
         self.swaps = 0  # samples taken into the full stack
         self.min_eig = 0.0  # lambda_min(M) at the last offer (0 while numerically rank-deficient)
+        self._bind()
         self.refresh()
+
+    def _bind(self) -> None:
+        """The recorded buffers under the names the per-sample methods use (C arrays when compiled)."""
+        rows = self.rows
+        self._eta, self._z, self._dinv, self._fe = rows["eta"], rows["z"], rows["dinv"], rows["fe"]
+        self._rew, self._t = self.rew, self.t
 
     def to_state(self) -> dict[str, Any]:
         state: dict[str, Any] = {key: [list(a[i * _WIDTHS[key]:(i + 1) * _WIDTHS[key]]) for i in range(self.P)]
@@ -223,27 +235,30 @@ class CLStack:
                              f"for P = {self.P}")
         self.rows, self.rew, self.t = rows, rew, t
         self.count, self.next_row, self.swaps, self.min_eig = count, next_row, swaps, float(state["min_eig"])
+        self._bind()
         self.refresh()
 
     # --- the CL sum ----------------------------------------------------------------------------------
 
     def refresh(self) -> None:
         """Rebuild what the ``stored`` replay derives from the rows (M, b do not depend on W there)."""
-        if self.replay_form == "stored":
-            self.E[:] = self.rows["eta"]
-            self.rew_now[:] = self.rew
+        if self._stored:
+            self.E[:] = self._eta
+            self.rew_now[:] = self._rew
             cl_matrix(self.count, self.E, self.rew_now, self.M, self.b, self.sc)
 
     def terms(self, W: Sequence[float]) -> array:
-        """The CL sum M W + b of (30)/(31) at the weights W (a buffer kept by the stack, overwritten by
-        the next call); M, b stay as ``self.M``, ``self.b``, with the rows ``self.E`` and their scales
-        ``self.sc``."""
-        Wb = as_buffer(W)
-        if self.replay_form == "current":
-            rows = self.rows
-            replay_current(self.constants, self.count, Wb, rows["z"], rows["dinv"], rows["fe"], self.E, self.rew_now)
+        """``cl_terms`` at weights W given as any sequence of 10 floats."""
+        return self.cl_terms(as_buffer(W))
+
+    def cl_terms(self, W: array) -> array:
+        """The CL sum M W + b of (30)/(31) at the weights W (a float64 buffer; the result is a buffer kept by
+        the stack, overwritten by the next call); M, b stay as ``self.M``, ``self.b``, with the rows
+        ``self.E`` and their scales ``self.sc``."""
+        if self._current:
+            replay_current(self.constants, self.count, W, self._z, self._dinv, self._fe, self.E, self.rew_now)
             cl_matrix(self.count, self.E, self.rew_now, self.M, self.b, self.sc)
-        cl_rate(self.M, self.b, Wb, self._rate)
+        cl_rate(self.M, self.b, W, self._rate)
         return self._rate
 
     def spectrum(self, shift: float = 0.0) -> tuple[float, int, float]:
@@ -252,7 +267,7 @@ class CLStack:
         0 below full rank. ``shift`` is 0 but where a study re-decides with moved thresholds (``_swap_row``)."""
         n = N_BASIS
         margin = self.margin * trace(self.M, n)
-        lam = self._smallest(self.M)
+        lam = self._smallest(self.M, 1)
         rank = n - sturm_count(self._d, self._e, n, margin + shift) if margin > 0.0 else 0
         return (lam if rank == n else 0.0), rank, margin
 
@@ -265,43 +280,48 @@ class CLStack:
 
     # --- recording -------------------------------------------------------------------------------
 
-    def record(self, eta: list, rew: float, z: Sequence[float], dinv: Sequence[float], fe: Sequence[float],
-               t: float, terms_ready: bool) -> bool:
-        """Offer the sample of time t; ``terms_ready``: ``terms`` ran at the weights the sample was
-        evaluated with (``maxeig`` swaps only then). Returns whether the stack changed."""
-        spectrum = self.spectrum() if terms_ready and self.count else None
-        if spectrum is not None:
-            self.min_eig = spectrum[0]
+    def record(self, eta: array, rew: float, z: array, dinv: array, fe: array, t: float, terms_ready: bool) -> bool:
+        """Offer the sample of time t (eta, z, dinv, fe: float64 buffers); ``terms_ready``: ``terms`` ran at the
+        weights the sample was evaluated with (``maxeig`` swaps only then). Returns whether the stack changed."""
+        ready = terms_ready and self.count > 0
+        lam, rank, margin = 0.0, 0, 0.0
+        if ready:
+            lam, rank, margin = self.spectrum()
+            self.min_eig = lam
         if self.count < self.P:
             row = self.count
             self.count += 1
-        elif self.selection == "fill":
+        elif self._fill:
             return False
-        elif self.selection == "fifo":
+        elif self._fifo:
             row = self.next_row
             self.next_row = (self.next_row + 1) % self.P
             self.swaps += 1
         else:
-            row = self._swap_row(eta, spectrum) if spectrum is not None else -1
+            row = self._swap_row(eta, (lam, rank, margin), 0.0) if ready else -1
             if row < 0:
                 return False
             self.swaps += 1
         self._put(row, eta, rew, z, dinv, fe, t)
         return True
 
-    def _smallest(self, M, k: int = 1) -> float:
+    def _smallest(self, M: array, k: int = 1) -> float:
         return smallest_eigenvalue(M, N_BASIS, self._d, self._e, self._A, self._v, self._p, k)
 
-    def _put(self, row: int, eta: list, rew: float, z: Sequence[float], dinv: Sequence[float],
-             fe: Sequence[float], t: float) -> None:
-        for key, values in (("eta", eta), ("z", z), ("dinv", dinv), ("fe", fe)):
-            w, a = _WIDTHS[key], self.rows[key]
-            for k in range(w):
-                a[row * w + k] = values[k]
-        self.rew[row], self.t[row] = float(rew), float(t)
+    def _put(self, row: int, eta: array, rew: float, z: array, dinv: array, fe: array, t: float) -> None:
+        N = N_BASIS
+        for k in range(N):
+            self._eta[row * N + k] = eta[k]
+        for k in range(4):
+            self._z[row * 4 + k] = z[k]
+        for k in range(3):
+            self._dinv[row * 3 + k] = dinv[k]
+        for k in range(2):
+            self._fe[row * 2 + k] = fe[k]
+        self._rew[row], self._t[row] = rew, t
         self.refresh()
 
-    def _swap_row(self, eta: list, spectrum: tuple[float, int, float], shift: float = 0.0) -> int:
+    def _swap_row(self, eta: array, spectrum: tuple[float, int, float], shift: float = 0.0) -> int:
         """The row a new sample eta replaces under ``maxeig``/``maxeig-raw``, or -1 (no swap); ``spectrum``
         as ``spectrum(shift)`` gives it. A swap must raise lambda_k, the k-th smallest eigenvalue of M
         (k = 1 at full rank, else the largest of the n - rank below the margin), from max(lambda_k, 0) by
@@ -309,34 +329,37 @@ class CLStack:
         threshold and the tie window alike (0 but in a study of the decisions). By Weyl's inequality a swap
         raises lambda_k by at most |eta|^2 / (1 + |eta|^2)^2, so a sample not above the least gain is
         refused at once."""
-        c = self._c
-        c[:] = as_buffer(eta)
-        ee = dot(c, c, N_BASIS)
+        N, c = N_BASIS, self._c
+        for a in range(N):
+            c[a] = eta[a]
+        ee = dot(c, c, N)
         c_sc = 1.0 / normalisation(ee)
         lam, rank, margin = spectrum
-        if self.selection == "maxeig-raw":
-            lam = self._smallest(self.M)
+        if self._raw:
+            lam = self._smallest(self.M, 1)
             return -1 if ee * c_sc <= (MAXEIG_GAIN - 1.0) * lam else self._swap_raw(c_sc, lam)
-        k = max(1, N_BASIS - rank)
-        low = lam if rank == N_BASIS else max(self._smallest(self.M, k), 0.0)
+        k = max(1, N - rank)
+        low = lam if rank == N else max(self._smallest(self.M, k), 0.0)
         gain = max((MAXEIG_GAIN - 1.0) * low, margin) + shift
         if ee * c_sc <= gain:
             return -1
         return self._swap_raising(c_sc, k, low + gain, margin + shift)
 
     def _swap_raising(self, c_sc: float, k: int, thr: float, window: float) -> int:
-        """Of the trials whose k-th smallest eigenvalue exceeds thr, the largest to within ``window``, then
-        the oldest row. For k = 1 a necessary test first (``_may_pass``); the computed eigenvalue decides."""
-        B, found = self._work, []
+        """Of the trials whose k-th smallest eigenvalue exceeds thr (marked in ``_found``, the eigenvalues in
+        ``_lams``), the largest to within ``window``, then the oldest row. For k = 1 a necessary test first
+        (``_may_pass``); the computed eigenvalue decides."""
+        B, found, lams = self._work, self._found, self._lams
         if k == 1 and not self._may_pass(c_sc, thr):
             return -1
         for j in range(self.P):
+            found[j] = 0.0
             if k > 1 or self._inside[j]:
                 trial_matrix(self.M, self.sc[j], self.E, j, c_sc, self._c, B)
-                lam = self._smallest(B, k)
-                if lam > thr:
-                    found.append((j, lam))
-        return self._oldest_best(found, window)
+                lams[j] = self._smallest(B, k)
+                if lams[j] > thr:
+                    found[j] = 1.0
+        return self._oldest_best(window)
 
     def _may_pass(self, c_sc: float, thr: float) -> bool:
         """Whether any trial can have lambda_min > thr: B = M + c c^T - thr I must be positive definite,
@@ -347,20 +370,27 @@ class CLStack:
             B[a * N + a] -= thr
         return cholesky(B, N, L) and rows_within(L, self.E, self.sc, self.P, self._y, self._inside) > 0
 
-    def _oldest_best(self, found: list, window: float) -> int:
-        """Of (row, eigenvalue) candidates, the largest eigenvalue to within ``window``, then the oldest
-        row (then the lowest index); -1 if there is none."""
-        if not found:
+    def _oldest_best(self, window: float) -> int:
+        """Of the rows marked in ``_found`` (eigenvalues in ``_lams``), the largest eigenvalue to within
+        ``window``, then the oldest row (then the lowest index); -1 if there is none."""
+        found, lams, t = self._found, self._lams, self._t
+        row, best = -1, 0.0
+        for j in range(self.P):
+            if found[j] and (row < 0 or lams[j] > best):
+                row, best = j, lams[j]
+        if row < 0:
             return -1
-        best = max(lam for _, lam in found)
-        ties = [j for j, lam in found if lam >= best - window]
-        return min(ties, key=lambda j: (self.t[j], j))
+        row = -1
+        for j in range(self.P):
+            if found[j] and lams[j] >= best - window and (row < 0 or t[j] < t[row]):
+                row = j
+        return row
 
     def _swap_raw(self, c_sc: float, lam: float) -> int:
         B, row, best = self._work, -1, 0.0
         for j in range(self.P):
             trial_matrix(self.M, self.sc[j], self.E, j, c_sc, self._c, B)
-            trial = self._smallest(B)
+            trial = self._smallest(B, 1)
             if row < 0 or trial > best:
                 row, best = j, trial
         return row if best > MAXEIG_GAIN * lam else -1

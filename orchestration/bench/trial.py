@@ -1,23 +1,32 @@
 """The cost of one tuning trial (``sotc-cosim bench``): the nominal SOTC design run on the whole
 training set (``orchestration.study.tuning.criterion``: ``TRAINING_POINTS`` points of ``STOP_TIME``
-each in the pure loop), in a fresh interpreter, so the cores it runs are those a plain install runs
-in-process (compiled into the wheel by setup.py where the build could, else the ``.py``).
+each in the pure loop), in a fresh interpreter. Twice where the cores can be compiled: with the cores
+compiled as a tuning runs them (``compiled_cores``: the hot modules compiled into a private folder by
+``fmu_build.compiled``, as an FMU build compiles them, which the child imports first), and with the cores
+the interpreter imports by itself (a source checkout: the ``.py``; a plain install: what setup.py compiled
+into the wheel). Each reports what its cores ran as.
 
 ``python -m orchestration.bench.trial --store-before`` measured the cost on the code before the typed C cores
-and stored it in ``trial_before.json`` beside this module, once per kind of cores (a source
-checkout imports the ``.py``; the tree of a plain install, its compiled extensions); the bench
-compares with the figure of the same kind.
+and stored it in ``trial_before.json`` beside this module, once per kind of cores; the bench compares
+each trial with the figure of its kind.
 """
 from __future__ import annotations
 
 import argparse
 import json
+import shutil
 import statistics
 import subprocess
 import sys
+import tempfile
 from datetime import datetime, timezone
 from pathlib import Path
 
+from orchestration.fmu_build import compiled
+from orchestration.fmu_build.build import PACKAGE_ROOT
+from orchestration.scratch import owner_prefix
+
+CORES = ("fmu_controller", "fmu_plant")  # the packages of compiled.HOT
 BEFORE = Path(__file__).with_name("trial_before.json")
 CHILD = (
     "import importlib.machinery, json, time\n"
@@ -40,9 +49,35 @@ def one_trial(cwd: Path | None = None) -> dict:
     return json.loads(proc.stdout.strip().splitlines()[-1])
 
 
-def trial_cost(repeats: int) -> dict:
-    """Median (min-max) of ``repeats`` trials, against the stored cost before (if stored)."""
-    runs = [one_trial() for _ in range(repeats)]
+def compiled_cores(dest: Path) -> Path:
+    """A copy of the cores' packages in ``dest`` with the hot modules compiled in place, as an FMU build
+    compiles them (``compiled.compile_bundle``: the same flags, the ``.pxd`` beside each); a child started in
+    ``dest`` imports these extensions before the source tree's ``.py``."""
+    for package in CORES:
+        (dest / package).mkdir(parents=True)
+        for source in (PACKAGE_ROOT / package).glob("*.py"):
+            shutil.copyfile(source, dest / package / source.name)
+    declarations = {compiled.declarations(rel): (PACKAGE_ROOT / compiled.declarations(rel)).read_text()
+                    for rel in compiled.HOT}
+    compiled.compile_bundle(dest, ".", declarations)  # the packages at the top: fmu_controller.sotc ...
+    return dest
+
+
+def trial_costs(repeats: int) -> dict[str, dict]:
+    """``trial_cost`` with the cores compiled (key "compiled", where they can be) and as the interpreter imports
+    them (key "default")."""
+    out = {}
+    if compiled.unavailable() is None:
+        with tempfile.TemporaryDirectory(prefix=owner_prefix("sotc_bench_trial_")) as tmp:
+            out["compiled"] = trial_cost(repeats, compiled_cores(Path(tmp)))
+    out["default"] = trial_cost(repeats)
+    return out
+
+
+def trial_cost(repeats: int, cwd: Path | None = None) -> dict:
+    """Median (min-max) of ``repeats`` trials (each child started in ``cwd``), against the stored cost before
+    of the same kind of cores (if stored)."""
+    runs = [one_trial(cwd) for _ in range(repeats)]
     walls = [r["wall_s"] for r in runs]
     out = {"median": statistics.median(walls), "min": min(walls), "max": max(walls), "cores": runs[0]["cores"],
            "criterion": runs[0]["criterion"]}

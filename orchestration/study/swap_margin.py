@@ -38,9 +38,9 @@ class FlipCountingStack(CLStack):
     trace(M)."""
 
     def __init__(self, stack: CLStack, margin: float = SWAP_MARGIN):
+        super().__init__(stack.P, stack.selection, stack.replay_form, stack.constants)
         self.offers = self.flips = 0
         self.margin = margin
-        super().__init__(stack.P, stack.selection, stack.replay_form, stack.constants)
 
     def _swap_row(self, eta: list, spectrum: tuple[float, int, float], shift: float = 0.0) -> int:
         row = super()._swap_row(eta, spectrum, shift)
