@@ -59,6 +59,8 @@ SWAP_MARGIN = 1e3 * EPS  # ... and by more than SWAP_MARGIN trace(M), a hundred 
 _WIDTHS = {"eta": N_BASIS, "z": 4, "dinv": 3, "fe": 2}
 INTERPRETED = __file__.endswith(".py")  # False in the compiled core (an extension module)
 _LOWER = np.tril(np.ones((N_BASIS, N_BASIS), dtype=bool))  # entries (a, c), c <= a, that cl_matrix sums
+if INTERPRETED:  # the Python build's replay over all rows at once (imports the elementary functions' constants)
+    from fmu_controller.sotc_replay import replay_current_array
 
 
 def cl_matrix(n: int, E: array, rew: array, M: array, b: array, sc: array) -> None:
@@ -126,7 +128,11 @@ def cl_rate(M: array, b: array, W: array, out: array) -> None:
 def replay_current(K: CriticConstants, n: int, W: array, z: array, dinv: array, fe: array, E: array,
                    rew: array) -> None:
     """eta_i and r_i of the first n rows re-evaluated at the weights W (the ``current`` replay): the
-    policy (28) the critic W implies at z_i, and the controller's own ``critic_row``."""
+    policy (28) the critic W implies at z_i, and the controller's own ``critic_row``. The interpreted core
+    takes ``sotc_replay.replay_current_array`` (the same bits, all rows at once)."""
+    if INTERPRETED:
+        replay_current_array(K, n, W, z, dinv, fe, E, rew)
+        return
     s = K.s
     for i in range(n):
         zp1, zp2, zv1, zv2 = z[4 * i], z[4 * i + 1], z[4 * i + 2], z[4 * i + 3]

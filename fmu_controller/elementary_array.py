@@ -1,0 +1,156 @@
+"""``elementary``'s exp, log1p, tanh and sinh on float64 arrays, each element to the scalar function's bits.
+
+Why: in the Python build (the cores not compiled) the CL replay evaluates the saturated cost (17) of
+every stored row, a few hundred scalar calls per step; numpy runs them as one vector operation per
+step of the algorithm. Only the interpreted cores call this module (``sotc_replay``); the compiled
+build keeps ``elementary``'s C functions.
+
+How the bits stay the same: every element goes through exactly the scalar function's sequence of
+IEEE-754 operations (numpy's +, -, *, / and sqrt on float64 are correctly rounded, elementwise, with
+no fused multiply-add; no reduction, and none of numpy's own exp, tanh, log ..., which are libm's or
+SIMD code and differ by CPU). A branch of the scalar function becomes a mask: each side is computed
+where any element needs it (the other elements' values, nan or inf included, are discarded by
+``np.where``), under ``np.errstate(all="ignore")`` because the scalar code raises no floating-point
+exception. Powers of two are ``np.ldexp`` and the exponent of ``_normalize`` is ``np.frexp``'s, both
+exact: m = u 2^-k in [sqrt(1/2), sqrt(2)) with k an integer has one solution, the one the scalar
+loop of halvings finds. ``tests/unit/test_elementary_array.py`` compares every function with the
+scalar one bit for bit on hypothesis-drawn arguments (signed zeros, inf, nan, tiny and huge
+arguments, the branch boundaries).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from fmu_controller.elementary import (EXP_OVER, EXP_POLY, EXP_UNDER, INF, INV_LN2, LN2_HI, LN2_LO, LOG_POLY, NAN,
+                                       P2_M54, SHIFT, SINH_OVER, SINH_POLY, SINH_POLY_MAX, SPLIT, SQRT_HALF,
+                                       TANH_POLY, TANH_POLY_MAX, TINY)
+
+
+def _horner(x: np.ndarray, coeffs: tuple) -> np.ndarray:
+    """``elementary._horner``: from the highest power, the accumulator starting at 0.0 as there."""
+    acc = np.zeros_like(x)
+    for c in reversed(coeffs):
+        acc = acc * x + c
+    return acc
+
+
+def _pow2(k: np.ndarray) -> np.ndarray:
+    """``elementary._pow2``: 2^k for integer-valued k (ldexp, exact); elements not finite give 1 (discarded)."""
+    return np.ldexp(1.0, np.where(np.abs(k) <= 2000.0, k, 0.0).astype(np.int64))
+
+
+def _scale(y: np.ndarray, k: np.ndarray) -> np.ndarray:
+    """``elementary._scale``: y 2^k in two exact factors beyond |k| = 1000, as there."""
+    return np.where(k > 1000.0, y * _pow2(k - 1000.0) * _pow2(np.full_like(k, 1000.0)),
+                    np.where(k < -1000.0, y * _pow2(k + 1000.0) * _pow2(np.full_like(k, -1000.0)),
+                             y * _pow2(k)))
+
+
+def _two_prod(a: np.ndarray, b: np.ndarray) -> tuple:
+    """``elementary._two_prod``: (p, e) with a b = p + e exactly (Dekker, Veltkamp's split)."""
+    p = a * b
+    t = SPLIT * a
+    ah = t - (t - a)
+    al = a - ah
+    t = SPLIT * b
+    bh = t - (t - b)
+    bl = b - bh
+    return p, ((ah * bh - p) + ah * bl + al * bh) + al * bl
+
+
+def _exp_parts(x: np.ndarray) -> tuple:
+    """``elementary._exp_parts``: (k, hi, lo) with e^x = 2^k (hi + lo)."""
+    k = (x * INV_LN2 + SHIFT) - SHIFT
+    r = (x - k * LN2_HI) - k * LN2_LO
+    one_r = 1.0 + r
+    tail = ((1.0 - one_r) + r) + r * r * _horner(r, EXP_POLY)
+    hi = one_r + tail
+    return k, hi, (one_r - hi) + tail
+
+
+def exp(x: np.ndarray) -> np.ndarray:
+    """``elementary.exp`` elementwise."""
+    with np.errstate(all="ignore"):
+        k, hi, _ = _exp_parts(x)
+        v = _scale(hi, k)
+        v = np.where(np.abs(x) < P2_M54, 1.0 + x, v)
+        return np.where(x != x, x, np.where(x > EXP_OVER, INF, np.where(x < EXP_UNDER, 0.0, v)))
+
+
+def _log_reduced(k: np.ndarray, f: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """``elementary._log_reduced``: k ln 2 + ln(1 + f) + c."""
+    s = f / (2.0 + f)
+    z = s * s
+    hfsq = 0.5 * f * f
+    return k * LN2_HI + (f - (hfsq - (s * (hfsq + z * _horner(z, LOG_POLY)) + (k * LN2_LO + c))))
+
+
+def _normalized(u: np.ndarray) -> tuple:
+    """``elementary._normalize`` for u > 0 (finite): (k, m), u = 2^k m, m in [sqrt(1/2), sqrt(2)), from frexp."""
+    m, e = np.frexp(u)  # u = m 2^e, m in [1/2, 1)
+    low = m < SQRT_HALF
+    return e.astype(np.float64) - np.where(low, 1.0, 0.0), np.where(low, m * 2.0, m)
+
+
+def log1p(x: np.ndarray) -> np.ndarray:
+    """``elementary.log1p`` elementwise (``_log1p_parts`` with xl = 0: its two branches as one
+    ``_log_reduced`` on the chosen k, f and correction)."""
+    with np.errstate(all="ignore"):
+        near = (-0.2928932188134524 <= x) & (x < 0.41421356237309503)
+        u = 1.0 + x
+        if near.all():
+            k, f, c = np.zeros_like(x), x, 0.0 / u
+        else:
+            err = np.where(x < 1.0, x - (u - 1.0), 1.0 - (u - x))
+            ku, m = _normalized(np.where(u > 0.0, u, 1.0))
+            k, f, c = np.where(near, 0.0, ku), np.where(near, x, m - 1.0), np.where(near, 0.0 / u, (err + 0.0) / u)
+        v = _log_reduced(k, f, c)
+        v = np.where((x == INF) | (np.abs(x) < P2_M54), x, v)
+        return np.where(x > -1.0, v, np.where(x == -1.0, -INF, np.where(x == x, NAN, x)))
+
+
+def tanh(x: np.ndarray) -> np.ndarray:
+    """``elementary.tanh`` elementwise: x + x^3 T(x^2) up to TANH_POLY_MAX, 1 - 2 / (e^{2|x|} + 1) with
+    its errors kept up to 22, +-1 beyond."""
+    with np.errstate(all="ignore"):
+        a = np.abs(x)
+        poly = a <= TANH_POLY_MAX
+        t = _tanh_poly(x) if poly.any() else x
+        if not poly.all():
+            big = np.where(a > 22.0, 1.0, _tanh_exp(a))
+            t = np.where(poly, t, np.where(x > 0.0, big, -big))
+        return np.where(a > TINY, t, x)
+
+
+def _tanh_poly(x: np.ndarray) -> np.ndarray:
+    z, zl = _two_prod(x, x)
+    p, pl = _two_prod(x, z * _horner(z, TANH_POLY) + zl * TANH_POLY[0])
+    t = x + p
+    return t + ((p - (t - x)) + pl)
+
+
+def _tanh_exp(a: np.ndarray) -> np.ndarray:
+    k, hi, lo = _exp_parts(a + a)
+    scale = _pow2(k)
+    d = scale * hi + 1.0
+    dl = ((scale * hi - d) + 1.0) + scale * lo
+    q = 2.0 / d
+    p, pl = _two_prod(q, d)
+    ql = (((2.0 - p) - pl) - q * dl) / d
+    t = 1.0 - q
+    return t + (((1.0 - t) - q) - ql)
+
+
+def sinh(x: np.ndarray) -> np.ndarray:
+    """``elementary.sinh`` elementwise: x + x^3 S(x^2) up to SINH_POLY_MAX, else (e^|x| - e^-|x|) / 2."""
+    with np.errstate(all="ignore"):
+        a = np.abs(x)
+        poly = a <= SINH_POLY_MAX
+        z = x * x
+        h = x + x * (z * _horner(z, SINH_POLY))
+        if not poly.all():
+            k, hi, lo = _exp_parts(a)
+            inv = np.where(k < 500.0, _pow2(-k - k) / (hi + lo), 0.0)
+            pair = np.where(a <= SINH_OVER, _scale(hi + (lo + -1.0 * inv), k - 1.0), INF)
+            h = np.where(poly, h, np.where(x > 0.0, pair, -pair))
+        return np.where((a > TINY) & (a != INF), h, x)
