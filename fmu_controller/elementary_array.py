@@ -21,29 +21,51 @@ from __future__ import annotations
 
 import numpy as np
 
+from fmu_controller import elementary as el
 from fmu_controller.elementary import (EXP_OVER, EXP_POLY, EXP_UNDER, INF, INV_LN2, LN2_HI, LN2_LO, LOG_POLY, NAN,
                                        P2_M54, SHIFT, SINH_OVER, SINH_POLY, SINH_POLY_MAX, SPLIT, SQRT_HALF,
                                        TANH_POLY, TANH_POLY_MAX, TINY)
 
+FEW = 8  # elements outside a function's main branch computed one by one (fewer calls than its other branches' array operations)
+
+
+def by_branch(x: np.ndarray, main: np.ndarray, on_main, on_all, scalar) -> np.ndarray:
+    """A function's values at x: where ``main`` holds from ``on_main`` (computed on all of x, the other
+    elements discarded); the others from the scalar function one by one while they are at most ``FEW``,
+    else from ``on_all`` (every branch, masks) on them alone."""
+    rest = np.flatnonzero(~main)
+    if rest.size == x.size:
+        return on_all(x)
+    out = on_main(x)
+    if rest.size:
+        others = x[rest]
+        out[rest] = [scalar(v) for v in others.tolist()] if rest.size <= FEW else on_all(others)
+    return out
+
 
 def _horner(x: np.ndarray, coeffs: tuple) -> np.ndarray:
-    """``elementary._horner``: from the highest power, the accumulator starting at 0.0 as there."""
-    acc = np.zeros_like(x)
-    for c in reversed(coeffs):
+    """``elementary._horner`` for finite x: there the accumulator starts at 0.0, and 0.0 x + c is c for a
+    finite x, so this starts at the highest coefficient (an element where x is not finite is discarded
+    by every caller)."""
+    acc = coeffs[-1] * x + coeffs[-2]
+    for c in coeffs[-3::-1]:
         acc = acc * x + c
     return acc
 
 
 def _pow2(k: np.ndarray) -> np.ndarray:
-    """``elementary._pow2``: 2^k for integer-valued k (ldexp, exact); elements not finite give 1 (discarded)."""
-    return np.ldexp(1.0, np.where(np.abs(k) <= 2000.0, k, 0.0).astype(np.int64))
+    """``elementary._pow2``: 2^k for integer-valued k (ldexp, exact); an element not finite gives a value
+    its caller discards (the cast's invalid flag is ignored with the others)."""
+    return np.ldexp(1.0, k.astype(np.int64))
 
 
 def _scale(y: np.ndarray, k: np.ndarray) -> np.ndarray:
     """``elementary._scale``: y 2^k in two exact factors beyond |k| = 1000, as there."""
-    return np.where(k > 1000.0, y * _pow2(k - 1000.0) * _pow2(np.full_like(k, 1000.0)),
-                    np.where(k < -1000.0, y * _pow2(k + 1000.0) * _pow2(np.full_like(k, -1000.0)),
-                             y * _pow2(k)))
+    v = y * _pow2(k)
+    if (np.abs(k) > 1000.0).any():
+        v = np.where(k > 1000.0, y * _pow2(k - 1000.0) * _pow2(np.full_like(k, 1000.0)),
+                     np.where(k < -1000.0, y * _pow2(k + 1000.0) * _pow2(np.full_like(k, -1000.0)), v))
+    return v
 
 
 def _two_prod(a: np.ndarray, b: np.ndarray) -> tuple:
@@ -69,12 +91,21 @@ def _exp_parts(x: np.ndarray) -> tuple:
 
 
 def exp(x: np.ndarray) -> np.ndarray:
-    """``elementary.exp`` elementwise."""
+    """``elementary.exp`` elementwise; the main branch 2^-54 <= |x| <= 690 (one exact scaling) as arrays."""
     with np.errstate(all="ignore"):
-        k, hi, _ = _exp_parts(x)
-        v = _scale(hi, k)
-        v = np.where(np.abs(x) < P2_M54, 1.0 + x, v)
-        return np.where(x != x, x, np.where(x > EXP_OVER, INF, np.where(x < EXP_UNDER, 0.0, v)))
+        a = np.abs(x)
+        return by_branch(x, (a >= P2_M54) & (a <= 690.0), _exp_main, _exp_all, el.exp)
+
+
+def _exp_main(x: np.ndarray) -> np.ndarray:
+    k, hi, _ = _exp_parts(x)
+    return hi * _pow2(k)
+
+
+def _exp_all(x: np.ndarray) -> np.ndarray:
+    k, hi, _ = _exp_parts(x)
+    v = np.where(np.abs(x) < P2_M54, 1.0 + x, _scale(hi, k))
+    return np.where(x != x, x, np.where(x > EXP_OVER, INF, np.where(x < EXP_UNDER, 0.0, v)))
 
 
 def _log_reduced(k: np.ndarray, f: np.ndarray, c: np.ndarray) -> np.ndarray:
@@ -93,33 +124,42 @@ def _normalized(u: np.ndarray) -> tuple:
 
 
 def log1p(x: np.ndarray) -> np.ndarray:
-    """``elementary.log1p`` elementwise (``_log1p_parts`` with xl = 0: its two branches as one
-    ``_log_reduced`` on the chosen k, f and correction)."""
+    """``elementary.log1p`` elementwise (``_log1p_parts`` with xl = 0); the main branch, x itself as f in
+    ``_log_reduced`` (2^-54 <= |x|, -0.29 <= x < 0.41), as arrays."""
     with np.errstate(all="ignore"):
-        near = (-0.2928932188134524 <= x) & (x < 0.41421356237309503)
-        u = 1.0 + x
-        if near.all():
-            k, f, c = np.zeros_like(x), x, 0.0 / u
-        else:
-            err = np.where(x < 1.0, x - (u - 1.0), 1.0 - (u - x))
-            ku, m = _normalized(np.where(u > 0.0, u, 1.0))
-            k, f, c = np.where(near, 0.0, ku), np.where(near, x, m - 1.0), np.where(near, 0.0 / u, (err + 0.0) / u)
-        v = _log_reduced(k, f, c)
-        v = np.where((x == INF) | (np.abs(x) < P2_M54), x, v)
-        return np.where(x > -1.0, v, np.where(x == -1.0, -INF, np.where(x == x, NAN, x)))
+        main = (-0.2928932188134524 <= x) & (x < 0.41421356237309503) & (np.abs(x) >= P2_M54)
+        return by_branch(x, main, _log1p_main, _log1p_all, el.log1p)
+
+
+def _log1p_main(x: np.ndarray) -> np.ndarray:
+    return _log_reduced(0.0, x, 0.0 / (1.0 + x))
+
+
+def _log1p_all(x: np.ndarray) -> np.ndarray:
+    """Every branch: the two of ``_log1p_parts`` as one ``_log_reduced`` on the chosen k, f and correction."""
+    near = (-0.2928932188134524 <= x) & (x < 0.41421356237309503)
+    u = 1.0 + x
+    err = np.where(x < 1.0, x - (u - 1.0), 1.0 - (u - x))
+    ku, m = _normalized(np.where(u > 0.0, u, 1.0))
+    k, f, c = np.where(near, 0.0, ku), np.where(near, x, m - 1.0), np.where(near, 0.0 / u, (err + 0.0) / u)
+    v = np.where((x == INF) | (np.abs(x) < P2_M54), x, _log_reduced(k, f, c))
+    return np.where(x > -1.0, v, np.where(x == -1.0, -INF, np.where(x == x, NAN, x)))
 
 
 def tanh(x: np.ndarray) -> np.ndarray:
-    """``elementary.tanh`` elementwise: x + x^3 T(x^2) up to TANH_POLY_MAX, 1 - 2 / (e^{2|x|} + 1) with
-    its errors kept up to 22, +-1 beyond."""
+    """``elementary.tanh`` elementwise; the main branch, x + x^3 T(x^2) for TINY < |x| <= TANH_POLY_MAX, as arrays."""
     with np.errstate(all="ignore"):
         a = np.abs(x)
-        poly = a <= TANH_POLY_MAX
-        t = _tanh_poly(x) if poly.any() else x
-        if not poly.all():
-            big = np.where(a > 22.0, 1.0, _tanh_exp(a))
-            t = np.where(poly, t, np.where(x > 0.0, big, -big))
-        return np.where(a > TINY, t, x)
+        return by_branch(x, (a > TINY) & (a <= TANH_POLY_MAX), _tanh_poly, _tanh_all, el.tanh)
+
+
+def _tanh_all(x: np.ndarray) -> np.ndarray:
+    """Every branch: x + x^3 T(x^2) up to TANH_POLY_MAX, 1 - 2 / (e^{2|x|} + 1) with its errors kept up to
+    22, +-1 beyond."""
+    a = np.abs(x)
+    big = np.where(a > 22.0, 1.0, _tanh_exp(a))
+    t = np.where(a <= TANH_POLY_MAX, _tanh_poly(x), np.where(x > 0.0, big, -big))
+    return np.where(a > TINY, t, x)
 
 
 def _tanh_poly(x: np.ndarray) -> np.ndarray:
@@ -142,15 +182,22 @@ def _tanh_exp(a: np.ndarray) -> np.ndarray:
 
 
 def sinh(x: np.ndarray) -> np.ndarray:
-    """``elementary.sinh`` elementwise: x + x^3 S(x^2) up to SINH_POLY_MAX, else (e^|x| - e^-|x|) / 2."""
+    """``elementary.sinh`` elementwise; the main branch, x + x^3 S(x^2) for TINY < |x| <= SINH_POLY_MAX, as arrays."""
     with np.errstate(all="ignore"):
         a = np.abs(x)
-        poly = a <= SINH_POLY_MAX
-        z = x * x
-        h = x + x * (z * _horner(z, SINH_POLY))
-        if not poly.all():
-            k, hi, lo = _exp_parts(a)
-            inv = np.where(k < 500.0, _pow2(-k - k) / (hi + lo), 0.0)
-            pair = np.where(a <= SINH_OVER, _scale(hi + (lo + -1.0 * inv), k - 1.0), INF)
-            h = np.where(poly, h, np.where(x > 0.0, pair, -pair))
-        return np.where((a > TINY) & (a != INF), h, x)
+        return by_branch(x, (a > TINY) & (a <= SINH_POLY_MAX), _sinh_poly, _sinh_all, el.sinh)
+
+
+def _sinh_poly(x: np.ndarray) -> np.ndarray:
+    z = x * x
+    return x + x * (z * _horner(z, SINH_POLY))
+
+
+def _sinh_all(x: np.ndarray) -> np.ndarray:
+    """Every branch: the polynomial up to SINH_POLY_MAX, else (e^|x| - e^-|x|) / 2 (``_exp_pair``)."""
+    a = np.abs(x)
+    k, hi, lo = _exp_parts(a)
+    inv = np.where(k < 500.0, _pow2(-k - k) / (hi + lo), 0.0)
+    pair = np.where(a <= SINH_OVER, _scale(hi + (lo + -1.0 * inv), k - 1.0), INF)
+    h = np.where(a <= SINH_POLY_MAX, _sinh_poly(x), np.where(x > 0.0, pair, -pair))
+    return np.where((a > TINY) & (a != INF), h, x)

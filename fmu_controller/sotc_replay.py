@@ -24,21 +24,32 @@ from array import array
 import numpy as np
 
 from fmu_controller import elementary_array as ea
-from fmu_controller.sotc_math import LN2, N_BASIS, CriticConstants, directional_into, error_rate, policy_arguments
+from fmu_controller.sotc_math import (LN2, N_BASIS, CriticConstants, _x_tanh_minus_log_cosh, directional_into, error_rate,
+                                     policy_arguments)
 
 
 def x_tanh_minus_log_cosh(x: np.ndarray, t: np.ndarray) -> np.ndarray:
     """``sotc_math._x_tanh_minus_log_cosh`` elementwise, given t = tanh x (``elementary_array.tanh``):
-    a tanh a - ln(1 + 2 sinh^2(a/2)) for a = |x| < 1, where tanh a = |tanh x| to the bit (``elementary``'s
-    tanh is odd to the bit: every step of it is), else ln 2 - ln(1 + e) - 2 a e / (1 + e), e = e^{-2a};
-    the two branches' log1p as one call on the argument each element needs."""
+    a tanh a - ln(1 + 2 sinh^2(a/2)) for a = |x| < 1 (the main branch, as arrays), where tanh a = |tanh x|
+    to the bit (``elementary``'s tanh is odd to the bit: every step of it is); else
+    ln 2 - ln(1 + e) - 2 a e / (1 + e), e = e^{-2a} (``_large``; one by one while few, as
+    ``elementary_array.by_branch``)."""
     with np.errstate(all="ignore"):
         a = np.abs(x)
         small = a < 1.0
-        h = ea.sinh(0.5 * np.where(small, a, 0.0))
-        e = ea.exp(-2.0 * np.where(small, 1.0, a))
-        lg = ea.log1p(np.where(small, 2.0 * h * h, e))
-        return np.where(small, a * np.abs(t) - lg, LN2 - lg - 2.0 * a * e / (1.0 + e))
+
+        def main(_):
+            h = ea.sinh(0.5 * np.where(small, a, 0.0))
+            return a * np.abs(t) - ea.log1p(2.0 * h * h)
+
+        return ea.by_branch(x, small, main, _large, _x_tanh_minus_log_cosh)
+
+
+def _large(x: np.ndarray) -> np.ndarray:
+    """The branch |x| >= 1 (and nan) of ``_x_tanh_minus_log_cosh``, elementwise."""
+    a = np.abs(x)
+    e = ea.exp(-2.0 * a)
+    return LN2 - ea.log1p(e) - 2.0 * a * e / (1.0 + e)
 
 
 def replay_current_array(K: CriticConstants, n: int, W: array, z: array, dinv: array, fe: array, E: array,
