@@ -1,6 +1,7 @@
-"""The Python build's array paths give the scalar functions' bits: ``elementary_array``'s exp, log1p, tanh
-and sinh against ``elementary``'s, element by element, and ``sotc_replay``'s replay over all rows against
-``sotc_stack.replay_current``'s loop over rows, on hypothesis-drawn arguments (signed zeros, inf, nan, tiny
+"""The Python build's own paths give the bits of the loops the compiled build runs: ``elementary_array``'s
+exp, log1p, tanh and sinh against ``elementary``'s, element by element, ``sotc_replay``'s replay over all
+rows against ``sotc_stack.replay_current``'s loop over rows, ``fixed_linalg_lists``' eigenvalue against
+``fixed_linalg``'s buffers, on hypothesis-drawn arguments (signed zeros, inf, nan, tiny
 and huge arguments, subnormal results, every branch boundary and its neighbours, branches mixed in one array)."""
 import math
 from array import array
@@ -16,7 +17,7 @@ if not el.__file__.endswith(".py"):
     pytest.skip("the array paths are the interpreted cores' (compiled, elementary's constants and sotc_math's "
                 "functions are C: the compiled build never imports them)", allow_module_level=True)
 
-from fmu_controller import elementary_array as ea, sotc_math, sotc_replay, sotc_stack  # noqa: E402
+from fmu_controller import elementary_array as ea, fixed_linalg as fl, sotc_math, sotc_replay, sotc_stack  # noqa: E402
 from fmu_controller.sotc_math import CriticConstants  # noqa: E402
 
 
@@ -88,3 +89,25 @@ def loop(*args) -> None:
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(sotc_stack, "INTERPRETED", False)
         sotc_stack.replay_current(*args)
+
+
+matrix_entries = st.one_of(st.floats(-1e3, 1e3), st.sampled_from([0.0, -0.0, 1e-300, -1e-300, 1e150, 1.0, 1.0]))
+
+
+@settings(max_examples=150, deadline=None)
+@given(values=st.lists(matrix_entries, min_size=100, max_size=100), k=st.integers(1, 10),
+       zero_rows=st.integers(0, 9), gram=st.booleans())
+def test_the_eigenvalue_on_lists_has_the_loops_bits(values, k, zero_rows, gram):
+    """``fixed_linalg.smallest_eigenvalue`` (k-th smallest) and the tridiagonal form it leaves, as the loops
+    and as ``fixed_linalg_lists``: symmetric matrices, Gram matrices (>= 0, as the CL sum), rank-deficient ones."""
+    a = np.array(values).reshape(10, 10)
+    a[:zero_rows] = 0.0
+    m = a.T @ a if gram else np.tril(a) + np.tril(a, -1).T
+    out = []
+    for interpreted in (False, True):
+        d, e, A, v, p = (fl.buffer(10), fl.buffer(10), fl.buffer(100), fl.buffer(10), fl.buffer(10))
+        with pytest.MonkeyPatch.context() as patch:
+            patch.setattr(fl, "INTERPRETED", interpreted)
+            lam = fl.smallest_eigenvalue(array("d", m.ravel().tolist()), 10, d, e, A, v, p, k)
+        out.append((bits_or_nan([lam]), bits_or_nan(d), bits_or_nan(e[:9])))
+    assert out[0] == out[1]
