@@ -93,26 +93,30 @@ def cl_matrix(n: int, E: array, rew: array, M: array, b: array, sc: array) -> No
 
 def cl_matrix_numpy(n: int, E, rew, M, b, sc) -> None:
     """``cl_matrix`` for the interpreted core, the same bits: every product is the same elementwise
-    product (numpy rounds each one as Python does, no FMA), and every sum runs over the rows in the same
-    order, one vector addition per row (each M entry and b entry starting from 0.0 as there); only the
-    loops over the entries of a row become vector operations."""
+    product (numpy rounds each one as Python does, no FMA), and every sum runs in the same order:
+    ``in_order`` over the rows, and over k for eta_i^T eta_i; only the loops over the entries of a row
+    become vector operations."""
     N = N_BASIS
     Ev = np.frombuffer(E, count=n * N).reshape(n, N)
     with np.errstate(all="ignore"):  # an overflow gives inf silently, as the loops do
-        ee = np.zeros(n)
-        for k in range(N):  # eta_i^T eta_i over k in order, for all rows at once
-            ee += Ev[:, k] * Ev[:, k]
+        ee = in_order(Ev * Ev, 1)  # eta_i^T eta_i over k in order, for all rows at once
         scv = np.array([1.0 / normalisation(v) for v in ee.tolist()])
         np.frombuffer(sc, count=n)[:] = scv
         xa = Ev * scv[:, None]
-        outer = xa[:, :, None] * Ev[:, None, :]  # xa_a eta_c of each row
-        rb = xa * np.frombuffer(rew, count=n)[:, None]
-        Mv, bv = np.zeros((N, N)), np.zeros(N)
-        for i in range(n):
-            Mv += outer[i]
-            bv += rb[i]
+        Mv = in_order(xa[:, :, None] * Ev[:, None, :], 0)  # xa_a eta_c of each row, summed over the rows
+        bv = in_order(xa * np.frombuffer(rew, count=n)[:, None], 0)
     np.frombuffer(M).reshape(N, N)[:] = np.where(_LOWER, Mv, Mv.T)
     np.frombuffer(b)[:] = bv
+
+
+def in_order(terms: np.ndarray, axis: int) -> np.ndarray:
+    """The sums over ``axis`` as a loop forms them, acc = 0.0, then acc += each term in order: ``np.cumsum``
+    adds in order by definition (no pairwise blocks, unlike ``np.sum``); it starts at the first term, and
+    + 0.0 turns the -0.0 it leaves where every term is -0.0 into the loop's +0.0 (no other value changes).
+    Zeros where there is no term."""
+    if terms.shape[axis] == 0:
+        return np.zeros(np.delete(terms.shape, axis))
+    return np.cumsum(terms, axis=axis).take(-1, axis=axis) + 0.0
 
 
 def cl_rate(M: array, b: array, W: array, out: array) -> None:
