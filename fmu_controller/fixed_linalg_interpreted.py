@@ -17,6 +17,8 @@ from __future__ import annotations
 import math
 from array import array
 
+import numpy as np
+
 EPS = 2.220446049250313e-16  # fixed_linalg.EPS (this module must not import the compiled one's C constants)
 
 
@@ -103,3 +105,56 @@ def bisect(d: list, e2: list, lo: float, hi: float, halvings: int, resolution: f
         else:
             lo = mid
     return 0.5 * (lo + hi)
+
+
+def in_order(terms: np.ndarray, axis: int) -> np.ndarray:
+    """The sums over ``axis`` as a loop forms them, acc = 0.0, then acc += each term in order: ``np.cumsum``
+    adds in order by definition (no pairwise blocks, unlike ``np.sum``); it starts at the first term, and
+    + 0.0 turns the -0.0 it leaves where every term is -0.0 into the loop's +0.0 (no other value changes).
+    Zeros where there is no term."""
+    if terms.shape[axis] == 0:
+        return np.zeros(np.delete(terms.shape, axis))
+    return np.cumsum(terms, axis=axis).take(-1, axis=axis) + 0.0
+
+
+def cholesky(A: array, n: int, L: array) -> bool:
+    """``fixed_linalg.cholesky`` on row lists: L (flat, lower triangle) with A = L L^T from A's lower triangle;
+    False, with the columns before the failing pivot written, if a pivot is not positive."""
+    rows = [[0.0] * n for _ in range(n)]
+    done = n
+    for j in range(n):
+        Lj = rows[j]
+        acc = A[j * n + j]
+        for x in Lj[:j]:
+            acc -= x * x
+        if not acc > 0.0:
+            done = j
+            break
+        djj = math.sqrt(acc)
+        Lj[j] = djj
+        for i in range(j + 1, n):
+            Li = rows[i]
+            acc = A[i * n + j]
+            for x, y in zip(Li[:j], Lj[:j]):
+                acc -= x * y
+            Li[j] = acc / djj
+    for i in range(n):
+        L[i * n:i * n + min(i + 1, done)] = array("d", rows[i][:min(i + 1, done)])
+    return done == n
+
+
+def cholesky_solve(L: array, b: array, n: int, x: array) -> None:
+    """``fixed_linalg.cholesky_solve`` on row lists: x with L L^T x = b (forward, then back substitution)."""
+    rows = [L[i * n:(i + 1) * n].tolist() for i in range(n)]
+    y = []
+    for i in range(n):
+        acc = b[i]
+        for lk, yk in zip(rows[i][:i], y):
+            acc -= lk * yk
+        y.append(acc / rows[i][i])
+    for i in range(n - 1, -1, -1):
+        acc = y[i]
+        for k in range(i + 1, n):
+            acc -= rows[k][i] * y[k]
+        y[i] = acc / rows[i][i]
+    x[:n] = array("d", y)

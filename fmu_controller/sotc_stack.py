@@ -50,6 +50,7 @@ import numpy as np
 from fmu_controller.elementary import tanh
 from fmu_controller.fixed_linalg import (EPS, as_buffer, buffer, cholesky, dot, forward_substitute,
                                          smallest_eigenvalue, sturm_count, trace)
+from fmu_controller.fixed_linalg_interpreted import in_order
 from fmu_controller.sotc_math import N_BASIS, CriticConstants, critic_row, normalisation, policy_arguments
 
 SELECTIONS = ("maxeig", "fill", "fifo", "maxeig-raw")
@@ -107,16 +108,6 @@ def cl_matrix_numpy(n: int, E, rew, M, b, sc) -> None:
         bv = in_order(xa * np.frombuffer(rew, count=n)[:, None], 0)
     np.frombuffer(M).reshape(N, N)[:] = np.where(_LOWER, Mv, Mv.T)
     np.frombuffer(b)[:] = bv
-
-
-def in_order(terms: np.ndarray, axis: int) -> np.ndarray:
-    """The sums over ``axis`` as a loop forms them, acc = 0.0, then acc += each term in order: ``np.cumsum``
-    adds in order by definition (no pairwise blocks, unlike ``np.sum``); it starts at the first term, and
-    + 0.0 turns the -0.0 it leaves where every term is -0.0 into the loop's +0.0 (no other value changes).
-    Zeros where there is no term."""
-    if terms.shape[axis] == 0:
-        return np.zeros(np.delete(terms.shape, axis))
-    return np.cumsum(terms, axis=axis).take(-1, axis=axis) + 0.0
 
 
 def cl_rate(M: array, b: array, W: array, out: array) -> None:
