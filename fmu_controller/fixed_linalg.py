@@ -29,7 +29,7 @@ from typing import Sequence
 
 EPS = 2.220446049250313e-16  # the unit roundoff of float64, 2^-52
 INTERPRETED = __file__.endswith(".py")  # False in the compiled core (an extension module)
-if INTERPRETED:  # the Python build's paths on lists (the same bits)
+if INTERPRETED:  # the Python build's eigenvalue paths (the same bits)
     from fmu_controller import fixed_linalg_interpreted
 MAX_HALVINGS = 200  # bisection never halves more often than this (a zero resolution: until the interval stops shrinking)
 
@@ -82,10 +82,7 @@ def trace(A: array, n: int) -> float:
 
 def cholesky(A: array, n: int, L: array) -> bool:
     """L (flat, lower triangle filled, upper left as it was) with A = L L^T, reading A's lower
-    triangle. False, with L unfinished, if a pivot is not positive (A not positive definite). The
-    interpreted core runs the same loops on row lists (``fixed_linalg_interpreted``, the same bits)."""
-    if INTERPRETED:
-        return fixed_linalg_interpreted.cholesky(A, n, L)
+    triangle. False, with L unfinished, if a pivot is not positive (A not positive definite)."""
     for j in range(n):
         acc = A[j * n + j]
         for k in range(j):
@@ -112,10 +109,7 @@ def forward_substitute(L: array, b: array, n: int, y: array, o: int = 0) -> None
 
 
 def cholesky_solve(L: array, b: array, n: int, x: array) -> None:
-    """x with L L^T x = b (on row lists in the interpreted core, ``fixed_linalg_interpreted``)."""
-    if INTERPRETED:
-        fixed_linalg_interpreted.cholesky_solve(L, b, n, x)
-        return
+    """x with L L^T x = b."""
     forward_substitute(L, b, n, x)
     for i in range(n - 1, -1, -1):
         acc = x[i]

@@ -111,23 +111,3 @@ def test_the_eigenvalue_on_lists_has_the_loops_bits(values, k, zero_rows, gram):
             lam = fl.smallest_eigenvalue(array("d", m.ravel().tolist()), 10, d, e, A, v, p, k)
         out.append((bits_or_nan([lam]), bits_or_nan(d), bits_or_nan(e[:9])))
     assert out[0] == out[1]
-
-
-@settings(max_examples=150, deadline=None)
-@given(values=st.lists(matrix_entries, min_size=100, max_size=100), rhs=st.lists(matrix_entries, min_size=10, max_size=10),
-       shift=st.sampled_from([0.0, 1.0, 1e3, -1.0]))
-def test_cholesky_on_lists_has_the_loops_bits(values, rhs, shift):
-    """``fixed_linalg.cholesky`` (what it writes, refused or not) and ``cholesky_solve``, as the loops and on lists:
-    Gram matrices moved by shift I (positive definite, semidefinite, indefinite)."""
-    a = np.array(values).reshape(10, 10)
-    m = a.T @ a + shift * np.eye(10)
-    out = []
-    for interpreted in (False, True):
-        L, x = array("d", [7.0] * 100), array("d", [7.0] * 10)
-        with pytest.MonkeyPatch.context() as patch:
-            patch.setattr(fl, "INTERPRETED", interpreted)
-            ok = fl.cholesky(array("d", m.ravel().tolist()), 10, L)
-            if ok:
-                fl.cholesky_solve(L, array("d", rhs), 10, x)
-        out.append((ok, bits_or_nan(L), bits_or_nan(x)))
-    assert out[0] == out[1]
