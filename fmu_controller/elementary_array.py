@@ -1,30 +1,32 @@
 """``elementary``'s exp, log1p, tanh and sinh on float64 arrays, each element to the scalar function's bits.
 
 Why: in the Python build (the cores not compiled) the CL replay evaluates the saturated cost (17) of
-every stored row, a few hundred scalar calls per step; numpy runs them as one vector operation per
-step of the algorithm. Only the interpreted cores call this module (``sotc_replay``); the compiled
+every stored row, a few hundred scalar calls per step; numpy runs each step of an algorithm as one
+operation on all elements. Only the interpreted cores call this module (``sotc_replay``); the compiled
 build keeps ``elementary``'s C functions.
 
 How the bits stay the same: every element goes through exactly the scalar function's sequence of
-IEEE-754 operations (numpy's +, -, *, / and sqrt on float64 are correctly rounded, elementwise, with
-no fused multiply-add; no reduction, and none of numpy's own exp, tanh, log ..., which are libm's or
-SIMD code and differ by CPU). A branch of the scalar function becomes a mask: each side is computed
-where any element needs it (the other elements' values, nan or inf included, are discarded by
-``np.where``), under ``np.errstate(all="ignore")`` because the scalar code raises no floating-point
-exception. Powers of two are ``np.ldexp`` and the exponent of ``_normalize`` is ``np.frexp``'s, both
-exact: m = u 2^-k in [sqrt(1/2), sqrt(2)) with k an integer has one solution, the one the scalar
-loop of halvings finds. ``tests/unit/test_elementary_array.py`` compares every function with the
-scalar one bit for bit on hypothesis-drawn arguments (signed zeros, inf, nan, tiny and huge
-arguments, the branch boundaries).
+IEEE-754 operations (numpy's +, -, *, / on float64 are correctly rounded, elementwise, with no fused
+multiply-add; no reduction, and none of numpy's own exp, tanh, log ..., which are libm's or SIMD code
+and differ by CPU). ``elementary``'s helpers that are arithmetic alone (``_horner``, ``_two_prod``,
+``_exp_parts``, ``_log_reduced``) run on the arrays as they are. A branch of the scalar function
+becomes a mask (``by_branch``): the main branch, where a run's arguments nearly all fall, is computed
+on every element and kept where it applies; the few other elements go through the scalar function
+itself, or, when there are many, through every branch as masks (``np.where``). Array code runs under
+``np.errstate(all="ignore")``, as the scalar code raises no floating-point exception. Powers of two
+are ``np.ldexp`` and the exponent of ``_normalize`` is ``np.frexp``'s, both exact: m = u 2^-k in
+[sqrt(1/2), sqrt(2)) with k an integer has one solution, the one the scalar loop of halvings finds.
+``tests/unit/test_elementary_array.py`` compares every function with the scalar one bit for bit on
+hypothesis-drawn arguments (signed zeros, inf, nan, tiny and huge arguments, the branch boundaries).
 """
 from __future__ import annotations
 
 import numpy as np
 
 from fmu_controller import elementary as el
-from fmu_controller.elementary import (EXP_OVER, EXP_POLY, EXP_UNDER, INF, INV_LN2, LN2_HI, LN2_LO, LOG_POLY, NAN,
-                                       P2_M54, SHIFT, SINH_OVER, SINH_POLY, SINH_POLY_MAX, SPLIT, SQRT_HALF,
-                                       TANH_POLY, TANH_POLY_MAX, TINY)
+from fmu_controller.elementary import (EXP_OVER, EXP_UNDER, INF, NAN, P2_M54, SINH_N, SINH_OVER, SINH_POLY,
+                                       SINH_POLY_MAX, SQRT_HALF, TANH_N, TANH_POLY, TANH_POLY_MAX, TINY, _exp_parts,
+                                       _horner, _log_reduced, _two_prod)
 
 FEW = 8  # elements outside a function's main branch computed one by one (fewer calls than its other branches' array operations)
 
@@ -43,16 +45,6 @@ def by_branch(x: np.ndarray, main: np.ndarray, on_main, on_all, scalar) -> np.nd
     return out
 
 
-def _horner(x: np.ndarray, coeffs: tuple) -> np.ndarray:
-    """``elementary._horner`` for finite x: there the accumulator starts at 0.0, and 0.0 x + c is c for a
-    finite x, so this starts at the highest coefficient (an element where x is not finite is discarded
-    by every caller)."""
-    acc = coeffs[-1] * x + coeffs[-2]
-    for c in coeffs[-3::-1]:
-        acc = acc * x + c
-    return acc
-
-
 def _pow2(k: np.ndarray) -> np.ndarray:
     """``elementary._pow2``: 2^k for integer-valued k (ldexp, exact); an element not finite gives a value
     its caller discards (the cast's invalid flag is ignored with the others)."""
@@ -66,28 +58,6 @@ def _scale(y: np.ndarray, k: np.ndarray) -> np.ndarray:
         v = np.where(k > 1000.0, y * _pow2(k - 1000.0) * _pow2(np.full_like(k, 1000.0)),
                      np.where(k < -1000.0, y * _pow2(k + 1000.0) * _pow2(np.full_like(k, -1000.0)), v))
     return v
-
-
-def _two_prod(a: np.ndarray, b: np.ndarray) -> tuple:
-    """``elementary._two_prod``: (p, e) with a b = p + e exactly (Dekker, Veltkamp's split)."""
-    p = a * b
-    t = SPLIT * a
-    ah = t - (t - a)
-    al = a - ah
-    t = SPLIT * b
-    bh = t - (t - b)
-    bl = b - bh
-    return p, ((ah * bh - p) + ah * bl + al * bh) + al * bl
-
-
-def _exp_parts(x: np.ndarray) -> tuple:
-    """``elementary._exp_parts``: (k, hi, lo) with e^x = 2^k (hi + lo)."""
-    k = (x * INV_LN2 + SHIFT) - SHIFT
-    r = (x - k * LN2_HI) - k * LN2_LO
-    one_r = 1.0 + r
-    tail = ((1.0 - one_r) + r) + r * r * _horner(r, EXP_POLY)
-    hi = one_r + tail
-    return k, hi, (one_r - hi) + tail
 
 
 def exp(x: np.ndarray) -> np.ndarray:
@@ -106,14 +76,6 @@ def _exp_all(x: np.ndarray) -> np.ndarray:
     k, hi, _ = _exp_parts(x)
     v = np.where(np.abs(x) < P2_M54, 1.0 + x, _scale(hi, k))
     return np.where(x != x, x, np.where(x > EXP_OVER, INF, np.where(x < EXP_UNDER, 0.0, v)))
-
-
-def _log_reduced(k: np.ndarray, f: np.ndarray, c: np.ndarray) -> np.ndarray:
-    """``elementary._log_reduced``: k ln 2 + ln(1 + f) + c."""
-    s = f / (2.0 + f)
-    z = s * s
-    hfsq = 0.5 * f * f
-    return k * LN2_HI + (f - (hfsq - (s * (hfsq + z * _horner(z, LOG_POLY)) + (k * LN2_LO + c))))
 
 
 def _normalized(u: np.ndarray) -> tuple:
@@ -164,7 +126,7 @@ def _tanh_all(x: np.ndarray) -> np.ndarray:
 
 def _tanh_poly(x: np.ndarray) -> np.ndarray:
     z, zl = _two_prod(x, x)
-    p, pl = _two_prod(x, z * _horner(z, TANH_POLY) + zl * TANH_POLY[0])
+    p, pl = _two_prod(x, z * _horner(z, TANH_POLY, TANH_N) + zl * TANH_POLY[0])
     t = x + p
     return t + ((p - (t - x)) + pl)
 
@@ -190,7 +152,7 @@ def sinh(x: np.ndarray) -> np.ndarray:
 
 def _sinh_poly(x: np.ndarray) -> np.ndarray:
     z = x * x
-    return x + x * (z * _horner(z, SINH_POLY))
+    return x + x * (z * _horner(z, SINH_POLY, SINH_N))
 
 
 def _sinh_all(x: np.ndarray) -> np.ndarray:

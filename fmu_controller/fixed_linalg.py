@@ -212,7 +212,7 @@ def smallest_of_tridiagonal(d: array, e: array, n: int, resolution: float, k: in
     rounding can leave a half a little wider)."""
     lo, hi = gershgorin(d, e, n)
     if INTERPRETED:  # the same halvings, each count stopped once it reaches k (``fixed_linalg_interpreted``)
-        return fixed_linalg_interpreted.bisect(d[:n].tolist(), [v * v for v in e[:n - 1]], lo, hi,
+        return fixed_linalg_interpreted.bisect(d[:n].tolist(), [0.0] + [v * v for v in e[:n - 1]], lo, hi,
                                                halvings(hi - lo, resolution), resolution, k)
     for it in range(halvings(hi - lo, resolution) + 2):
         if hi - lo <= resolution:

@@ -68,17 +68,11 @@ def tridiagonalize(M: array, n: int, d: array, e: array) -> None:
     d[n - 1] = A[n - 1][n - 1]
 
 
-def count_reaches(d0: float, d: list, e2: list, x: float, k: int) -> bool:
-    """``fixed_linalg.sturm_count(d, e, n, x) >= k`` for the diagonal d0, d[0], d[1] ... and the squares
-    e2[i] = e[i] e[i], stopping at the k-th negative term."""
+def count_reaches(d: list, e2: list, x: float, k: int) -> bool:
+    """``fixed_linalg.sturm_count(d, e, n, x) >= k`` for e2 = [0.0, e_0 e_0, e_1 e_1, ...], stopping at the k-th
+    negative term (the leading 0.0 makes the first term d_0 - x - 0.0 / 1.0, which is d_0 - x to the bit)."""
     count = 0
-    q = d0 - x
-    if q == 0.0:
-        q = -EPS * (abs(x) + 1e-300)
-    if q < 0.0:
-        count += 1
-        if count >= k:
-            return True
+    q = 1.0
     for di, ei2 in zip(d, e2):
         q = di - x - ei2 / q
         if q == 0.0:
@@ -92,15 +86,14 @@ def count_reaches(d0: float, d: list, e2: list, x: float, k: int) -> bool:
 
 def bisect(d: list, e2: list, lo: float, hi: float, halvings: int, resolution: float, k: int) -> float:
     """``fixed_linalg.smallest_of_tridiagonal``'s bisection from its Gershgorin interval [lo, hi], at most
-    ``halvings`` + 2 halvings, on the lists d (n) and e2 (n - 1) (``count_reaches``)."""
-    d0, rest = d[0], d[1:]
+    ``halvings`` + 2 halvings, on the lists d (n) and e2 (n, ``count_reaches``)."""
     for _ in range(halvings + 2):
         if hi - lo <= resolution:
             break
         mid = 0.5 * (lo + hi)
         if mid <= lo or mid >= hi:
             break
-        if count_reaches(d0, rest, e2, mid, k):
+        if count_reaches(d, e2, mid, k):
             hi = mid
         else:
             lo = mid
