@@ -28,7 +28,7 @@ from fmu_controller.elementary import (EXP_OVER, EXP_UNDER, INF, NAN, P2_M54, SI
                                        SINH_POLY_MAX, SQRT_HALF, TANH_N, TANH_POLY, TANH_POLY_MAX, TINY, _exp_parts,
                                        _horner, _log_reduced, _two_prod)
 
-FEW = 8  # elements outside a function's main branch computed one by one (fewer calls than its other branches' array operations)
+FEW = 8  # elements outside a function's main branch computed one by one (cheaper than its other branches as arrays)
 
 
 def by_branch(x: np.ndarray, main: np.ndarray, on_main, on_all, scalar) -> np.ndarray:

@@ -24,8 +24,8 @@ from array import array
 import numpy as np
 
 from fmu_controller import elementary_array as ea
-from fmu_controller.sotc_math import (LN2, N_BASIS, CriticConstants, _x_tanh_minus_log_cosh, directional_into, error_rate,
-                                     policy_arguments)
+from fmu_controller.sotc_math import (LN2, N_BASIS, CriticConstants, _x_tanh_minus_log_cosh, directional_into,
+                                     error_rate, policy_arguments)
 
 
 def x_tanh_minus_log_cosh(x: np.ndarray, t: np.ndarray) -> np.ndarray:

@@ -99,7 +99,8 @@ matrix_entries = st.one_of(st.floats(-1e3, 1e3), st.sampled_from([0.0, -0.0, 1e-
        zero_rows=st.integers(0, 9), gram=st.booleans())
 def test_the_eigenvalue_on_lists_has_the_loops_bits(values, k, zero_rows, gram):
     """``fixed_linalg.smallest_eigenvalue`` (k-th smallest) and the tridiagonal form it leaves, as the loops
-    and as ``fixed_linalg_interpreted``: symmetric matrices, Gram matrices (>= 0, as the CL sum), rank-deficient ones."""
+    and as ``fixed_linalg_interpreted``: symmetric matrices, Gram matrices (>= 0, as the CL sum), rank-deficient
+    ones."""
     a = np.array(values).reshape(10, 10)
     a[:zero_rows] = 0.0
     m = a.T @ a if gram else np.tril(a) + np.tril(a, -1).T

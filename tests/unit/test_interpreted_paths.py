@@ -73,7 +73,8 @@ def test_exact_sum_loop_gives_the_bits_of_math_fsum(values):
 
 
 @settings(max_examples=80, deadline=None)
-@given(data=st.data(), with_cl=st.booleans(), dt=st.sampled_from([0.01, 1e-3, 0.5]), c=st.sampled_from([0.01, 2.0, 1e-6]))
+@given(data=st.data(), with_cl=st.booleans(), dt=st.sampled_from([0.01, 1e-3, 0.5]),
+       c=st.sampled_from([0.01, 2.0, 1e-6]))
 def test_implicit_system_array_gives_the_bits_of_the_loops(data, with_cl, dt, c):
     """The weight step's system (I + c Gamma) W+ = rhs: ``implicit_system``'s loops and the numpy path."""
     W, wdot, xi, eta = (array("d", data.draw(rows(1))) for _ in range(4))
