@@ -29,6 +29,9 @@ from array import array
 from typing import Sequence
 
 EPS = 2.220446049250313e-16  # the unit roundoff of float64, 2^-52
+INTERPRETED = __file__.endswith(".py")  # False in the compiled core (an extension module)
+if INTERPRETED:  # the Python build's eigenvalue paths (the same bits)
+    from fmu_controller import fixed_linalg_interpreted
 MAX_HALVINGS = 200  # bisection never halves more often than this (a zero resolution: until the interval stops shrinking)
 
 
@@ -152,7 +155,11 @@ def _reflect(A: array, n: int, k: int, v: array, p: array) -> float:
 
 def tridiagonalize(M: array, n: int, d: array, e: array, A: array, v: array, p: array) -> None:
     """Diagonal d (n) and subdiagonal e (n - 1) of a tridiagonal matrix similar to the symmetric M
-    (Householder reflections; M is read, not changed; A (n * n), v, p (n) are scratch)."""
+    (Householder reflections; M is read, not changed; A (n * n), v, p (n) are scratch; the interpreted
+    core reduces a list of row lists, ``fixed_linalg_interpreted``, to the same bits)."""
+    if INTERPRETED:
+        fixed_linalg_interpreted.tridiagonalize(M, n, d, e)
+        return
     for k in range(n * n):
         A[k] = M[k]
     for k in range(n - 2):
@@ -205,6 +212,9 @@ def smallest_of_tridiagonal(d: array, e: array, n: int, resolution: float, k: in
     ``resolution`` (or one ulp), in at most ``halvings`` of the Gershgorin interval plus two (a midpoint's
     rounding can leave a half a little wider)."""
     lo, hi = gershgorin(d, e, n)
+    if INTERPRETED:  # the same halvings, each count stopped once it reaches k (``fixed_linalg_interpreted``)
+        return fixed_linalg_interpreted.bisect(d[:n].tolist(), [0.0] + [v * v for v in e[:n - 1]], lo, hi,
+                                               halvings(hi - lo, resolution), resolution, k)
     for it in range(halvings(hi - lo, resolution) + 2):
         if hi - lo <= resolution:
             break

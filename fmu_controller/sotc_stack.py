@@ -51,6 +51,7 @@ import numpy as np
 from fmu_controller.elementary import tanh
 from fmu_controller.fixed_linalg import (EPS, as_buffer, buffer, cholesky, dot, forward_substitute,
                                          smallest_eigenvalue, sturm_count, trace)
+from fmu_controller.fixed_linalg_interpreted import in_order
 from fmu_controller.sotc_math import N_BASIS, CriticConstants, critic_row, normalisation, policy_arguments
 
 SELECTIONS = ("maxeig", "fill", "fifo", "maxeig-raw")
@@ -60,6 +61,8 @@ SWAP_MARGIN = 1e3 * EPS  # ... and by more than SWAP_MARGIN trace(M), a hundred 
 _WIDTHS = {"eta": N_BASIS, "z": 4, "dinv": 3, "fe": 2}
 INTERPRETED = __file__.endswith(".py")  # False in the compiled core (an extension module)
 _LOWER = np.tril(np.ones((N_BASIS, N_BASIS), dtype=bool))  # entries (a, c), c <= a, that cl_matrix sums
+if INTERPRETED:  # the Python build's replay over all rows at once (imports the elementary functions' constants)
+    from fmu_controller.sotc_replay import replay_current_array
 
 
 def cl_matrix(n: int, E: array, rew: array, M: array, b: array, sc: array) -> None:
@@ -92,24 +95,18 @@ def cl_matrix(n: int, E: array, rew: array, M: array, b: array, sc: array) -> No
 
 def cl_matrix_numpy(n: int, E, rew, M, b, sc) -> None:
     """``cl_matrix`` for the interpreted core, the same bits: every product is the same elementwise
-    product (numpy rounds each one as Python does, no FMA), and every sum runs over the rows in the same
-    order, one vector addition per row (each M entry and b entry starting from 0.0 as there); only the
-    loops over the entries of a row become vector operations."""
+    product (numpy rounds each one as Python does, no FMA), and every sum runs in the same order:
+    ``in_order`` over the rows, and over k for eta_i^T eta_i; only the loops over the entries of a row
+    become vector operations."""
     N = N_BASIS
     Ev = np.frombuffer(E, count=n * N).reshape(n, N)
     with np.errstate(all="ignore"):  # an overflow gives inf silently, as the loops do
-        ee = np.zeros(n)
-        for k in range(N):  # eta_i^T eta_i over k in order, for all rows at once
-            ee += Ev[:, k] * Ev[:, k]
+        ee = in_order(Ev * Ev, 1)  # eta_i^T eta_i over k in order, for all rows at once
         scv = np.array([1.0 / normalisation(v) for v in ee.tolist()])
         np.frombuffer(sc, count=n)[:] = scv
         xa = Ev * scv[:, None]
-        outer = xa[:, :, None] * Ev[:, None, :]  # xa_a eta_c of each row
-        rb = xa * np.frombuffer(rew, count=n)[:, None]
-        Mv, bv = np.zeros((N, N)), np.zeros(N)
-        for i in range(n):
-            Mv += outer[i]
-            bv += rb[i]
+        Mv = in_order(xa[:, :, None] * Ev[:, None, :], 0)  # xa_a eta_c of each row, summed over the rows
+        bv = in_order(xa * np.frombuffer(rew, count=n)[:, None], 0)
     np.frombuffer(M).reshape(N, N)[:] = np.where(_LOWER, Mv, Mv.T)
     np.frombuffer(b)[:] = bv
 
@@ -127,7 +124,11 @@ def cl_rate(M: array, b: array, W: array, out: array) -> None:
 def replay_current(K: CriticConstants, n: int, W: array, z: array, dinv: array, fe: array, E: array,
                    rew: array) -> None:
     """eta_i and r_i of the first n rows re-evaluated at the weights W (the ``current`` replay): the
-    policy (28) the critic W implies at z_i, and the controller's own ``critic_row``."""
+    policy (28) the critic W implies at z_i, and the controller's own ``critic_row``. The interpreted core
+    takes ``sotc_replay.replay_current_array`` (the same bits, all rows at once)."""
+    if INTERPRETED:
+        replay_current_array(K, n, W, z, dinv, fe, E, rew)
+        return
     s = K.s
     for i in range(n):
         zp1, zp2, zv1, zv2 = z[4 * i], z[4 * i + 1], z[4 * i + 2], z[4 * i + 3]

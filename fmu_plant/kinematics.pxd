@@ -9,9 +9,11 @@ cpdef (double, double) elbow_position(double phi1, double l1)
 cpdef (double, double) forward_kinematics(double phi1, double phi2, double l1, double l2)
 @cython.locals(c2=double, phi1=double, phi2=double)
 cpdef (double, double) inverse_kinematics(double x, double y, double l1, double l2)
-@cython.locals(a=double, s1=double, c1=double, sa=double, ca=double)
+@cython.locals(a=double)
 cpdef (double, double, double, double) jacobian(double phi1, double phi2, double l1, double l2)
+cpdef (double, double, double, double) jacobian_of(double s1, double c1, double sa, double ca, double l1, double l2)
 @cython.locals(j11=double, j12=double, j21=double, j22=double, det=double, dq1=double, dq2=double, a=double,
-               da=double, jd1=double, jd2=double, rx=double, ry=double, ddq1=double, ddq2=double)
+               s1=double, c1=double, sa=double, ca=double, da=double, jd1=double, jd2=double, rx=double, ry=double,
+               ddq1=double, ddq2=double)
 cpdef (double, double, double, double) joint_rates(double phi1, double phi2, double dx, double dy, double ddx,
                                                    double ddy, double l1, double l2)

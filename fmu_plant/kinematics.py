@@ -39,7 +39,11 @@ def inverse_kinematics(x: float, y: float, l1: float, l2: float) -> tuple[float,
 def jacobian(phi1: float, phi2: float, l1: float, l2: float) -> tuple[float, float, float, float]:
     """(j11, j12, j21, j22) of J = d(X, Y)/d(phi1, phi2)."""
     a = phi1 + phi2
-    s1, c1, sa, ca = sin(phi1), cos(phi1), sin(a), cos(a)
+    return jacobian_of(sin(phi1), cos(phi1), sin(a), cos(a), l1, l2)
+
+
+def jacobian_of(s1: float, c1: float, sa: float, ca: float, l1: float, l2: float) -> tuple[float, float, float, float]:
+    """``jacobian`` from s1, c1 = sin, cos phi1 and sa, ca = sin, cos (phi1 + phi2)."""
     return -l1 * s1 - l2 * sa, -l2 * sa, l1 * c1 + l2 * ca, l2 * ca
 
 
@@ -52,17 +56,18 @@ def joint_rates(
 
     det J = l1 l2 sin(phi2); the motion must stay away from the straight-arm singularity.
     """
-    j11, j12, j21, j22 = jacobian(phi1, phi2, l1, l2)
+    a = phi1 + phi2
+    s1, c1, sa, ca = sin(phi1), cos(phi1), sin(a), cos(a)  # once, for J and for dJ/dt
+    j11, j12, j21, j22 = jacobian_of(s1, c1, sa, ca, l1, l2)
     det = j11 * j22 - j12 * j21
     if abs(det) < 1e-9:
         raise ValueError(f"kinematic singularity: sin(phi2) = {sin(phi2):.3g}")
     dq1 = (j22 * dx - j12 * dy) / det
     dq2 = (j11 * dy - j21 * dx) / det
-    a = phi1 + phi2
     da = dq1 + dq2
     # dJ/dt dphi, differentiating each entry of J along the motion
-    jd1 = (-l1 * cos(phi1) * dq1 - l2 * cos(a) * da) * dq1 - l2 * cos(a) * da * dq2
-    jd2 = (-l1 * sin(phi1) * dq1 - l2 * sin(a) * da) * dq1 - l2 * sin(a) * da * dq2
+    jd1 = (-l1 * c1 * dq1 - l2 * ca * da) * dq1 - l2 * ca * da * dq2
+    jd2 = (-l1 * s1 * dq1 - l2 * sa * da) * dq1 - l2 * sa * da * dq2
     rx, ry = ddx - jd1, ddy - jd2
     ddq1 = (j22 * rx - j12 * ry) / det
     ddq2 = (j11 * ry - j21 * rx) / det

@@ -1,6 +1,7 @@
-"""The numpy path the interpreted core takes (``sotc_stack.cl_matrix_numpy``) gives the bits of the
-loops ``cl_matrix`` runs (C in the compiled core, Python otherwise), on hypothesis-drawn rows (including
-zeros, signed zeros, tiny and huge entries); likewise ``math.fsum``, which the interpreted SOTC kernel calls,
+"""The numpy paths the interpreted core takes (``sotc_stack.cl_matrix_numpy``,
+``sotc_math.implicit_system_array``) give the bits of the loops ``cl_matrix`` and ``implicit_system`` run (C in
+the compiled core, Python otherwise), on hypothesis-drawn rows (including zeros, signed zeros, tiny and huge
+entries); likewise ``math.fsum``, which the interpreted SOTC kernel calls,
 and the exact-sum loop of the compiled one. Runs in either build: CI's installed package is compiled."""
 import math
 from array import array
@@ -9,7 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from fmu_controller import sotc_kernel, sotc_stack
+from fmu_controller import sotc_kernel, sotc_math, sotc_stack
 from fmu_controller.fixed_linalg import buffer
 
 N = 10
@@ -69,3 +70,23 @@ def test_exact_sum_loop_gives_the_bits_of_math_fsum(values):
     x, n = array("d", values), len(values)
     loop = fsum_outcome(lambda v: sotc_kernel.exact_sum_loop(v, n, buffer(max(n, 1))), x)
     assert loop == fsum_outcome(math.fsum, x)
+
+
+@settings(max_examples=80, deadline=None)
+@given(data=st.data(), with_cl=st.booleans(), dt=st.sampled_from([0.01, 1e-3, 0.5]),
+       c=st.sampled_from([0.01, 2.0, 1e-6]))
+def test_implicit_system_array_gives_the_bits_of_the_loops(data, with_cl, dt, c):
+    """The weight step's system (I + c Gamma) W+ = rhs: ``implicit_system``'s loops and the numpy path."""
+    W, wdot, xi, eta = (array("d", data.draw(rows(1))) for _ in range(4))
+    M = array("d", data.draw(rows(N)))
+    out = []
+    for interpreted in (False, True):
+        G, rhs = array("d", [7.0] * (N * N)), array("d", [7.0] * N)
+        with pytest.MonkeyPatch.context() as patch:
+            patch.setattr(sotc_math, "INTERPRETED", interpreted)
+            if interpreted:
+                sotc_math.implicit_system_array(W, wdot, xi, eta, M, with_cl, dt, c, G, rhs)
+            else:
+                sotc_math.implicit_system(W, wdot, xi, eta, M, with_cl, dt, c, G, rhs)
+        out.append((bits(G), bits(rhs)))
+    assert out[0] == out[1]
