@@ -24,6 +24,7 @@ from array import array
 import numpy as np
 
 from fmu_controller import elementary_array as ea
+from fmu_controller.elementary import tanh
 from fmu_controller.sotc_math import (LN2, N_BASIS, CriticConstants, _x_tanh_minus_log_cosh, directional_into,
                                      error_rate, policy_arguments)
 
@@ -42,7 +43,12 @@ def x_tanh_minus_log_cosh(x: np.ndarray, t: np.ndarray) -> np.ndarray:
             h = ea.sinh(0.5 * np.where(small, a, 0.0))
             return a * np.abs(t) - ea.log1p(2.0 * h * h)
 
-        return ea.by_branch(x, small, main, _large, _x_tanh_minus_log_cosh)
+        return ea.by_branch(x, small, main, _large, _scalar)
+
+
+def _scalar(x: float) -> float:
+    """The scalar function at one element off the main branch (its tanh computed again: only a few are)."""
+    return _x_tanh_minus_log_cosh(x, tanh(x))
 
 
 def _large(x: np.ndarray) -> np.ndarray:
