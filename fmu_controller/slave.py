@@ -117,9 +117,13 @@ class ControllerSlave(DescribedSlave):
         if not all_finite(self._core.outputs):
             self._output_problem = f"it is not finite for the finite inputs at t = {self._time!r}"
 
+    def inputs_checked(self) -> bool:
+        # an evaluation since the last set_real or restored state has checked the inputs (``_evaluate``)
+        return not self._stale and self._invalid_inputs is None
+
     def set_real(self, vrs, values):
+        self._stale = True  # first: a call refused halfway may have set some inputs
         super().set_real(vrs, values)
-        self._stale = True
 
     def initialize(self) -> None:
         try:
