@@ -348,13 +348,17 @@ class DescribedSlave(VariableAccessMixin, FmuStateMixin, Fmi2Slave):
 
     def inputs_checked(self) -> bool:
         """True when ``input_problem`` found the current inputs good since they last changed (a model
-        that checks them when it reads them says so; doStep then does not check them again)."""
-        return False
+        that checks them when it reads them says so; doStep then does not check them again), or when
+        there are no inputs."""
+        return not self._input_ranges
 
-    def input_problem(self) -> str | None:
+    def input_problem(self, values: Sequence[float] | None = None) -> str | None:
         """Why the current inputs cannot be used (naming the first bad input), or None. The usual
-        case costs one pass (``all_finite``, no declared range); otherwise each input is looked at."""
-        if not self._bounded_inputs and all_finite([getattr(self, n) for n, _, _ in self._input_ranges]):
+        case costs one pass (``all_finite``, no declared range); otherwise each input is looked at.
+        ``values``: every input in declaration order, when the caller has read them already."""
+        if values is None:
+            values = [getattr(self, n) for n, _, _ in self._input_ranges]
+        if not self._bounded_inputs and all_finite(values):
             return None
         for name, low, high in self._input_ranges:
             value = getattr(self, name)
@@ -401,8 +405,7 @@ class TimeFunctionSlave(DescribedSlave):
         if not all_finite(values):
             name, value = next((n, v) for n, v in zip(self.TIME_OUTPUTS, values) if not math.isfinite(v))
             return f"output '{name}' would be {value!r} at t = {t!r}"
-        for name, value in zip(self.TIME_OUTPUTS, values):
-            setattr(self, name, value)
+        self.__dict__.update(zip(self.TIME_OUTPUTS, values))  # plain attributes (``declare_output``)
         return None
 
     def publish_initial(self, parameters: Sequence[str]) -> None:

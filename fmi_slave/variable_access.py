@@ -126,8 +126,7 @@ class VariableAccessMixin:
             if plan is None:
                 self._set(vrs, values, Real)
             else:
-                for name, value in zip(plan, values, strict=True):
-                    setattr(self, name, value)
+                self.__dict__.update(zip(plan, values, strict=True))  # inputs are plain attributes (``declare_input``)
         except Exception as exc:
             self._failed("fmi2SetReal", exc)
             raise

@@ -96,11 +96,10 @@ class ControllerSlave(DescribedSlave):
         never a stale value; the state outputs are then evaluated at the last good inputs, which
         leaves them exact (they do not depend on the inputs) and the learning state untouched."""
         self._stale = False
-        self._invalid_inputs = None if inputs_checked else self.input_problem()
+        y, r = self._inputs()
+        self._invalid_inputs = None if inputs_checked else self.input_problem(y + r)  # INPUT_PORTS order
         self._output_problem = self._invalid_inputs
-        if self._invalid_inputs is None:
-            y, r = self._inputs()
-        else:
+        if self._invalid_inputs is not None:
             y, r = self._last_valid or ([0.0] * len(MEASUREMENT_PORTS), [0.0] * len(REFERENCE_PORTS))
         try:
             # absurd (finite) inputs may overflow: the non-finite outputs are detected and logged below,
