@@ -136,7 +136,8 @@ class DescribedSlave(VariableAccessMixin, FmuStateMixin, Fmi2Slave):
         self._read_plans: dict[tuple[int, ...], tuple[int, ...] | slice | None] = {}
         self._write_plans: dict[tuple[int, ...], tuple[str, ...] | None] = {}
         self._outputs_by_vr: dict[int, int] | None = None  # output value reference -> index
-        self._output_getters: tuple[Callable[[], float], ...] = ()
+        self._read_outputs: Callable[[], list[float]] = list  # every output in order (``_output_index`` sets it)
+        self._attribute_outputs: set[str] = set()  # outputs held in attributes (declared without a getter)
         # how each parameter is checked (a ParameterSpec, or (low, high) of an Integer): also applied to
         # the values of a restored FMU state
         self._parameter_checks: dict[str, ParameterSpec | tuple[int, int]] = {}
@@ -214,6 +215,7 @@ class DescribedSlave(VariableAccessMixin, FmuStateMixin, Fmi2Slave):
         """An output; ``depends_on`` lists the inputs it depends on directly (empty: none)."""
         if getter is None:
             setattr(self, name, 0.0)
+            self._attribute_outputs.add(name)
         self._register(
             Real(name, causality=Fmi2Causality.output, variability=Fmi2Variability.continuous,
                  description=description, getter=getter),
@@ -318,7 +320,7 @@ class DescribedSlave(VariableAccessMixin, FmuStateMixin, Fmi2Slave):
                 f"doStep starts at t = {current_time!r} but the FMU is at t = {self._time!r}; "
                 "rewind with fmi2SetFMUstate instead of jumping in time"
             )
-        reason = self.input_problem()
+        reason = None if self.inputs_checked() else self.input_problem()
         if reason:
             return self.discard(reason)
         reached = self.next_time(current_time, step_size)
@@ -344,10 +346,19 @@ class DescribedSlave(VariableAccessMixin, FmuStateMixin, Fmi2Slave):
         self.log(f"{self.instance_name}: {reason}", Fmi2Status.error)
         return False
 
-    def input_problem(self) -> str | None:
+    def inputs_checked(self) -> bool:
+        """True when ``input_problem`` found the current inputs good since they last changed (a model
+        that checks them when it reads them says so; doStep then does not check them again), or when
+        there are no inputs."""
+        return not self._input_ranges
+
+    def input_problem(self, values: Sequence[float] | None = None) -> str | None:
         """Why the current inputs cannot be used (naming the first bad input), or None. The usual
-        case costs one pass (``all_finite``, no declared range); otherwise each input is looked at."""
-        if not self._bounded_inputs and all_finite([getattr(self, n) for n, _, _ in self._input_ranges]):
+        case costs one pass (``all_finite``, no declared range); otherwise each input is looked at.
+        ``values``: every input in declaration order, when the caller has read them already."""
+        if values is None:
+            values = [getattr(self, n) for n, _, _ in self._input_ranges]
+        if not self._bounded_inputs and all_finite(values):
             return None
         for name, low, high in self._input_ranges:
             value = getattr(self, name)
@@ -391,11 +402,10 @@ class TimeFunctionSlave(DescribedSlave):
             values = self.outputs_at(t)
         except (ValueError, OverflowError) as exc:
             return f"the outputs at t = {t!r} cannot be computed: {exc}"
-        for name, value in zip(self.TIME_OUTPUTS, values):
-            if not math.isfinite(value):
-                return f"output '{name}' would be {value!r} at t = {t!r}"
-        for name, value in zip(self.TIME_OUTPUTS, values):
-            setattr(self, name, value)
+        if not all_finite(values):
+            name, value = next((n, v) for n, v in zip(self.TIME_OUTPUTS, values) if not math.isfinite(v))
+            return f"output '{name}' would be {value!r} at t = {t!r}"
+        self.__dict__.update(zip(self.TIME_OUTPUTS, values))  # plain attributes (``declare_output``)
         return None
 
     def publish_initial(self, parameters: Sequence[str]) -> None:

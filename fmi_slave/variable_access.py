@@ -4,6 +4,7 @@ master's per-step reads and writes cost one pass."""
 from __future__ import annotations
 
 import math
+from operator import attrgetter
 from typing import Any, Callable
 
 from pythonfmu import Fmi2Causality, Integer, Real
@@ -83,14 +84,21 @@ class VariableAccessMixin:
         if self._outputs_by_vr is None:
             outputs = [v for v in self.vars.values() if v.causality == Fmi2Causality.output and isinstance(v, Real)]
             self._outputs_by_vr = {v.value_reference: i for i, v in enumerate(outputs)}
-            self._output_getters = tuple(v.getter for v in outputs)
+            names = [v.name for v in outputs]
+            if len(names) > 1 and set(names) <= self._attribute_outputs:
+                read = attrgetter(*names)  # one C call reads them all
+                self._read_outputs = lambda: list(read(self))
+            else:
+                getters = tuple(v.getter for v in outputs)
+                self._read_outputs = lambda: [get() for get in getters]
         return self._outputs_by_vr
 
     def output_values(self) -> list[float]:
-        """Every Real output, in declaration order, at the current state (one pass over their
-        getters). Subclasses that hold their outputs together (the controllers) override this."""
+        """Every Real output, in declaration order, at the current state (one ``attrgetter`` call when
+        they are attributes, else one pass over their getters). Subclasses that hold their outputs
+        together (the controllers) override this."""
         self._output_index()
-        return [get() for get in self._output_getters]
+        return self._read_outputs()
 
     def _write_plan(self, vrs) -> tuple[str, ...] | None:
         """Attribute names for a list of input value references (settable in every state); None
@@ -118,8 +126,7 @@ class VariableAccessMixin:
             if plan is None:
                 self._set(vrs, values, Real)
             else:
-                for name, value in zip(plan, values, strict=True):
-                    setattr(self, name, value)
+                self.__dict__.update(zip(plan, values, strict=True))  # inputs are plain attributes (``declare_input``)
         except Exception as exc:
             self._failed("fmi2SetReal", exc)
             raise
@@ -131,8 +138,9 @@ class VariableAccessMixin:
                 return self._get(vrs, Real, float)
             if self._mode == INITIALIZATION and self._preview_stale:
                 self._preview()
-            values = self.output_values()
-            values = values[plan] if type(plan) is slice else [values[i] for i in plan]
+            values = self.output_values()  # a list the binary only reads: every output in order is returned as it is
+            if type(plan) is not slice:
+                values = [values[i] for i in plan]
             if self._output_problem is not None:  # rare: only after an evaluation gave a non-finite output
                 self._refuse_nonfinite(vrs, values)
             return values

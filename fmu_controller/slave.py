@@ -96,11 +96,10 @@ class ControllerSlave(DescribedSlave):
         never a stale value; the state outputs are then evaluated at the last good inputs, which
         leaves them exact (they do not depend on the inputs) and the learning state untouched."""
         self._stale = False
-        self._invalid_inputs = None if inputs_checked else self.input_problem()
+        y, r = self._inputs()
+        self._invalid_inputs = None if inputs_checked else self.input_problem(y + r)  # INPUT_PORTS order
         self._output_problem = self._invalid_inputs
-        if self._invalid_inputs is None:
-            y, r = self._inputs()
-        else:
+        if self._invalid_inputs is not None:
             y, r = self._last_valid or ([0.0] * len(MEASUREMENT_PORTS), [0.0] * len(REFERENCE_PORTS))
         try:
             # absurd (finite) inputs may overflow: the non-finite outputs are detected and logged below,
@@ -117,9 +116,13 @@ class ControllerSlave(DescribedSlave):
         if not all_finite(self._core.outputs):
             self._output_problem = f"it is not finite for the finite inputs at t = {self._time!r}"
 
+    def inputs_checked(self) -> bool:
+        # an evaluation since the last set_real or restored state has checked the inputs (``_evaluate``)
+        return not self._stale and self._invalid_inputs is None
+
     def set_real(self, vrs, values):
+        self._stale = True  # first: a call refused halfway may have set some inputs
         super().set_real(vrs, values)
-        self._stale = True
 
     def initialize(self) -> None:
         try:

@@ -98,26 +98,30 @@ def bench_integrator() -> str:
 
 
 class _TimedRecorder:
-    """A RunRecorder whose own time (start, blocks, finish and close) is added up."""
+    """A RunRecorder whose own time (start, blocks, finish and close) is added up, in all (``seconds``)
+    and per call (``parts``)."""
 
     def __init__(self, recorder):
         self.recorder, self.seconds = recorder, 0.0
+        self.parts = {"start": 0.0, "block": 0.0, "finish": 0.0}
 
-    def _timed(self, method, *args):
+    def _timed(self, part, method, *args):
         t0 = time.perf_counter()
         try:
             return method(*args)
         finally:
-            self.seconds += time.perf_counter() - t0
+            spent = time.perf_counter() - t0
+            self.seconds += spent
+            self.parts[part] += spent
 
     def start(self, scenario, columns, parameters):
-        self._timed(self.recorder.start, scenario, columns, parameters)
+        self._timed("start", self.recorder.start, scenario, columns, parameters)
 
     def block(self, t, rows):
-        self._timed(self.recorder.block, t, rows)
+        self._timed("block", self.recorder.block, t, rows)
 
     def finish(self, result):
-        self._timed(self.recorder.finish, result)
+        self._timed("finish", self.recorder.finish, result)
 
 
 def _timed_runs(block_sizes: list[int | None], fmu_dir, repeats: int = 3, scenario_name: str = "paper") -> dict:

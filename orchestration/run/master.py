@@ -17,6 +17,7 @@ An algebraic loop (a cycle of feedthrough) is refused before the run starts.
 """
 from __future__ import annotations
 
+import ctypes
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -192,16 +193,24 @@ class _Link:
 
 class _Inputs:
     """Every connection into one target instance, set with one fmi2SetReal from preallocated buffers
-    once all its sources have been read at the communication point."""
+    once all its sources have been read at the communication point. When the inputs are one run of
+    consecutive outputs of a single source (the arm's torques), the call reads them where the source's
+    outputs were read into: nothing is copied."""
 
     def __init__(self, target: _Loaded, links: list[_Link]):
         self.target = target
         vrs = [vr for link in links for vr in link.target_vrs]
         self.n = len(vrs)
         self.vr = (fmi2ValueReference * self.n)(*vrs)
+        self.parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+        first = links[0].src_index
+        if len(links) == 1 and np.array_equal(first, np.arange(first[0], first[0] + self.n)):
+            self.source_buf = links[0].source.out_buf  # kept alive with the view into it
+            offset = int(first[0]) * ctypes.sizeof(fmi2Real)
+            self.buf = (fmi2Real * self.n).from_address(ctypes.addressof(self.source_buf) + offset)
+            return
         self.buf = (fmi2Real * self.n)()
-        view = np.ctypeslib.as_array(self.buf)
-        self.parts, lo = [], 0
+        view, lo = np.ctypeslib.as_array(self.buf), 0
         for link in links:  # (source outputs, which of them, where they go in the buffer)
             self.parts.append((link.source.out_view, link.src_index, view[lo:lo + len(link.src_index)]))
             lo += len(link.src_index)

@@ -7,7 +7,7 @@ import math
 
 import pytest
 
-from orchestration.bench.speed import child_run, compare
+from orchestration.bench.speed import SET_UP, child_run, compare
 from orchestration.cli import main
 
 
@@ -35,9 +35,12 @@ def test_the_cost_split_adds_up_to_the_instrumented_run(short_bench):
     split = short_bench["split"]
     parts = split["us_per_step"]
     cores = {f"{c} (core, inside the FMU)" for c in ("plant step", "controller evaluate", "controller learn", "reference")}
-    assert cores | {"FMI get/set/doStep plumbing", "master's own work", "recording"} == set(parts)
-    assert all(parts[c] > 0 for c in cores) and parts["FMI get/set/doStep plumbing"] > 0
+    assert cores | {"FMI get/set/doStep plumbing", "master's own work", SET_UP, "recording"} == set(parts)
+    assert all(parts[c] > 0 for c in cores) and parts["FMI get/set/doStep plumbing"] > 0 and parts[SET_UP] > 0
     assert math.isclose(sum(parts.values()), split["total_us_per_step"], rel_tol=1e-9)
+    recording = split["recording_parts_us_per_step"]  # start, blocks and finish make up the recording's row
+    assert set(recording) == {"start", "block", "finish"} and all(v > 0 for v in recording.values())
+    assert math.isclose(sum(recording.values()), parts["recording"], rel_tol=1e-9)
     assert set(split["fmi_calls_us_per_step"]) == {"get", "set", "doStep"}
     assert {f"{c} (core, inside the FMU)" for c in split["floor_us_per_step"]} == cores  # the same cores in the floor
 
