@@ -79,12 +79,13 @@ class _Listener:
 
 
 def _searches_text(data: dict) -> list[str]:
-    from orchestration.study.tuning import CONVERGED, last_half_improvement
+    from orchestration.study.tuning import CONVERGED, last_half_improvement, still_improving
 
     return [f"{fmu} {h} seed {s}: {r['trials']} trials, best "
             f"{'none' if r['criterion'][r['best']] is None else format(r['criterion'][r['best']], '.6g')}, "
             f"last-half improvement {100 * last_half_improvement(r['criterion']):.2f} % "
-            f"(converged below {100 * CONVERGED:g} %)"
+            f"({'still improving' if still_improving(r['criterion']) else 'converged'}: the rule is below "
+            f"{100 * CONVERGED:g} %)"
             for fmu, c in data["controllers"].items() for h, per in c["handlings"].items() for s, r in per["seeds"].items()]
 
 

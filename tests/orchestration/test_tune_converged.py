@@ -39,13 +39,16 @@ def test_the_budget_doubles_until_doubling_moves_the_best_by_less_than_the_rule(
     assert budgets == [4, 8, 16, 32]  # at 32 the last half (17..32) found nothing better
     out = capsys.readouterr().out
     assert "every search goes on to 8" in out and "goes on to 64" not in out and "not converged" not in out
+    assert "32 trials, best" in out and "(converged: the rule is below 1 %)" in out
 
 
 def test_the_cap_bounds_the_doubling_and_says_what_did_not_converge(budgets, tmp_path, capsys):
     assert main(["tune", "CT", "--handlings", "accel", "--seeds", "0", "--budget", "4", "--until-converged", "8",
                  "--out", str(tmp_path / "t.json")]) == 0
     assert budgets == [4, 8]
-    assert "not converged at 8 trials, the cap of --until-converged: CtController accel seed 0" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "not converged at 8 trials, the cap of --until-converged: CtController accel seed 0" in out
+    assert "8 trials, best" in out and "(still improving: the rule is below 1 %)" in out
 
 
 def test_without_the_option_one_budget_is_run(budgets, tmp_path):
