@@ -31,9 +31,9 @@ def test_the_stored_search_is_the_protocol_the_code_states():
                 assert r["best"] != 0 or r["best_design"] == first  # trial 0 is the nominal design
 
 
-@pytest.mark.xfail(strict=True, reason="the stored tuning's budget is not yet enough: at 64 trials several searches still improve by "
-                   "tuning.CONVERGED or more over their last half (docs/baselines.md names them); the store must be "
-                   "recomputed with `sotc-cosim tune --until-converged` on the current cores, hours of compute")
+@pytest.mark.xfail(strict=True, reason="the stored tuning's budget is not yet enough: at the stored budget some searches still "
+                   "improve by tuning.CONVERGED or more over their last half (docs/baselines.md names them); the next "
+                   "doubling resumes from the journal with `sotc-cosim tune --until-converged`, hours of compute")
 def test_the_budget_is_enough_for_every_search_by_the_stated_rule():
     """The best-so-far of every search improves by less than tuning.CONVERGED over its last half (else the
     budget is too small: a larger --budget resumes every search)."""
