@@ -26,8 +26,8 @@ def said(monkeypatch):
         monkeypatch.setattr(fair_tables, "_verdicts", lambda root: (against, 44, {}))
         monkeypatch.setattr(fair_tables, "stored", lambda root: {"seeds": [0, 1], "n_points": 16})
         monkeypatch.setattr(fair_tables, "stored_tuning", lambda: {"budget": 256})
-        monkeypatch.setattr(fair_tables, "unconverged", lambda data: [])
         return fair_tables.headline(None)
+    monkeypatch.setattr(fair_tables, "unconverged", lambda data: [])
     return headline
 
 
@@ -47,3 +47,10 @@ def test_what_not_every_seed_gives_clearly_is_not_stated(said, per_seed):
 def test_the_tail_is_never_a_headline(said):
     text = said({("LqrController", "tail"): {0: WORSE, 1: WORSE}})
     assert "tail" not in text.split("Every other")[0] and "no MSE verdict" in text
+
+
+def test_searches_still_improving_are_named_when_they_are_the_verdicts_own(said, monkeypatch):
+    monkeypatch.setattr(fair_tables, "unconverged", lambda data: ["SotcController radial seed 2"])
+    assert "every accel search converged by the stated rule, 1 under other handlings not yet" in said({})
+    monkeypatch.setattr(fair_tables, "unconverged", lambda data: ["CtController accel seed 1"])
+    assert "NOT converged by the stated rule: CtController accel seed 1" in said({})
