@@ -158,10 +158,10 @@ def readme_family(seeds: list) -> int:
     return len(SETS) * (len(seeds) * len(BASELINES) * len(MEASURES) + 1 + len(seeds))
 
 
-def _verdicts(root: Path) -> tuple[dict, int, dict]:
-    """The family's verdicts, each per tuning seed: {(set, baseline, measure): {seed: PairedVerdict}} for the
-    tuned SOTC against each tuned baseline, and {set: (nominal, {seed: ...})} for learning on against off."""
-    data = stored(root)
+def _verdicts(data: dict) -> tuple[dict, int, dict]:
+    """The family's verdicts in the stored runs ``data``, each per tuning seed: {(set, baseline, measure): {seed:
+    PairedVerdict}} for the tuned SOTC against each tuned baseline, and {set: (nominal, {seed: ...})} for
+    learning on against off."""
     seeds = data["seeds"]
     m = readme_family(seeds)
 
@@ -180,7 +180,7 @@ def _verdicts(root: Path) -> tuple[dict, int, dict]:
 def verdict(root: Path) -> str:
     """The verdict's sentences (docs/robustness.md): the tuned SOTC against each tuned baseline, and what learning adds."""
     data = stored(root)
-    against, m, learning = _verdicts(root)
+    against, m, learning = _verdicts(data)
     lines = [f"Family: the {m} verdicts below, {_family_text(m)}; a verdict holds only where every tuning seed "
              "gives it, and is marked marginal where a corrected bound lies within 1 % of 1. The tuning criterion "
              "is the MSE; the tail verdicts judge what no search was tuned for."]
@@ -212,7 +212,7 @@ def headline(root: Path) -> str:
     """README: only what every tuning seed gives, clear of the marginal band, on the criterion the tuning judged
     (the MSE): the tuned SOTC better or worse than a tuned baseline. Everything else is in docs/robustness.md."""
     data = stored(root)
-    against, m, _ = _verdicts(root)
+    against, m, _ = _verdicts(data)
     held = []
     for (which, f, name), per in against.items():
         said = {v.verdict for v in per.values()}

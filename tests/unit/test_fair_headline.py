@@ -23,7 +23,7 @@ def said(monkeypatch):
     def headline(per_pair: dict) -> str:
         against = {("initial states", f, name): per_pair.get((f, name), {0: NEITHER, 1: NEITHER})
                    for f in fair_tables.BASELINES for name in ("mse", "tail")}
-        monkeypatch.setattr(fair_tables, "_verdicts", lambda root: (against, 44, {}))
+        monkeypatch.setattr(fair_tables, "_verdicts", lambda data: (against, 44, {}))
         monkeypatch.setattr(fair_tables, "stored", lambda root: {"seeds": [0, 1], "n_points": 16})
         monkeypatch.setattr(fair_tables, "stored_tuning", lambda: {"budget": 256})
         return fair_tables.headline(None)
