@@ -17,10 +17,19 @@ fully qualified module name the extension registers is renamed with the rest, so
 in one process each run their own code (tests/fmu/test_compiled_cores.py). The compiled cores give the
 pure-Python outputs bit for bit (same test; ``-ffp-contract=off``; the elementary functions are
 ``fmu_controller/elementary.py``'s own, libm's only sqrt, which IEEE 754 rounds correctly everywhere).
+
+A bundle's extensions are compiled once per content: they are kept in the user's private cache
+(``private_folder("cores", "compiled")/<key>``, with a manifest of their SHA-256: ``orchestration.verified``),
+keyed by the SHA-256 of the modules and ``.pxd`` files compiled (the bundle's placeholder name in them),
+the compile script and flags, Python's build configuration, Cython's and setuptools' versions, the C
+compiler's path and ``--version``, and the environment variables setuptools reads. A later build of the
+same bundle (another folder, FMI 3, a change elsewhere in the sources) copies them, each checked against
+the manifest as it is copied; a cache folder that differs is removed and the cores compiled again.
 """
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import importlib.machinery
 import importlib.util
 import os
@@ -134,10 +143,21 @@ def declarations(rel: str) -> str:
 def compile_bundle(resources: Path, lib: str, pxd: dict[str, str]) -> list[str]:
     """Compile the ``HOT`` modules present under ``resources/lib`` in place (the extension beside its
     ``.py``, no C file left), typed by ``pxd`` (path under ``lib`` -> text, renamed into ``lib``), which
-    are staged for the compiler only; return the compiled modules' paths under ``lib``."""
+    are staged for the compiler only; return the compiled modules' paths under ``lib``. Extensions made
+    from the same inputs before are taken from the private cache instead (``cached``)."""
     present = [rel for rel in HOT if (resources / lib / rel).is_file()]
     if not present:
         return []
+    cache = cached(resources / lib, present, pxd)
+    if cache is not None and _reuse(cache, resources / lib, present):
+        return present
+    _compile(resources, lib, present, pxd)
+    if cache is not None:
+        _keep(cache, resources / lib, present)
+    return present
+
+
+def _compile(resources: Path, lib: str, present: list[str], pxd: dict[str, str]) -> None:
     staged = [resources / lib / rel for rel in pxd]
     for path, text in zip(staged, pxd.values()):
         path.write_text(text)
@@ -160,8 +180,93 @@ def compile_bundle(resources: Path, lib: str, pxd: dict[str, str]) -> list[str]:
     if proc.returncode != 0:
         last = next((ln for ln in reversed(proc.stderr.splitlines()) if ln.strip()), "no message")
         raise CompileError(f"compiling the cores failed: {last.strip()}")
-    suffix = importlib.machinery.EXTENSION_SUFFIXES[0]
-    missing = [rel for rel in present if not (resources / lib / rel).with_suffix(suffix).is_file()]
+    missing = [rel for rel in present if not (resources / lib / _extension(rel)).is_file()]
     if missing:
         raise CompileError(f"compiling the cores left no extension for {', '.join(missing)}")
-    return present
+
+
+def _extension(rel: str) -> str:
+    """The extension compiled from the module ``rel`` (a path), for this interpreter."""
+    return rel[:-3] + importlib.machinery.EXTENSION_SUFFIXES[0]
+
+
+# what setuptools reads from the environment when it compiles and links (CFLAGS is ours)
+_BUILD_ENV = ("CC", "CXX", "CPPFLAGS", "LDFLAGS", "LDSHARED", "ARCHFLAGS", "PATH")
+
+
+def _toolchain() -> list[str]:
+    """Everything but the sources an extension's bytes depend on: the compile script and flags, this
+    Python and its build configuration, Cython, setuptools, the C compiler (its path and what it says
+    its version is) and the environment the compiler reads."""
+    from importlib import metadata
+
+    compiler = (os.environ.get("CC") or compiler_name()).split()[0]
+    try:
+        version = subprocess.run([compiler, "--version"], capture_output=True, text=True, timeout=60).stdout
+    except (OSError, subprocess.SubprocessError):
+        version = "unknown"
+    config = [str(sysconfig.get_config_var(v)) for v in ("CC", "CFLAGS", "CCSHARED", "LDSHARED", "EXT_SUFFIX")]
+    return [_SCRIPT, CFLAGS, sys.version, sysconfig.get_paths()["include"], *config, metadata.version("Cython"),
+            metadata.version("setuptools"), shutil.which(compiler) or compiler, version,
+            *(f"{k}={os.environ.get(k, '')}" for k in _BUILD_ENV)]
+
+
+def cached(lib_dir: Path, present: list[str], pxd: dict[str, str]) -> Path | None:
+    """The private cache folder of the extensions compiled from these modules (paths under ``lib_dir``,
+    whose name the extensions carry), ``pxd`` files and toolchain; None where no private cache can be
+    made (the cores are then compiled every time)."""
+    from orchestration.outputs import OutputError, private_folder
+
+    h = hashlib.sha256()
+    for part in [*_toolchain(), lib_dir.name]:
+        h.update(part.encode() + b"\0")
+    for rel in present:
+        h.update(rel.encode() + b"\0" + (lib_dir / rel).read_bytes() + b"\0")
+    for rel, text in sorted(pxd.items()):
+        h.update(rel.encode() + b"\0" + text.encode() + b"\0")
+    try:
+        return private_folder("cores", "compiled") / h.hexdigest()
+    except OutputError:
+        return None
+
+
+def _reuse(cache: Path, lib_dir: Path, present: list[str]) -> bool:
+    """Copy the cached extensions beside their modules, each checked against the cache's manifest as it
+    is copied; False (nothing copied, a damaged cache folder removed) when any differs or is missing."""
+    from orchestration import verified
+
+    names = sorted(_extension(rel) for rel in present)
+    manifest = verified.recorded(cache)
+    if manifest is None:
+        return False
+    try:
+        if sorted(manifest) != names:
+            raise ValueError(cache)
+        for name in names:
+            data = (cache / name).read_bytes()
+            if hashlib.sha256(data).hexdigest() != manifest[name]:
+                raise ValueError(cache / name)
+            (lib_dir / name).write_bytes(data)
+    except (OSError, ValueError):
+        for name in names:
+            (lib_dir / name).unlink(missing_ok=True)
+        verified.discard(cache)
+        return False
+    return True
+
+
+def _keep(cache: Path, lib_dir: Path, present: list[str]) -> None:
+    """Store the extensions just compiled in the cache (a failure to store only costs the next build)."""
+    from orchestration import verified
+
+    def fill(staging: Path) -> None:
+        for rel in present:
+            target = staging / _extension(rel)
+            target.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(lib_dir / _extension(rel), target)
+
+    try:
+        verified.discard(cache)
+        verified.place(cache, fill)
+    except OSError:
+        pass

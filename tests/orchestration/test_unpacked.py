@@ -10,7 +10,8 @@ from pathlib import Path
 
 import pytest
 
-from orchestration.run.unpacked import MANIFEST, unpacked
+from orchestration.run.unpacked import unpacked
+from orchestration.verified import MANIFEST
 
 
 @pytest.fixture

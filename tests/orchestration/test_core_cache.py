@@ -1,0 +1,124 @@
+"""Compiled cores kept in the private cache: one compile per content, checked as they are copied,
+compiled again when anything they were made from, or the cache itself, differs."""
+from __future__ import annotations
+
+import os
+import stat
+import tempfile
+from pathlib import Path
+
+import pytest
+
+from orchestration.fmu_build import compiled
+from orchestration.verified import MANIFEST
+
+LIB = "sotc_Model_000000000000_lib"
+MODULE = "fmu_controller/elementary.py"
+
+
+class FakeCompiler:
+    """Stands in for Cython and the C compiler: writes each extension from its module's text, and counts."""
+
+    def __init__(self):
+        self.calls = 0
+
+    def __call__(self, resources: Path, lib: str, present: list[str], pxd: dict[str, str]) -> None:
+        self.calls += 1
+        for rel in present:
+            text = (resources / lib / rel).read_bytes()
+            (resources / lib / compiled._extension(rel)).write_bytes(b"ELF " + text + repr(sorted(pxd)).encode())
+
+
+@pytest.fixture
+def compiler(tmp_path, monkeypatch) -> FakeCompiler:
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path / "tmp"))  # the cache lives under TMPDIR
+    (tmp_path / "tmp").mkdir()
+    fake = FakeCompiler()
+    monkeypatch.setattr(compiled, "_compile", fake)
+    monkeypatch.setattr(compiled, "HOT", (MODULE,))
+    return fake
+
+
+def bundle(root: Path, source: str = "def cos(x):\n    return x\n") -> Path:
+    module = root / "resources" / LIB / MODULE
+    module.parent.mkdir(parents=True)
+    module.write_text(source)
+    return root / "resources"
+
+
+PXD = {"fmu_controller/elementary.pxd": "cpdef double cos(double x)\n"}
+
+
+def extension(resources: Path) -> bytes:
+    return (resources / LIB / compiled._extension(MODULE)).read_bytes()
+
+
+def test_a_bundle_compiles_once_then_comes_from_the_cache(compiler, tmp_path):
+    first = bundle(tmp_path / "a")
+    assert compiled.compile_bundle(first, LIB, PXD) == [MODULE]
+    second = bundle(tmp_path / "b")
+    assert compiled.compile_bundle(second, LIB, PXD) == [MODULE]
+    assert compiler.calls == 1
+    assert extension(second) == extension(first)
+    assert not (second / LIB / "fmu_controller/elementary.pxd").exists()  # nothing staged for a compiler
+
+
+@pytest.mark.parametrize("change", ["source", "declarations", "name", "compiler"])
+def test_what_the_extension_is_made_from_is_in_its_key(compiler, tmp_path, monkeypatch, change):
+    compiled.compile_bundle(bundle(tmp_path / "a"), LIB, PXD)
+    source, pxd, lib = "def cos(x):\n    return x\n", dict(PXD), LIB
+    if change == "source":
+        source = "def cos(x):\n    return -x\n"
+    elif change == "declarations":
+        pxd = {"fmu_controller/elementary.pxd": "cpdef double cos(double x) noexcept\n"}
+    elif change == "name":  # another model's placeholder: its module names are in the extension
+        lib = "sotc_Other_000000000000_lib"
+    else:
+        monkeypatch.setenv("CC", "clang")
+    resources = tmp_path / "b" / "resources"
+    (resources / lib / MODULE).parent.mkdir(parents=True)
+    (resources / lib / MODULE).write_text(source)
+    compiled.compile_bundle(resources, lib, pxd)
+    assert compiler.calls == 2
+
+
+@pytest.mark.parametrize("damage", ["changed", "truncated", "removed", "manifest"])
+def test_a_damaged_cache_is_never_copied_and_is_made_again(compiler, tmp_path, damage):
+    first = bundle(tmp_path / "a")
+    compiled.compile_bundle(first, LIB, PXD)
+    good = extension(first)
+    cache = compiled.cached(first / LIB, [MODULE], PXD)
+    stored = cache / compiled._extension(MODULE)
+    if damage == "changed":
+        stored.write_bytes(b"ELF planted code")
+    elif damage == "truncated":
+        stored.write_bytes(good[:3])
+    elif damage == "removed":
+        stored.unlink()
+    else:
+        (cache / MANIFEST).write_text("0" * 64 + f"  {compiled._extension(MODULE)}\n")
+    second = bundle(tmp_path / "b")
+    compiled.compile_bundle(second, LIB, PXD)
+    assert compiler.calls == 2
+    assert extension(second) == good
+    assert stored.read_bytes() == good  # the cache holds the new compile, whole
+    assert not [p for p in cache.parent.iterdir() if p.name.startswith(".")]  # nothing left aside
+
+
+def test_the_cache_is_private(compiler, tmp_path):
+    first = bundle(tmp_path / "a")
+    compiled.compile_bundle(first, LIB, PXD)
+    cache = compiled.cached(first / LIB, [MODULE], PXD)
+    root = next(p for p in cache.parents if p.name == f"sotc-cosim-{os.getuid()}")
+    assert stat.S_IMODE(os.stat(root).st_mode) & 0o077 == 0
+
+
+def test_a_failed_compile_stores_nothing(compiler, tmp_path, monkeypatch):
+    def fails(*args):
+        raise compiled.CompileError("compiling the cores failed: no")
+
+    monkeypatch.setattr(compiled, "_compile", fails)
+    first = bundle(tmp_path / "a")
+    with pytest.raises(compiled.CompileError):
+        compiled.compile_bundle(first, LIB, PXD)
+    assert not compiled.cached(first / LIB, [MODULE], PXD).exists()
