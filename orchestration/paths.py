@@ -88,3 +88,13 @@ def _check_folder(folder: Path, argument: str, path: Path) -> Path:
     if why:
         raise OutputPathError(f"{argument} {path}: cannot write in {existing} ({why})")
     return path
+
+
+DEFAULT_FMU_DIR = Path("build") / "fmus"  # where the FMUs are built and found, under the working folder
+FMI_VERSIONS = (2, 3)  # ``--fmi``: FMI 2.0 (the default) or FMI 3.0, from the same sources
+
+
+def fmu_folder(folder: Path, fmi: int, given: bool = False) -> Path:
+    """Where the FMUs of an FMI version live: ``folder`` if the user gave it, else the default folder
+    (FMI 3 in its ``fmi3`` subfolder, so that the two versions never rebuild each other's FMUs)."""
+    return Path(folder) if given or fmi == 2 else Path(folder) / "fmi3"

@@ -83,7 +83,8 @@ def stored_block(root: Path) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from orchestration.fmu_build.build import DEFAULT_FMU_DIR, PACKAGE_ROOT, fmu_folder
+    from orchestration.fmu_build.build import PACKAGE_ROOT
+    from orchestration.paths import DEFAULT_FMU_DIR, fmu_folder
 
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--fmu-dir", type=Path, default=fmu_folder(DEFAULT_FMU_DIR, 3))

@@ -43,8 +43,7 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     stopped = "stopped between two steps; finished results were kept"
     with interrupt.signals_deferred():  # first: a signal during the imports below is noted, not fatal
-        from orchestration.fmu_build.build import BuildError
-        from orchestration.fmu_build.child import BuildInterrupted
+        from orchestration.fmu_build.child import BuildError, BuildInterrupted
         from orchestration.outputs import OutputError
         from orchestration.paths import check_output_folder
 

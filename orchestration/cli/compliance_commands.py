@@ -7,7 +7,6 @@ from pathlib import Path
 from orchestration import exit_codes
 from orchestration.cli.options import DEFAULT_SCENARIO, add_fmi, add_fmu_dir, add_stop_time, fmu_dir_of, seconds
 from orchestration.exit_codes import UsageError
-from orchestration.fmu_build.build import FMU_SOURCES, BuildError, ensure_built
 from orchestration.paths import check_output_file, check_output_folder
 from orchestration.run.scenario import load_scenario
 
@@ -20,6 +19,9 @@ NO_SSP2 = ("export-ssp --fmi 3: no SSP 2.0 archive is written, because fmpy.ssp 
 
 def _fmu_files(names: list[str], fmu_dir: Path, fmi: int = 2) -> list[Path]:
     """Model names (built if missing) or paths to .fmu files; none: every FMU of FMU_SOURCES."""
+    from orchestration.fmu_build.build import FMU_SOURCES, ensure_built
+    from orchestration.fmu_build.child import BuildError
+
     names = names or list(FMU_SOURCES)
     unknown = [n for n in names if n not in FMU_SOURCES and not Path(n).is_file()]
     if unknown:
@@ -38,6 +40,7 @@ def _cmd_validate(args: argparse.Namespace) -> int:
 
 def _cmd_cross_check(args: argparse.Namespace) -> int:
     from orchestration.compliance.cross_check import SOURCE_SCENARIO, generate
+    from orchestration.fmu_build.build import FMU_SOURCES, ensure_built
 
     check_output_folder(args.out, "--out")
     models = args.models or list(FMU_SOURCES)
@@ -50,6 +53,7 @@ def _cmd_cross_check(args: argparse.Namespace) -> int:
 
 def _cmd_export_ssp(args: argparse.Namespace) -> int:
     from orchestration.compliance.ssp import export_ssp
+    from orchestration.fmu_build.build import ensure_built
 
     if args.fmi == 3:
         raise UsageError(NO_SSP2)

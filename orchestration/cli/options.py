@@ -5,7 +5,7 @@ import argparse
 import math
 from pathlib import Path
 
-from orchestration.fmu_build.build import DEFAULT_FMU_DIR, FMI_VERSIONS, fmu_folder
+from orchestration.paths import DEFAULT_FMU_DIR, FMI_VERSIONS, fmu_folder
 from orchestration.run.scenario import MAX_STEPS
 
 DEFAULT_SCENARIO = "paper"

@@ -7,10 +7,8 @@ from pathlib import Path
 
 from orchestration import exit_codes
 from orchestration.cli.options import DEFAULT_SCENARIO, add_fmi, add_fmu_dir, add_stop_time, fmu_dir_of, positive_int
-from orchestration.fmu_build.build import DEFAULT_FMU_DIR, FMU_SOURCES, build_fmus, ensure_built, fmu_folder
-from orchestration.paths import check_output_file, check_output_folder
+from orchestration.paths import DEFAULT_FMU_DIR, check_output_file, check_output_folder, fmu_folder
 from orchestration.run import interrupt
-from orchestration.run.parameter_check import check_scenarios
 from orchestration.run.scenario import ScenarioError, available_scenarios, load_scenario
 
 MAX_BLOCK = 20_000  # samples per block handed to the recorder at most (about 12 MB of buffers for paper)
@@ -18,7 +16,7 @@ MAX_BLOCK = 20_000  # samples per block handed to the recorder at most (about 12
 
 def _cmd_build(args: argparse.Namespace) -> int:
     out = check_output_folder(fmu_folder(args.out, args.fmi, given=args.out is not DEFAULT_FMU_DIR), "--out")
-    from orchestration.fmu_build.build import python_only_reason
+    from orchestration.fmu_build.build import build_fmus, python_only_reason
     from orchestration.fmu_build.compiled import SWITCH, describe, insisted, unavailable
 
     if insisted() and unavailable():
@@ -40,6 +38,9 @@ def prepare(names: list, stop_time: float | None, fmu_dir: Path, check=None, fmi
     """Load the scenarios (names, paths or Scenario objects), apply --stop-time, call
     ``check(scenarios)`` (output paths: it raises before anything is built or written), and build the
     FMUs they need (FMI 2.0 or, ``fmi=3``, FMI 3.0)."""
+    from orchestration.fmu_build.build import ensure_built
+    from orchestration.run.parameter_check import check_scenarios
+
     scenarios = [load_scenario(name) if isinstance(name, str) else name for name in names]
     if stop_time is not None:
         scenarios = [s.with_stop_time(stop_time) for s in scenarios]
@@ -197,7 +198,7 @@ def add_commands(sub) -> None:
     p = sub.add_parser("build", help="build the FMUs (in a child process)")
     p.add_argument("--out", type=Path, default=DEFAULT_FMU_DIR, help=f"output folder (default {DEFAULT_FMU_DIR})")
     p.add_argument("models", nargs="*", metavar="MODEL",
-                   help=f"FMUs to build (default all: {', '.join(FMU_SOURCES)})")
+                   help="FMUs to build (default all; an unknown name gets the list of known ones)")
     add_fmi(p, "build")
     p.set_defaults(func=_cmd_build)
 

@@ -102,7 +102,8 @@ def _tune_once(args, controllers, handlings, seeds, budget, out, journal):
 def _cmd_tune(args: argparse.Namespace) -> int:
     """Tune at ``--budget``; with ``--until-converged CAP``, double the budget of every search alike while any
     search still improves by ``CONVERGED`` or more over its last half, up to CAP trials."""
-    from orchestration.study.tuning import HANDLINGS, SEEDS, unconverged
+    from orchestration.study.protocol import SEEDS
+    from orchestration.study.tuning import HANDLINGS, unconverged
     from orchestration.sweep.tuning_jobs import journal_of
 
     controllers = _controllers(args.controllers)
@@ -138,7 +139,7 @@ def _cmd_tune(args: argparse.Namespace) -> int:
 
 def add_commands(sub) -> None:
     """tune."""
-    from orchestration.study.tuning import BUDGET, CONVERGED, SEEDS
+    from orchestration.study.protocol import BUDGET, CONVERGED, SEEDS
 
     p = sub.add_parser("tune", help="tune the controllers by the one protocol (Optuna, on Dask), resumable")
     p.add_argument("controllers", nargs="*", metavar="CONTROLLER",

@@ -24,12 +24,11 @@ from typing import Callable
 
 from fmu_controller.catalog import CONTROLLERS
 from orchestration.outputs import atomic_write
-from orchestration.paths import OutputPathError, check_output_folder
+from orchestration.paths import DEFAULT_FMU_DIR, FMI_VERSIONS, OutputPathError, check_output_folder
 from orchestration.fmu_build import compiled, fmi3, packaging, shim
-from orchestration.fmu_build.child import Stopped, die_with_parent, run_child, stop_on_signals
+from orchestration.fmu_build.child import BuildError, Stopped, die_with_parent, run_child, stop_on_signals
 from orchestration.scratch import owner_prefix, remove_stale
 
-DEFAULT_FMU_DIR = Path("build") / "fmus"
 PACKAGE_ROOT = Path(__file__).resolve().parents[2]  # folder holding fmu_plant/, fmu_controller/
 
 
@@ -54,19 +53,6 @@ FMU_SOURCES: dict[str, FmuSource] = {
         *(FmuSource(m, f"fmu_plant/{s}_fmu.py", BUNDLED, ("fmu_plant/perturbation.py",)) for m, s in (("Disturbance", "disturbance"), ("MeasurementNoise", "measurement_noise"))),
     )
 }
-
-
-FMI_VERSIONS = (2, 3)  # ``--fmi``: FMI 2.0 (the default) or FMI 3.0, from the same sources
-
-
-class BuildError(RuntimeError):
-    pass
-
-
-def fmu_folder(folder: Path, fmi: int, given: bool = False) -> Path:
-    """Where the FMUs of an FMI version live: ``folder`` if the user gave it, else the default folder
-    (FMI 3 in its ``fmi3`` subfolder, so that the two versions never rebuild each other's FMUs)."""
-    return Path(folder) if given or fmi == 2 else Path(folder) / "fmi3"
 
 
 def packages_of(source: FmuSource, fmi: int) -> tuple[str, ...]:

@@ -98,6 +98,10 @@ def run_compiler(cmd: list[str], cwd, env: dict[str, str], timeout: float) -> su
     return subprocess.CompletedProcess(cmd, proc.returncode, out, err)
 
 
+class BuildError(RuntimeError):
+    """FMUs that cannot be built as asked (an unknown model, an unusable folder, a failed build): one line."""
+
+
 class BuildInterrupted(Exception):
     """The command got ``signum`` while its build child ran; the child was stopped and cleaned up."""
 

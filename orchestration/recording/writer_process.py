@@ -1,9 +1,9 @@
 """The recordings of ``sotc-cosim run`` written by a child process, so that importing Rerun (most of
 a short run's start-up) overlaps with the parent loading the FMUs and simulating.
 
-``WriterProcess`` forks at once (the parent has imported numpy and the command modules, never
-Rerun: a process that has imported it already, whose Rerun may have started threads, writes its
-recordings itself); the child imports ``recording.writer`` and then serves ``RunRecorder`` calls
+``WriterProcess`` forks at once (the parent has imported the command line's light modules only, neither
+numpy nor Rerun, so both processes import numpy side by side; a process that has imported Rerun already,
+whose Rerun may have started threads, writes its recordings itself); the child imports ``recording.writer`` and then serves ``RunRecorder`` calls
 sent over a pipe. ``ChildRecorder`` is the parent's ``RunObserver``: each call is pickled to the child. Opening
 the file and ``start`` are not waited for (the FMUs load meanwhile); every block, ``finish`` and
 closing wait for all answers so far, so a block is in the file before the run goes on, as with an

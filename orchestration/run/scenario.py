@@ -28,7 +28,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any, Callable
 
-from fmu_plant.dynamics import STEP_SIZE, TORQUE_LIMIT
+from fmu_plant.paper_setting import STEP_SIZE, TORQUE_LIMIT
 from orchestration.exit_codes import UsageError
 from orchestration.toml_files import parse_toml, read_toml
 

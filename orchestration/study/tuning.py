@@ -13,11 +13,11 @@ The protocol (docs/baselines.md, "Tuning protocol"):
 * **Criterion**: the geometric mean over the training set of MSE_1 + MSE_2 (eq. (50)); a run that
   fails makes it infinite. The lowest wins.
 * **Search** (``orchestration.study.optimize``, Optuna): per controller, limit handling and seed,
-  ``BUDGET`` trials: the nominal design, then ``INITIAL_DESIGN - 1`` points of a scrambled Latin
+  ``protocol.BUDGET`` trials: the nominal design, then ``INITIAL_DESIGN - 1`` points of a scrambled Latin
   hypercube (``scipy.stats.qmc``, seeded with the tuning seed), then Optuna's TPE sampler, seeded per
   trial; a trial whose running criterion is not among the best ``PRUNE_PERCENTILE`` % of the complete
   trials at the same training point is pruned there (from the ``PRUNE_AFTER``-th point on).
-* **Seeds** (``SEEDS``): independent searches; each seed's best design is judged on the held-out sets.
+* **Seeds** (``protocol.SEEDS``): independent searches; each seed's best design is judged on the held-out sets.
 
 ``sotc-cosim tune`` runs the search and writes the store (recordings/tuning/tuned.json); the shipped
 store (``TUNED_FILE``, so that an installed `sotc-cosim` and a sweep's ``tuning = "best"`` read the same
@@ -38,9 +38,8 @@ from fmu_controller.catalog import CORES
 from fmu_controller.saturation import LIMIT_HANDLINGS
 from orchestration.run.scenario import load_scenario
 from orchestration.study.points import KINDS, draw_points, run_point
+from orchestration.study.protocol import CONVERGED
 
-BUDGET = 64  # trials per controller, limit handling and seed
-SEEDS = (0, 1, 2, 3, 4)
 HANDLINGS = (0, 1, 2)  # radial, joint, accel
 INITIAL_DESIGN = 8  # the nominal design and a Latin hypercube, before the sampler models anything
 PRUNE_AFTER = 2  # training points every trial runs before it may be pruned (one of each kind)
@@ -49,7 +48,6 @@ STOP_TIME = 20.0  # s, each training run (as long as the held-out runs)
 TRAINING_SEED = 2026
 TRAINING_NOISE_SEED = 1001  # the held-out sets use noise seeds 1..16
 TRAINING_POINTS = {"initial states": 4, "perturbed": 4}
-CONVERGED = 0.01  # the budget is enough when doubling it moved the best by less than this (its last half)
 TUNED_FILE = Path(__file__).with_name("tuned.json")
 
 # the scenario whose controller parameters are each controller's nominal design

@@ -40,3 +40,19 @@ def test_recorded_run_imports_no_heavy_dependency(fmu_dir, tmp_path):
     assert (tmp_path / "run.rrd").stat().st_size > 0  # the run did record: the checks are about a real recorded run
     assert sorted(m for m in loaded if any(m == n or m.startswith(n + ".") for n in NOT_FOR_RUN)) == []
     assert "rerun" not in loaded  # the writer process imports it, meanwhile this one loads the FMUs
+
+
+PARSED = """
+import sys
+from orchestration.cli import build_parser
+build_parser().parse_args(["run", "paper"])
+print(" ".join(sorted({m.split(".")[0] for m in sys.modules} & {"numpy", "fmpy", "rerun", "fmu_controller"})))
+"""
+
+
+def test_the_command_line_is_parsed_before_numpy_loads(tmp_path):
+    """``run`` forks its recording writer once the command line is parsed: with numpy, fmpy and the cores
+    not imported yet, the writer imports numpy and Rerun while this process imports numpy and fmpy."""
+    proc = subprocess.run([sys.executable, "-c", PARSED], cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip() == ""

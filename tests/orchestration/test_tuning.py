@@ -6,7 +6,7 @@ import math
 import optuna
 import pytest
 
-from orchestration.study import optimize, tuning
+from orchestration.study import optimize, protocol, tuning
 
 
 @pytest.mark.parametrize("fmu", tuning.CONTROLLERS)
@@ -71,7 +71,7 @@ def _first_number(fmu: str, handling: int) -> float:
     return next(tuning.running_criterion(fmu, tuning.parameters(fmu, tuning.initial_design(fmu, 0)[0], handling)))
 
 
-@pytest.mark.parametrize("seed", tuning.SEEDS)
+@pytest.mark.parametrize("seed", protocol.SEEDS)
 @pytest.mark.parametrize("handling", tuning.HANDLINGS)
 @pytest.mark.parametrize("fmu", tuning.CONTROLLERS)
 def test_every_search_of_the_protocol_resumes_from_its_journal(fmu, handling, seed, tmp_path):
