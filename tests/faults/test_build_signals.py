@@ -16,9 +16,7 @@ from pathlib import Path
 
 import pytest
 
-from support.cli import SCRIPT, env_for, run
-
-from orchestration.verified import intact
+from support.cli import SCRIPT, env_for, leftovers, run
 
 pytestmark = pytest.mark.slow  # builds in subprocesses, signalled at random moments
 
@@ -91,15 +89,6 @@ def _script_cmd(args: list[str]) -> list[str]:
     return [SCRIPT, *args]
 
 
-def _leftovers(cwd: Path) -> list[str]:
-    """What the command left in its TMPDIR but the whole folders of its private cache (compiled cores
-    kept for the next build, each checked against its manifest): a half-made one is a leftover."""
-    tmp = cwd / "tmp"
-    kept = [f for f in (tmp / f"sotc-cosim-{os.getuid()}" / "cores" / "compiled").glob("*") if intact(f)]
-    return sorted(str(p.relative_to(tmp)) for p in tmp.rglob("*")
-                  if not any(p == f or f in p.parents or p in f.parents for f in kept))
-
-
 @pytest.mark.parametrize("signum, group", [(signal.SIGTERM, True), (signal.SIGTERM, False), (signal.SIGHUP, False)],
                          ids=["SIGTERM-group", "SIGTERM-pid", "SIGHUP-pid"])
 def test_a_signal_during_build_stops_it_and_leaves_nothing(signum, group, tmp_path):
@@ -110,7 +99,7 @@ def test_a_signal_during_build_stops_it_and_leaves_nothing(signum, group, tmp_pa
     assert not any("Traceback" in line for line in err), err
     assert took < 5.0, f"the build went on for {took:.1f} s after the signal"  # was 46 s: every FMU built
     assert _settled(tmp_path / "tmp") == []
-    assert _leftovers(tmp_path) == []  # no sotc_stage_*, no sotc_cython_*
+    assert leftovers(tmp_path, folders=True) == []  # no sotc_stage_*, no sotc_cython_*
     assert not (tmp_path / "fmus" / "ReferenceTrajectory.fmu").exists()  # nothing half-built or later
 
 
@@ -121,7 +110,7 @@ def test_sigterm_during_the_first_run_stops_its_build_and_runs_nothing(tmp_path)
     assert code == 143, err
     assert err[-1] == f"sotc-cosim: interrupted (SIGTERM): {STOPPED}"
     assert out == "" and not (tmp_path / "recordings").exists()  # no run started, no recording
-    assert _settled(tmp_path / "tmp") == [] and _leftovers(tmp_path) == []
+    assert _settled(tmp_path / "tmp") == [] and leftovers(tmp_path, folders=True) == []
 
 
 def test_after_sigkill_of_the_command_no_build_child_writes_fmus(tmp_path):

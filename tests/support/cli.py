@@ -20,11 +20,21 @@ def env_for(cwd: Path) -> dict[str, str]:
     return {**os.environ, "TMPDIR": str(cwd / "tmp")}
 
 
-def leftovers(cwd: Path) -> list[str]:
-    """What is in the command's TMPDIR now, but the private FMU cache (kept on purpose)."""
+def leftovers(cwd: Path, folders: bool = False) -> list[str]:
+    """What is in the command's TMPDIR now but its private caches, kept on purpose: the unpacked FMUs (all
+    of that cache) and the compiled cores (each whole folder, checked against its manifest: a half-made one
+    is a leftover); ``folders``: empty folders count too."""
+    from orchestration.verified import intact
+
     tmp = cwd / "tmp"
-    return sorted(str(p.relative_to(tmp)) for p in tmp.rglob("*")
-                  if "fmus" not in p.relative_to(tmp).parts and not p.is_dir())
+    root = tmp / f"sotc-cosim-{os.getuid()}"
+    cores = root / "cores" / "compiled"
+    skeleton, whole = {root, root / "cores", cores}, [f for f in cores.glob("*") if intact(f)]
+
+    def kept(p: Path) -> bool:
+        return p in skeleton or "fmus" in p.relative_to(tmp).parts or any(p == f or f in p.parents for f in whole)
+
+    return sorted(str(p.relative_to(tmp)) for p in tmp.rglob("*") if not kept(p) and (folders or not p.is_dir()))
 
 
 def run(args: list[str], cwd: Path, limit_bytes: int | None = None, timeout: float = TIME_LIMIT):
