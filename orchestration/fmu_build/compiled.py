@@ -25,6 +25,7 @@ the compile script and flags, Python's build configuration, Cython's and setupto
 compiler's path and ``--version``, and the environment variables setuptools reads. A later build of the
 same bundle (another folder, FMI 3, a change elsewhere in the sources) copies them, each checked against
 the manifest as it is copied; a cache folder that differs is removed and the cores compiled again.
+Builds running at once take turns on the cache (a lock file in it), so a bundle is compiled once for all.
 """
 from __future__ import annotations
 
@@ -49,6 +50,7 @@ HOT = ("fmu_controller/elementary.py", "fmu_controller/sotc.py", "fmu_controller
 # names stay plain bytes (renamed); no fused multiply-add, so the compiled cores round as the .py does
 CFLAGS = "-O2 -g0 -fvisibility=hidden -DCYTHON_COMPRESS_STRINGS=0 -ffp-contract=off"
 TIME_LIMIT = 900.0  # s for compiling one bundle
+LOCK_FILE = ".compile.lock"  # in the cache folder: one compile of a bundle at a time, across processes
 _SCRIPT = """import sys
 from setuptools import setup
 from Cython.Build import cythonize
@@ -149,12 +151,28 @@ def compile_bundle(resources: Path, lib: str, pxd: dict[str, str]) -> list[str]:
     if not present:
         return []
     cache = cached(resources / lib, present, pxd)
-    if cache is not None and _reuse(cache, resources / lib, present):
+    if cache is None:
+        _compile(resources, lib, present, pxd)
         return present
-    _compile(resources, lib, present, pxd)
-    if cache is not None:
-        _keep(cache, resources / lib, present)
+    with _one_compiler(cache.parent):  # a concurrent build of the same bundle compiles it once, for both
+        if not _reuse(cache, resources / lib, present):
+            _compile(resources, lib, present, pxd)
+            _keep(cache, resources / lib, present)
     return present
+
+
+@contextlib.contextmanager
+def _one_compiler(folder: Path):
+    """Hold the cache's lock (``LOCK_FILE`` beside its folders; released by the kernel when a holder dies):
+    one process at a time looks for a bundle and compiles it if it is missing."""
+    import fcntl
+
+    with open(folder / LOCK_FILE, "a") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(lock, fcntl.LOCK_UN)
 
 
 def _compile(resources: Path, lib: str, present: list[str], pxd: dict[str, str]) -> None:

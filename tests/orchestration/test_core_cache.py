@@ -5,6 +5,8 @@ from __future__ import annotations
 import os
 import stat
 import tempfile
+import threading
+import time
 from pathlib import Path
 
 import pytest
@@ -102,7 +104,8 @@ def test_a_damaged_cache_is_never_copied_and_is_made_again(compiler, tmp_path, d
     assert compiler.calls == 2
     assert extension(second) == good
     assert stored.read_bytes() == good  # the cache holds the new compile, whole
-    assert not [p for p in cache.parent.iterdir() if p.name.startswith(".")]  # nothing left aside
+    aside = [p for p in cache.parent.iterdir() if p.name.startswith(".") and p.name != compiled.LOCK_FILE]
+    assert aside == []  # the damaged folder went, nothing is left beside it
 
 
 def test_the_cache_is_private(compiler, tmp_path):
@@ -122,3 +125,23 @@ def test_a_failed_compile_stores_nothing(compiler, tmp_path, monkeypatch):
     with pytest.raises(compiled.CompileError):
         compiled.compile_bundle(first, LIB, PXD)
     assert not compiled.cached(first / LIB, [MODULE], PXD).exists()
+
+
+def test_builds_at_once_compile_a_bundle_once(compiler, tmp_path, monkeypatch):
+    """Two builds of the same bundle at the same moment (two test workers, two users' commands): the second
+    waits for the first's compile and copies it."""
+    slow = FakeCompiler()
+
+    def compile_slowly(*args):
+        time.sleep(0.3)  # long enough for the other build to arrive while this one compiles
+        slow(*args)
+
+    monkeypatch.setattr(compiled, "_compile", compile_slowly)
+    bundles = [bundle(tmp_path / name) for name in ("a", "b")]
+    threads = [threading.Thread(target=compiled.compile_bundle, args=(b, LIB, PXD)) for b in bundles]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join(timeout=60)
+    assert slow.calls == 1
+    assert extension(bundles[0]) == extension(bundles[1])

@@ -24,12 +24,14 @@ def leftovers(cwd: Path, folders: bool = False) -> list[str]:
     """What is in the command's TMPDIR now but its private caches, kept on purpose: the unpacked FMUs (all
     of that cache) and the compiled cores (each whole folder, checked against its manifest: a half-made one
     is a leftover); ``folders``: empty folders count too."""
+    from orchestration.fmu_build.compiled import LOCK_FILE
     from orchestration.verified import intact
 
     tmp = cwd / "tmp"
     root = tmp / f"sotc-cosim-{os.getuid()}"
     cores = root / "cores" / "compiled"
-    skeleton, whole = {root, root / "cores", cores}, [f for f in cores.glob("*") if intact(f)]
+    skeleton = {root, root / "cores", cores, cores / LOCK_FILE}
+    whole = [f for f in cores.glob("*") if intact(f)]
 
     def kept(p: Path) -> bool:
         return p in skeleton or "fmus" in p.relative_to(tmp).parts or any(p == f or f in p.parents for f in whole)
