@@ -1,5 +1,6 @@
-"""Shared fixtures: the FMUs are built once per test session, in a child process (never in the
-test process itself, so the tests exercise the built FMUs and not the imported source tree)."""
+"""Shared fixtures: the FMUs are built once per test run (once for all pytest-xdist workers: ``support.once``),
+in a child process (never in the test process itself, so the tests exercise the built FMUs and not the
+imported source tree)."""
 from __future__ import annotations
 
 import os
@@ -15,13 +16,16 @@ settings.register_profile("ci", derandomize=True)
 settings.register_profile("explore", derandomize=False)
 settings.load_profile("ci" if os.environ.get("CI") else "explore")
 
+from support.once import made_once
+
 from orchestration.fmu_build.build import FMU_SOURCES, ensure_built
 
 
 @pytest.fixture(scope="session")
 def fmu_dir(tmp_path_factory) -> Path:
-    out = tmp_path_factory.mktemp("fmus")
-    ensure_built(list(FMU_SOURCES), out)
+    with made_once(tmp_path_factory, "fmus") as (out, fill):
+        if fill:
+            ensure_built(list(FMU_SOURCES), out)
     return out
 
 
@@ -32,27 +36,32 @@ def fmu_paths(fmu_dir) -> dict[str, Path]:
 
 
 @pytest.fixture(scope="session")
-def python_fmu_paths(fmu_dir) -> dict[str, Path]:
+def python_fmu_paths(fmu_dir, tmp_path_factory) -> dict[str, Path]:
     """The same FMUs built with ``SOTC_COSIM_COMPILE=0`` (cores in Python)."""
     from orchestration.bench.speed import python_fmus
 
-    return python_fmus(list(FMU_SOURCES), fmu_dir)
+    with made_once(tmp_path_factory, "python-fmus") as (_, fill):  # into fmu_dir/python, once
+        return python_fmus(list(FMU_SOURCES), fmu_dir) if fill else {m: fmu_dir / "python" / f"{m}.fmu"
+                                                                      for m in FMU_SOURCES}
 
 
 @pytest.fixture(scope="session")
 def shipped(tmp_path_factory):
     """The project installed from a wheel into a fresh virtualenv (``tests/shipped.py``)."""
-    from support.shipped import install
+    from support.shipped import install, installed
 
-    return install(tmp_path_factory.mktemp("shipped"))
+    with made_once(tmp_path_factory, "shipped") as (root, fill):
+        return install(root) if fill else installed(root)
 
 
 @pytest.fixture(scope="session")
-def shipped_fmu_dir(shipped) -> Path:
+def shipped_fmu_dir(shipped, tmp_path_factory) -> Path:
     """The FMUs as the installed ``sotc-cosim build`` makes them."""
     out = shipped.root / "fmus"
-    proc = shipped.cli("build", "--out", str(out), cwd=shipped.workdir("build"))
-    assert proc.returncode == 0, proc.stderr
+    with made_once(tmp_path_factory, "shipped-fmus") as (_, fill):
+        if fill:
+            proc = shipped.cli("build", "--out", str(out), cwd=shipped.workdir("build"))
+            assert proc.returncode == 0, proc.stderr
     return out
 
 
@@ -62,6 +71,5 @@ def fmi3_paths(tmp_path_factory) -> dict[str, Path]:
     the compiled FMI 3 build is exercised by tests/shipped/test_shipped_fmi3.py's ArmPlant)."""
     from orchestration.fmu_build.compiled import switched
 
-    out = tmp_path_factory.mktemp("fmus3")
-    with switched(False):
-        return ensure_built(list(FMU_SOURCES), out, fmi=3)
+    with made_once(tmp_path_factory, "fmus3") as (out, _), switched(False):
+        return ensure_built(list(FMU_SOURCES), out, fmi=3)  # current already: found, not built again

@@ -108,4 +108,11 @@ def install(root: Path) -> Shipped:
     (site / "zz_test_dependencies.pth").write_text(sysconfig.get_paths()["purelib"] + "\n")
     if not (site / "orchestration" / "__init__.py").is_file():
         raise RuntimeError(f"the wheel {wheel.name} did not install into {site}")
-    return Shipped(root, python, env_dir / bindir / "sotc-cosim", src)
+    return installed(root)
+
+
+def installed(root: Path) -> Shipped:
+    """The copy ``install`` made under ``root``."""
+    bindir = root / "venv" / ("Scripts" if sys.platform == "win32" else "bin")
+    return Shipped(root, bindir / ("python.exe" if sys.platform == "win32" else "python"), bindir / "sotc-cosim",
+                   root / "src")
