@@ -49,13 +49,13 @@ def main(argv: list[str] | None = None) -> int:
 
         args = build_parser().parse_args(argv)
         try:
-            if interrupt.requested():  # a signal during the imports above: nothing starts
-                stopped = "stopped before anything ran"
-                raise interrupt.Interrupted(stopped)
+            interrupt.check_before_work()  # a signal during the imports above: nothing starts
             fmu_dir = getattr(args, "fmu_dir", None)
             if fmu_dir is not None and not fmu_dir.is_dir():  # an existing folder may be read-only: prebuilt
                 check_output_folder(fmu_dir, "--fmu-dir")
             code = args.func(args)
+        except interrupt.NothingRan as exc:  # here or after a command's own imports
+            code, stopped = interrupt.exit_code(), str(exc)
         except interrupt.Interrupted:
             code = interrupt.exit_code()
         except BuildInterrupted:  # the build child was stopped and cleaned up: no run started

@@ -8,6 +8,7 @@ from orchestration import exit_codes
 from orchestration.cli.options import DEFAULT_SCENARIO, add_fmi, add_fmu_dir, add_stop_time, fmu_dir_of, seconds
 from orchestration.exit_codes import UsageError
 from orchestration.paths import check_output_file, check_output_folder
+from orchestration.run import interrupt
 from orchestration.run.scenario import load_scenario
 
 
@@ -26,6 +27,7 @@ def _fmu_files(names: list[str], fmu_dir: Path, fmi: int = 2) -> list[Path]:
     unknown = [n for n in names if n not in FMU_SOURCES and not Path(n).is_file()]
     if unknown:
         raise BuildError(f"no FMU {unknown}: give a model ({', '.join(FMU_SOURCES)}) or a .fmu path")
+    interrupt.check_before_work()
     built = ensure_built([n for n in names if n in FMU_SOURCES], fmu_dir, fmi)
     return [built[n] if n in FMU_SOURCES else Path(n) for n in names]
 
@@ -45,6 +47,7 @@ def _cmd_cross_check(args: argparse.Namespace) -> int:
     check_output_folder(args.out, "--out")
     models = args.models or list(FMU_SOURCES)
     loop = sorted({i.fmu for i in load_scenario(SOURCE_SCENARIO).instances.values()})
+    interrupt.check_before_work()
     paths = ensure_built(sorted(set(models) | set(loop)), fmu_dir_of(args), args.fmi)
     for folder in generate(args.out, paths, stop_time=args.stop_time, models=models):
         print(folder)
@@ -61,6 +64,7 @@ def _cmd_export_ssp(args: argparse.Namespace) -> int:
     scenario = load_scenario(args.scenario)
     if args.stop_time is not None:
         scenario = scenario.with_stop_time(args.stop_time)
+    interrupt.check_before_work()
     paths = ensure_built(sorted({i.fmu for i in scenario.instances.values()}), args.fmu_dir)
     print(export_ssp(scenario, paths, args.out))
     return exit_codes.OK

@@ -22,6 +22,7 @@ def _cmd_build(args: argparse.Namespace) -> int:
     if insisted() and unavailable():
         print(f"{SWITCH}=1, but the cores stay Python: {unavailable()}")
     why = python_only_reason() or "no hot core in it to compile"
+    interrupt.check_before_work()
     for path in build_fmus(args.models or None, out, args.fmi):
         described = describe(path)
         print(f"{path}: {described}" + (f" ({why})" if described == "Python only" else ""))
@@ -46,6 +47,7 @@ def prepare(names: list, stop_time: float | None, fmu_dir: Path, check=None, fmi
         scenarios = [s.with_stop_time(stop_time) for s in scenarios]
     if check is not None:
         check(scenarios)
+    interrupt.check_before_work()  # a signal during the imports: nothing is built
     paths = ensure_built(sorted({i.fmu for s in scenarios for i in s.instances.values()}), fmu_dir, fmi)
     check_scenarios(scenarios, paths)  # a value the FMU would refuse: exit 2 before anything runs
     return scenarios, paths

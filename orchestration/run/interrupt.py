@@ -54,6 +54,16 @@ def check() -> None:
         raise Interrupted(f"interrupted by {signal_name()}")
 
 
+class NothingRan(Interrupted):
+    """A signal came while the command still imported and checked: nothing was built, run or written."""
+
+
+def check_before_work() -> None:
+    """Raise NothingRan if a signal was seen: call after a command's imports, before it builds or runs."""
+    if STATE.requested:
+        raise NothingRan("stopped before anything ran")
+
+
 def _note(signum, frame) -> None:
     STATE.signum = STATE.signum or signum
     STATE.requested = True
