@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 from fmpy.fmi1 import FMICallException
 
-from support.cli import leftovers, one_line, run
+from support.cli import leftovers, one_line, run, warm_core_cache
 from support.fmu_driver import DrivenFmu
 
 SWEEP = ["sweep", "paper", "--set", "plant.phi1_0=0.4,0.5", "--stop-time", "1", "--workers", "1"]
@@ -144,6 +144,7 @@ def test_a_damaged_fmu_in_the_fmu_folder_is_built_again_or_refused(damage, fmu_d
         target.mkdir()
     else:
         target.write_bytes(b"garbage" if damage == "garbage" else (fmu_dir / target.name).read_bytes()[:3000])
+    warm_core_cache(tmp_path)  # the session's build compiled them: the rebuild copies them
     proc = run(["run", "paper", "--stop-time", "0.5", "--no-recording", "--fmu-dir", str(fmus)], tmp_path)
     if damage == "folder":
         assert proc.returncode == 2

@@ -39,6 +39,20 @@ def leftovers(cwd: Path, folders: bool = False) -> list[str]:
     return sorted(str(p.relative_to(tmp)) for p in tmp.rglob("*") if not kept(p) and (folders or not p.is_dir()))
 
 
+def warm_core_cache(cwd: Path) -> None:
+    """Give the command's TMPDIR (``env_for``) this process's compiled cores, as a user's cache holds them
+    after a first build: a test about what a build does, not about compiling, then copies them (each still
+    checked against its manifest) instead of compiling them for a minute."""
+    from orchestration.outputs import private_folder
+    from orchestration.verified import intact
+
+    target = cwd / "tmp" / f"sotc-cosim-{os.getuid()}" / "cores" / "compiled"
+    target.mkdir(mode=0o700, parents=True, exist_ok=True)
+    for folder in private_folder("cores", "compiled").iterdir():
+        if not folder.name.startswith(".") and intact(folder):  # whole ones only: other workers build too
+            shutil.copytree(folder, target / folder.name)
+
+
 def run(args: list[str], cwd: Path, limit_bytes: int | None = None, timeout: float = TIME_LIMIT):
     """``sotc-cosim ARGS`` in ``cwd``; ``limit_bytes`` sets RLIMIT_FSIZE (a file-size limit) first."""
     def limit() -> None:
