@@ -46,8 +46,10 @@ def warm_core_cache(cwd: Path) -> None:
     from orchestration.outputs import private_folder
     from orchestration.verified import intact
 
-    target = cwd / "tmp" / f"sotc-cosim-{os.getuid()}" / "cores" / "compiled"
-    target.mkdir(mode=0o700, parents=True, exist_ok=True)
+    root = cwd / "tmp" / f"sotc-cosim-{os.getuid()}"
+    target = root / "cores" / "compiled"
+    for folder in (cwd / "tmp", root, root / "cores", target):  # each private, as private_folder makes them
+        folder.mkdir(mode=0o700, exist_ok=True)
     for folder in private_folder("cores", "compiled").iterdir():
         if not folder.name.startswith(".") and intact(folder):  # whole ones only: other workers build too
             shutil.copytree(folder, target / folder.name)
