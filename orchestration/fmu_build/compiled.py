@@ -50,7 +50,8 @@ HOT = ("fmu_controller/elementary.py", "fmu_controller/sotc.py", "fmu_controller
 # names stay plain bytes (renamed); no fused multiply-add, so the compiled cores round as the .py does
 CFLAGS = "-O2 -g0 -fvisibility=hidden -DCYTHON_COMPRESS_STRINGS=0 -ffp-contract=off"
 TIME_LIMIT = 900.0  # s for compiling one bundle
-LOCK_FILE = ".compile.lock"  # in the cache folder: one compile of a bundle at a time, across processes
+LOCK_FILE = ".compile.lock"  # in the cache folder: one compile at a time across processes (a build compiles one
+# bundle after the other anyway)
 _SCRIPT = """import sys
 from setuptools import setup
 from Cython.Build import cythonize
@@ -150,11 +151,11 @@ def compile_bundle(resources: Path, lib: str, pxd: dict[str, str]) -> list[str]:
     present = [rel for rel in HOT if (resources / lib / rel).is_file()]
     if not present:
         return []
-    cache = cached(resources / lib, present, pxd)
+    cache = cached(resources, lib, present, pxd)
     if cache is None:
         _compile(resources, lib, present, pxd)
         return present
-    with _one_compiler(cache.parent):  # a concurrent build of the same bundle compiles it once, for both
+    with _one_compiler(cache.parent):  # a concurrent build of the same bundle finds it compiled
         if not _reuse(cache, resources / lib, present):
             _compile(resources, lib, present, pxd)
             _keep(cache, resources / lib, present)
@@ -209,7 +210,7 @@ def _extension(rel: str) -> str:
 
 
 # what setuptools reads from the environment when it compiles and links (CFLAGS is ours)
-_BUILD_ENV = ("CC", "CXX", "CPPFLAGS", "LDFLAGS", "LDSHARED", "ARCHFLAGS", "PATH")
+_BUILD_ENV = ("CC", "CXX", "CPPFLAGS", "LDFLAGS", "LDSHARED", "ARCHFLAGS")  # the compiler itself: its path
 
 
 def _toolchain() -> list[str]:
@@ -229,17 +230,24 @@ def _toolchain() -> list[str]:
             *(f"{k}={os.environ.get(k, '')}" for k in _BUILD_ENV)]
 
 
-def cached(lib_dir: Path, present: list[str], pxd: dict[str, str]) -> Path | None:
-    """The private cache folder of the extensions compiled from these modules (paths under ``lib_dir``,
-    whose name the extensions carry), ``pxd`` files and toolchain; None where no private cache can be
-    made (the cores are then compiled every time)."""
+def cached(resources: Path, lib: str, present: list[str], pxd: dict[str, str]) -> Path | None:
+    """The private cache folder of the extensions compiled from these modules (paths under
+    ``resources/lib``; ``lib``, the package name the extensions carry, is part of the key), ``pxd`` files
+    and toolchain; None where no private cache can be made or the toolchain cannot be named (the cores
+    are then compiled every time)."""
+    from importlib import metadata
+
     from orchestration.outputs import OutputError, private_folder
 
+    try:
+        toolchain = _toolchain()
+    except metadata.PackageNotFoundError:  # Cython or setuptools without package metadata: no version to key on
+        return None
     h = hashlib.sha256()
-    for part in [*_toolchain(), lib_dir.name]:
+    for part in [*toolchain, lib]:
         h.update(part.encode() + b"\0")
     for rel in present:
-        h.update(rel.encode() + b"\0" + (lib_dir / rel).read_bytes() + b"\0")
+        h.update(rel.encode() + b"\0" + (resources / lib / rel).read_bytes() + b"\0")
     for rel, text in sorted(pxd.items()):
         h.update(rel.encode() + b"\0" + text.encode() + b"\0")
     try:

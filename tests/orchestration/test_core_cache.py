@@ -89,7 +89,7 @@ def test_a_damaged_cache_is_never_copied_and_is_made_again(compiler, tmp_path, d
     first = bundle(tmp_path / "a")
     compiled.compile_bundle(first, LIB, PXD)
     good = extension(first)
-    cache = compiled.cached(first / LIB, [MODULE], PXD)
+    cache = compiled.cached(first, LIB, [MODULE], PXD)
     stored = cache / compiled._extension(MODULE)
     if damage == "changed":
         stored.write_bytes(b"ELF planted code")
@@ -111,7 +111,7 @@ def test_a_damaged_cache_is_never_copied_and_is_made_again(compiler, tmp_path, d
 def test_the_cache_is_private(compiler, tmp_path):
     first = bundle(tmp_path / "a")
     compiled.compile_bundle(first, LIB, PXD)
-    cache = compiled.cached(first / LIB, [MODULE], PXD)
+    cache = compiled.cached(first, LIB, [MODULE], PXD)
     root = next(p for p in cache.parents if p.name == f"sotc-cosim-{os.getuid()}")
     assert stat.S_IMODE(os.stat(root).st_mode) & 0o077 == 0
 
@@ -124,7 +124,7 @@ def test_a_failed_compile_stores_nothing(compiler, tmp_path, monkeypatch):
     first = bundle(tmp_path / "a")
     with pytest.raises(compiled.CompileError):
         compiled.compile_bundle(first, LIB, PXD)
-    assert not compiled.cached(first / LIB, [MODULE], PXD).exists()
+    assert not compiled.cached(first, LIB, [MODULE], PXD).exists()
 
 
 def test_builds_at_once_compile_a_bundle_once(compiler, tmp_path, monkeypatch):
@@ -145,3 +145,16 @@ def test_builds_at_once_compile_a_bundle_once(compiler, tmp_path, monkeypatch):
         thread.join(timeout=60)
     assert slow.calls == 1
     assert extension(bundles[0]) == extension(bundles[1])
+
+
+def test_without_a_version_to_key_on_the_cores_are_compiled_every_time(compiler, tmp_path, monkeypatch):
+    """Cython or setuptools found without package metadata (on PYTHONPATH): no key, no cache, no error."""
+    from importlib import metadata
+
+    def unnamed():
+        raise metadata.PackageNotFoundError("Cython")
+
+    monkeypatch.setattr(compiled, "_toolchain", unnamed)
+    for name in ("a", "b"):
+        assert compiled.compile_bundle(bundle(tmp_path / name), LIB, PXD) == [MODULE]
+    assert compiler.calls == 2

@@ -9,6 +9,7 @@ from __future__ import annotations
 import contextlib
 import fcntl
 import os
+import shutil
 from pathlib import Path
 from typing import Iterator
 
@@ -25,8 +26,10 @@ def made_once(tmp_path_factory, name: str) -> Iterator[tuple[Path, bool]]:
     with open(root / f"{name}.lock", "a") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
         try:
-            folder.mkdir(exist_ok=True)
             fill = not (folder / DONE).exists()
+            if fill:  # empty, also after a worker failed halfway through filling it
+                shutil.rmtree(folder, ignore_errors=True)
+            folder.mkdir(exist_ok=True)
             yield folder, fill
             (folder / DONE).touch()
         finally:
