@@ -129,10 +129,15 @@ class PathLock:
         self.release()
 
 
+def private_root(tmpdir: Path | str | None = None) -> Path:
+    """Where this user's private folders live: ``<tmpdir>/sotc-cosim-<uid>`` (default: ``$TMPDIR``)."""
+    return Path(tmpdir or tempfile.gettempdir()) / f"sotc-cosim-{os.getuid()}"
+
+
 def private_folder(*parts: str) -> Path:
-    """``$TMPDIR/sotc-cosim-<uid>/<parts>``, created 0700; refused (``OutputError``, EPERM) if the
-    per-user root belongs to someone else or others can write or enter it."""
-    root = Path(tempfile.gettempdir()) / f"sotc-cosim-{os.getuid()}"
+    """``private_root()/<parts>``, created 0700; refused (``OutputError``, EPERM) if the per-user root
+    belongs to someone else or others can write or enter it."""
+    root = private_root()
     try:
         root.mkdir(mode=0o700, exist_ok=True)
         st = os.lstat(root)

@@ -19,7 +19,7 @@ pure-Python outputs bit for bit (same test; ``-ffp-contract=off``; the elementar
 ``fmu_controller/elementary.py``'s own, libm's only sqrt, which IEEE 754 rounds correctly everywhere).
 
 A bundle's extensions are compiled once per content: they are kept in the user's private cache
-(``private_folder("cores", "compiled")/<key>``, with a manifest of their SHA-256: ``orchestration.verified``),
+(``private_folder(*CACHE)/<key>``, with a manifest of their SHA-256: ``orchestration.verified``),
 keyed by the SHA-256 of the modules and ``.pxd`` files compiled (the bundle's placeholder name in them),
 the compile script and flags, Python's build configuration, Cython's and setuptools' versions, the C
 compiler's path and ``--version``, and the environment variables setuptools reads. A later build of the
@@ -50,6 +50,7 @@ HOT = ("fmu_controller/elementary.py", "fmu_controller/sotc.py", "fmu_controller
 # names stay plain bytes (renamed); no fused multiply-add, so the compiled cores round as the .py does
 CFLAGS = "-O2 -g0 -fvisibility=hidden -DCYTHON_COMPRESS_STRINGS=0 -ffp-contract=off"
 TIME_LIMIT = 900.0  # s for compiling one bundle
+CACHE = ("cores", "compiled")  # the cache folder under the private root (outputs.private_folder)
 LOCK_FILE = ".compile.lock"  # in the cache folder: one compile at a time across processes (a build compiles one
 # bundle after the other anyway)
 _SCRIPT = """import sys
@@ -251,7 +252,7 @@ def cached(resources: Path, lib: str, present: list[str], pxd: dict[str, str]) -
     for rel, text in sorted(pxd.items()):
         h.update(rel.encode() + b"\0" + text.encode() + b"\0")
     try:
-        return private_folder("cores", "compiled") / h.hexdigest()
+        return private_folder(*CACHE) / h.hexdigest()
     except OutputError:
         return None
 

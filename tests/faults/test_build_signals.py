@@ -18,6 +18,8 @@ import pytest
 
 from support.cli import SCRIPT, env_for, leftovers, run
 
+from orchestration.outputs import private_root
+
 pytestmark = pytest.mark.slow  # builds in subprocesses, signalled at random moments
 
 PICKS = random.Random(27)  # the moments, reproducible
@@ -150,7 +152,7 @@ def test_a_sweep_removes_the_scratch_a_killed_coordinator_left(fmu_dir, tmp_path
 
     dead = subprocess.Popen(["true"])
     dead.wait()
-    root = tmp_path / "tmp" / f"sotc-cosim-{os.getuid()}"
+    root = private_root(tmp_path / "tmp")
     stale = root / "scratch" / f"{scratch_name().split('-')[0]}-{dead.pid}-1" / "dask"
     stale.mkdir(parents=True)
     root.chmod(0o700)

@@ -15,11 +15,13 @@ from fmpy.fmi1 import FMICallException
 from support.cli import leftovers, one_line, run, warm_core_cache
 from support.fmu_driver import DrivenFmu
 
+from orchestration.outputs import private_root
+
 SWEEP = ["sweep", "paper", "--set", "plant.phi1_0=0.4,0.5", "--stop-time", "1", "--workers", "1"]
 
 
 def _cache(tmp_path: Path) -> Path:
-    return tmp_path / "tmp" / f"sotc-cosim-{os.getuid()}" / "fmus"
+    return private_root(tmp_path / "tmp") / "fmus"
 
 
 def test_a_planted_cache_file_is_never_run(fmu_dir, tmp_path):
