@@ -11,15 +11,24 @@ from orchestration.run.scenario import MAX_STEPS
 DEFAULT_SCENARIO = "paper"
 
 
-def positive_int(text: str) -> int:
-    """A whole number from 1 to MAX_STEPS (the most steps a run may have: no count here needs more)."""
+def _whole(text: str, low: int) -> int:
     try:
         value = int(text)
     except ValueError:
-        value = 0
-    if not 1 <= value <= MAX_STEPS:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number from 1 to {MAX_STEPS}")
+        value = low - 1
+    if not low <= value <= MAX_STEPS:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number from {low} to {MAX_STEPS}")
     return value
+
+
+def positive_int(text: str) -> int:
+    """A whole number from 1 to MAX_STEPS (the most steps a run may have: no count here needs more)."""
+    return _whole(text, 1)
+
+
+def non_negative_int(text: str) -> int:
+    """A whole number from 0 to MAX_STEPS."""
+    return _whole(text, 0)
 
 
 def seconds(text: str) -> float:

@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 
 from orchestration import exit_codes
-from orchestration.cli.options import add_cluster, positive_int
+from orchestration.cli.options import add_cluster, non_negative_int, positive_int
 from orchestration.outputs import PathLock
 from orchestration.paths import check_output_file
 from orchestration.run import interrupt
@@ -79,29 +79,33 @@ class _Listener:
 
 
 def _searches_text(data: dict) -> list[str]:
-    from orchestration.study.tuning import CONVERGED, last_half_improvement, still_improving
+    from orchestration.study.tuning import CONVERGED, improvement, still_improving, tpe_improvement
+
+    def phases(r) -> str:
+        if "polish_from" not in r:
+            return f"last-half improvement {100 * improvement(r):.2f} %"
+        return (f"last-half improvement: TPE {100 * tpe_improvement(r):.2f} %, CMA-ES {100 * improvement(r):.2f} %")
 
     return [f"{fmu} {h} seed {s}: {r['trials']} trials, best "
-            f"{'none' if r['criterion'][r['best']] is None else format(r['criterion'][r['best']], '.6g')}, "
-            f"last-half improvement {100 * last_half_improvement(r['criterion']):.2f} % "
-            f"({'still improving' if still_improving(r['criterion']) else 'converged'}: the rule is below "
-            f"{100 * CONVERGED:g} %)"
+            f"{'none' if r['criterion'][r['best']] is None else format(r['criterion'][r['best']], '.6g')}, {phases(r)} "
+            f"({'still improving' if still_improving(r) else 'converged'}: the rule is below {100 * CONVERGED:g} %)"
             for fmu, c in data["controllers"].items() for h, per in c["handlings"].items() for s, r in per["seeds"].items()]
 
 
-def _tune_once(args, controllers, handlings, seeds, budget, out, journal):
+def _tune_once(args, controllers, handlings, seeds, budget, polish, out, journal):
     from orchestration.sweep.tuning_jobs import tune
 
     listener = _Listener(journal, args.workers, args.scheduler)
     try:
-        return tune(out, controllers, handlings, seeds, budget, args.workers, args.scheduler, listener)
+        return tune(out, controllers, handlings, seeds, budget, polish, args.workers, args.scheduler, listener)
     finally:
         listener.close()
 
 
 def _cmd_tune(args: argparse.Namespace) -> int:
-    """Tune at ``--budget``; with ``--until-converged CAP``, double the budget of every search alike while any
-    search still improves by ``CONVERGED`` or more over its last half, up to CAP trials."""
+    """Tune at ``--budget`` and ``--polish``; with ``--until-converged CAP``, double the phase the rule judges
+    (the CMA-ES phase; the budget when ``--polish 0``) of every search alike while any search still improves
+    by ``CONVERGED`` or more over its last half, up to CAP trials."""
     from orchestration.study.protocol import SEEDS
     from orchestration.study.tuning import HANDLINGS, unconverged
     from orchestration.sweep.tuning_jobs import journal_of
@@ -111,23 +115,26 @@ def _cmd_tune(args: argparse.Namespace) -> int:
     handlings = list(dict.fromkeys(args.handlings or HANDLINGS))
     out = check_output_file(args.out, "--out")
     journal = journal_of(out)
-    budget = args.budget
+    budget, polish = args.budget, args.polish
     with PathLock(out, "--out"), PathLock(journal, "--out's journal"):  # repair() may then remove Optuna's lock
         while True:
-            outcome = _tune_once(args, controllers, handlings, seeds, budget, out, journal)
+            outcome = _tune_once(args, controllers, handlings, seeds, budget, polish, out, journal)
             still = [] if outcome.interrupted else unconverged(outcome.store)
-            if not still or not args.until_converged or 2 * budget > args.until_converged:
+            judged = polish or budget
+            if not still or not args.until_converged or 2 * judged > args.until_converged:
                 break
-            print(f"tune: at {budget} trials {len(still)} of {outcome.searches} searches still improve "
-                  f"(e.g. {still[0]}): every search goes on to {2 * budget}", flush=True)
-            budget *= 2
+            phase = "CMA-ES phase" if polish else "search"
+            print(f"tune: at {judged} trials {len(still)} of {outcome.searches} searches still improve "
+                  f"(e.g. {still[0]}): every {phase} goes on to {2 * judged}", flush=True)
+            budget, polish = (budget, 2 * polish) if polish else (2 * budget, polish)
     data = outcome.store
     print(f"store: {out} ({'complete' if data['complete'] else 'incomplete'}; journal {journal})")
     print("\n".join(_searches_text(data)))
     if still and args.until_converged and not outcome.interrupted:
-        print(f"not converged at {budget} trials, the cap of --until-converged: {', '.join(still)}")
+        print(f"not converged at {polish or budget} trials, the cap of --until-converged: {', '.join(still)}")
     if outcome.interrupted:
-        again = ["sotc-cosim", "tune", *controllers, "--budget", str(budget), "--seeds", *map(str, seeds),
+        again = ["sotc-cosim", "tune", *controllers, "--budget", str(budget), "--polish", str(polish),
+                 "--seeds", *map(str, seeds),
                  "--handlings", *(h for h in data["controllers"][controllers[0]]["handlings"]), "--out", str(out)]
         again += ["--until-converged", str(args.until_converged)] if args.until_converged else []
         again += ["--workers", str(args.workers)] if args.workers else []
@@ -139,17 +146,21 @@ def _cmd_tune(args: argparse.Namespace) -> int:
 
 def add_commands(sub) -> None:
     """tune."""
-    from orchestration.study.protocol import BUDGET, CONVERGED, SEEDS
+    from orchestration.study.protocol import BUDGET, CONVERGED, POLISH, SEEDS
 
     p = sub.add_parser("tune", help="tune the controllers by the one protocol (Optuna, on Dask), resumable")
     p.add_argument("controllers", nargs="*", metavar="CONTROLLER",
                    help="controllers to tune: SotcController CtController LqrController OtcController, or SOTC CT "
                         "LQR OTC (default: all)")
     p.add_argument("--budget", type=positive_int, default=BUDGET,
-                   help=f"trials per controller, limit handling and seed (default {BUDGET})")
+                   help=f"TPE trials per controller, limit handling and seed (default {BUDGET})")
+    p.add_argument("--polish", type=non_negative_int, default=POLISH,
+                   help=f"then CMA-ES trials from each search's best, the phase the convergence rule judges; 0: none "
+                        f"(default {POLISH})")
     p.add_argument("--until-converged", type=positive_int, metavar="CAP",
-                   help="then double the budget of every search alike while any search's best-so-far still improves "
-                        f"by {100 * CONVERGED:g} %% or more over its last half, up to CAP trials (docs/baselines.md)")
+                   help="then double the CMA-ES phase (the budget, with --polish 0) of every search alike while any "
+                        f"search's best-so-far still improves by {100 * CONVERGED:g} %% or more over its last half, "
+                        "up to CAP trials (docs/baselines.md)")
     p.add_argument("--seeds", type=seed, nargs="+", metavar="SEED",
                    help=f"tuning seeds, one independent search each (default {' '.join(map(str, SEEDS))})")
     p.add_argument("--handlings", type=handling, nargs="+", metavar="HANDLING",

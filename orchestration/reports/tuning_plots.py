@@ -32,6 +32,8 @@ def plot(root: Path) -> Path:
                 curve = best_so_far(r["criterion"])
                 ax.plot(range(1, len(curve) + 1), [c / curve[-1] for c in curve], label=f"seed {seed}")
             ax.axvline(data["budget"] / 2, color="grey", lw=0.8, ls=":")
+            if data.get("polish"):
+                ax.axvline(data["budget"], color="black", lw=0.8, ls=":")
             ax.axhline(1 + CONVERGED, color="grey", lw=0.8, ls="--")
             ax.set_ylim(0.98, 1.3)
             ax.set_title(f"{LABELS[fmu]}, {LIMIT_HANDLINGS[h]}", fontsize=10)
@@ -40,8 +42,10 @@ def plot(root: Path) -> Path:
     for row in axes:
         row[0].set_ylabel("best so far / final best")
     axes[0][0].legend(fontsize=8)
-    fig.suptitle(f"Best-so-far criterion, {data['budget']} trials per search (dotted: half the budget; dashed: "
-                 f"{100 * CONVERGED:g} % above the final best)")
+    phases = (f"{data['budget']} TPE + {data['polish']} CMA-ES trials per search (grey dotted: half the TPE phase; "
+              "black dotted: CMA-ES starts" if data.get("polish") else
+              f"{data['budget']} trials per search (dotted: half the budget")
+    fig.suptitle(f"Best-so-far criterion, {phases}; dashed: {100 * CONVERGED:g} % above the final best)")
     fig.tight_layout()
     (root / PLOT).parent.mkdir(parents=True, exist_ok=True)
     return save_figure(fig, root / PLOT, 70)

@@ -1,10 +1,10 @@
-"""The tuning searches of ``orchestration.study.tuning``, run with Optuna and kept in its journal storage.
+"""The TPE phase of the tuning searches of ``orchestration.study.tuning``, run with Optuna and kept in its
+journal storage (the CMA-ES phase that follows it from its best is ``orchestration.study.polish``).
 
-Sampler: TPE (``optuna.samplers.TPESampler``, multivariate), chosen over CMA-ES because the budget is a
-few dozen trials: CMA-ES spends them in generations of a population and adapts its covariance slowly at
-that count (worst in the 2-D spaces, where a population is most of the budget), needs a package of its
-own, and has no use for a failed or pruned trial, while TPE models every finished trial, works with
-pruning and, seeded, gives the same trials on every run. The first ``INITIAL_DESIGN`` trials are the
+Sampler: TPE (``optuna.samplers.TPESampler``, multivariate) for the global phase: it models every finished
+trial, pruned ones included, works with pruning and, seeded, gives the same trials on every run, while
+CMA-ES spends its trials in generations that all run every training point and adapts from one start, so
+it is the local phase, not the global one. The first ``INITIAL_DESIGN`` trials are the
 nominal design and a Latin hypercube (enqueued), the rest TPE's. Pruning: ``PercentilePruner`` on the
 running criterion after each training point from the ``PRUNE_AFTER``-th on: a trial not among the best
 ``PRUNE_PERCENTILE`` % of the complete trials at that point stops there. (A median rule pruned none of
@@ -12,7 +12,7 @@ a 64-trial SOTC search, whose TPE trials all beat the median of a history that h
 hypercube's poor points; the SOTC's trials are most of the compute.)
 
 Resume and determinism: each search (one controller, limit handling and seed) runs its trials one after
-another in one process, and the sampler of trial i is seeded with (seed, i), so a search gives the same
+another in one process, and the sampler of trial i is seeded with (seed, i) (``generator_seed``), so a search gives the same
 trials whether it ran at once or was stopped and resumed: a trial cut off by Ctrl-C (left running in the
 journal) is marked failed and ``interrupted`` and does not count; the next run repeats it. The journal
 (``journal``: an append-only file, written under Optuna's file lock, so searches on several Dask workers
@@ -64,11 +64,17 @@ def protocol(fmu: str, seed: int) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
+def generator_seed(seed: int, stream: int) -> int:
+    """The seed of a random generator of a search (numpy's legacy generators, under Optuna's samplers and
+    CMA-ES, take 32 bits): stream ``stream`` of tuning seed ``seed``."""
+    return (1_000_003 * seed + stream) % 2**32
+
+
 def _sampler(seed: int, index: int) -> optuna.samplers.TPESampler:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
         return optuna.samplers.TPESampler(n_startup_trials=tuning.INITIAL_DESIGN, multivariate=True,
-                                          constant_liar=False, seed=1_000_003 * seed + index)
+                                          constant_liar=False, seed=generator_seed(seed, index))
 
 
 def _open(journal: Path, fmu: str, handling: int, seed: int) -> optuna.Study:
@@ -162,27 +168,3 @@ def record(journal: JournalStorage, fmu: str, handling: int, seed: int, budget: 
             "best_design": dict(trials[best].params), "trials": len(trials), "trial_seconds": round(seconds, 1),
             "started": min(t.datetime_start for t in trials).isoformat(timespec="seconds"),
             "finished": max(t.datetime_complete for t in trials).isoformat(timespec="seconds")}
-
-
-def store(path: Path, controllers, handlings, seeds, budget: int) -> dict[str, Any]:
-    """The store (``tuning.TUNED_FILE``'s shape) of these searches in the journal at ``path``."""
-    journal = storage(path)
-    out: dict[str, Any] = {
-        "budget": budget, "seeds": list(seeds), "training_points": len(tuning.training_points()),
-        "criterion": f"geometric mean of MSE_1 + MSE_2 over the training points, {tuning.STOP_TIME:g} s each",
-        "sampler": f"optuna {optuna.__version__} TPESampler (multivariate), {tuning.INITIAL_DESIGN} initial trials "
-                   f"(nominal + scipy.stats.qmc Latin hypercube), PercentilePruner({tuning.PRUNE_PERCENTILE:g}) from point "
-                   f"{tuning.PRUNE_AFTER} on",
-        "controllers": {}}
-    for fmu in controllers:
-        per_handling = {}
-        for h in handlings:
-            seeds_done = {str(s): r for s in seeds if (r := record(journal, fmu, h, s, budget)) is not None}
-            per_handling[LIMIT_HANDLINGS[h]] = {"seeds": seeds_done}
-        out["controllers"][fmu] = {"handlings": per_handling}
-    records = [r for c in out["controllers"].values() for h in c["handlings"].values() for r in h["seeds"].values()]
-    out["complete"] = len(records) == len(controllers) * len(handlings) * len(seeds) and all(
-        r["trials"] == budget for r in records)
-    out["trial_seconds"] = round(sum(r["trial_seconds"] for r in records), 1)
-    return out
-

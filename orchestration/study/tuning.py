@@ -17,6 +17,10 @@ The protocol (docs/baselines.md, "Tuning protocol"):
   hypercube (``scipy.stats.qmc``, seeded with the tuning seed), then Optuna's TPE sampler, seeded per
   trial; a trial whose running criterion is not among the best ``PRUNE_PERCENTILE`` % of the complete
   trials at the same training point is pruned there (from the ``PRUNE_AFTER``-th point on).
+  Then ``protocol.POLISH`` trials of CMA-ES started from the TPE phase's best
+  (``orchestration.study.polish``), every training point run.
+* **Convergence** (``still_improving``): doubling the CMA-ES phase moves the best by less than
+  ``protocol.CONVERGED`` (its last half; the whole search's, for a store without that phase).
 * **Seeds** (``protocol.SEEDS``): independent searches; each seed's best design is judged on the held-out sets.
 
 ``sotc-cosim tune`` runs the search and writes the store (recordings/tuning/tuned.json); the shipped
@@ -139,26 +143,37 @@ def best_so_far(values: list[float | None]) -> list[float]:
     return out
 
 
-def last_half_improvement(values: list[float | None]) -> float:
-    """How much the best-so-far fell over the last half of the trials, relative to where it stood at
-    the half (0.01: 1 %); the budget is enough when this is below ``CONVERGED``."""
+def last_half_improvement(values: list[float | None], start: int = 0) -> float:
+    """How much the best-so-far fell over the last half of the trials from ``start`` on, relative to where
+    it stood at that half (0.01: 1 %); the trials before ``start`` count only as where the best began."""
     curve = best_so_far(values)
-    half, end = curve[max(len(curve) // 2 - 1, 0)], curve[-1]
+    half, end = curve[max(start + (len(curve) - start) // 2 - 1, 0)], curve[-1]
     if half == end:
         return 0.0
     return 1.0 if math.isinf(half) else (half - end) / half
 
 
-def still_improving(values: list[float | None]) -> bool:
-    """Whether a search's best-so-far improves by ``CONVERGED`` or more over the last half of its trials."""
-    return last_half_improvement(values) >= CONVERGED
+def improvement(record: dict[str, Any]) -> float:
+    """What the convergence rule judges in a stored search: the last-half improvement of its CMA-ES phase
+    (``orchestration.study.polish``; of the whole search when it has none); below ``CONVERGED``, the
+    budget is enough."""
+    return last_half_improvement(record["criterion"], record.get("polish_from", 0))
+
+
+def tpe_improvement(record: dict[str, Any]) -> float:
+    """The last-half improvement of a stored search's TPE phase alone (shown beside the rule's)."""
+    return last_half_improvement(record["criterion"][:record.get("polish_from", len(record["criterion"]))])
+
+
+def still_improving(record: dict[str, Any]) -> bool:
+    """Whether a stored search's best-so-far improves by ``CONVERGED`` or more by the rule (``improvement``)."""
+    return improvement(record) >= CONVERGED
 
 
 def unconverged(data: dict[str, Any]) -> list[str]:
-    """The searches of a store ("<controller> <handling> seed <seed>") whose best-so-far still improves by
-    ``CONVERGED`` or more over the last half of its trials."""
+    """The searches of a store ("<controller> <handling> seed <seed>") that still improve by the rule."""
     return [f"{fmu} {h} seed {s}" for fmu, c in data["controllers"].items() for h, per in c["handlings"].items()
-            for s, r in per["seeds"].items() if still_improving(r["criterion"])]
+            for s, r in per["seeds"].items() if still_improving(r)]
 
 
 # --- the stored search --------------------------------------------------------------------------------

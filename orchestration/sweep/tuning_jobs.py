@@ -1,5 +1,5 @@
 """The tuning searches on Dask, like a sweep's points: one task per search (controller, limit handling,
-seed; ``orchestration.study.optimize.run_search``; the cores compiled where the installed wheel
+seed; ``orchestration.study.polish.search``: its TPE phase, then its CMA-ES phase; the cores compiled where the installed wheel
 compiled them, setup.py), all sharing one Optuna journal file, so they need a
 file system the workers share with the client (a local cluster's always do). The client follows the
 journal for progress, writes the store when the searches end or Ctrl-C stops them, and tells how to
@@ -11,7 +11,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from orchestration.outputs import atomic_write
-from orchestration.study import optimize
+from orchestration.study import optimize, polish as local
 from orchestration.sweep.cluster import follow, open_client, shutdown
 
 POLL_S = 1.0  # how often the client reads the journal for progress and looks for Ctrl-C
@@ -45,36 +45,41 @@ def repair(journal: Path) -> None:
             f.truncate(data.rfind(b"\n") + 1)
 
 
-def _counts(journal: Path, names: list[str]) -> dict[str, int]:
+def _counts(journal: Path, jobs: list[tuple], budget: int, polish: int) -> dict[tuple, int]:
+    """The trials of each search that count: of its TPE phase up to ``budget``, then of its CMA-ES phase."""
     if not journal.is_file():
-        return dict.fromkeys(names, 0)
+        return dict.fromkeys(jobs, 0)
     storage = optimize.storage(journal)
     present = {s.study_name for s in storage.get_all_studies()}
-    return {n: len(storage.get_all_trials(storage.get_study_id_from_name(n), deepcopy=False,
-                                          states=optimize.FINISHED)) if n in present else 0 for n in names}
+
+    def finished(name: str, states) -> int:
+        return len(storage.get_all_trials(storage.get_study_id_from_name(name), deepcopy=False,
+                                          states=states)) if name in present else 0
+
+    return {job: min(finished(optimize.study_name(*job), optimize.FINISHED), budget)
+            + min(finished(local.study_name(*job, budget), local.COUNTED), polish) for job in jobs}
 
 
-def tune(out: Path, controllers, handlings, seeds, budget: int, workers: int | None, scheduler: str | None,
-         listener=None) -> TuneOutcome:
-    """Run every search until ``budget`` trials count, the longest (the SOTC's) first; write the store to
-    ``out`` (also after Ctrl-C, with the trials finished)."""
+def tune(out: Path, controllers, handlings, seeds, budget: int, polish: int, workers: int | None,
+         scheduler: str | None, listener=None) -> TuneOutcome:
+    """Run every search until ``budget`` TPE and ``polish`` CMA-ES trials count, the longest (the SOTC's)
+    first; write the store to ``out`` (also after Ctrl-C, with the trials finished)."""
     journal = journal_of(out)
     repair(journal)
     jobs = [(fmu, h, s) for fmu in controllers for h in handlings for s in seeds]
-    names = [optimize.study_name(*job) for job in jobs]
-    before = _counts(journal, names)
-    outcome = TuneOutcome(len(jobs), sum(min(c, budget) for c in before.values()))
+    before = _counts(journal, jobs, budget, polish)
+    outcome = TuneOutcome(len(jobs), sum(before.values()))
     if listener is not None:
-        listener.started(outcome, budget * len(jobs))
-    todo = [job for job, n in zip(jobs, names) if before[n] < budget]
+        listener.started(outcome, (budget + polish) * len(jobs))
+    todo = [job for job in jobs if before[job] < budget + polish]
     if todo:
-        outcome.interrupted = _run(journal, todo, budget, workers, scheduler, names, before, listener)
-    outcome.store = optimize.store(journal, controllers, handlings, seeds, budget)
+        outcome.interrupted = _run(journal, todo, budget, polish, workers, scheduler, jobs, before, listener)
+    outcome.store = local.store(journal, controllers, handlings, seeds, budget, polish)
     atomic_write(out, json.dumps(outcome.store, indent=1) + "\n")
     return outcome
 
 
-def _run(journal, todo, budget, workers, scheduler, names, before, listener) -> bool:
+def _run(journal, todo, budget, polish, workers, scheduler, jobs, before, listener) -> bool:
     """Submit the searches and follow them; True if Ctrl-C stopped them."""
     seen = dict(before)
 
@@ -83,17 +88,17 @@ def _run(journal, todo, budget, workers, scheduler, names, before, listener) -> 
             future.result()  # its error, raised here (a journal this code cannot resume)
 
     def tick() -> None:
-        counts = _counts(journal, names)
+        counts = _counts(journal, jobs, budget, polish)
         if listener is not None:
-            for n in names:
-                for _ in range(min(counts[n], budget) - min(seen[n], budget)):
-                    listener.trial(n)
+            for job in jobs:
+                for _ in range(counts[job] - seen[job]):
+                    listener.trial(optimize.study_name(*job))
         seen.update(counts)
 
     cluster, futures, stopped = None, [], True  # anything but the end of every search stops the workers
     try:
         cluster = open_client(scheduler, workers)
-        futures = [cluster.client.submit(optimize.run_search, journal.resolve(), fmu, h, s, budget, pure=False,
+        futures = [cluster.client.submit(local.search, journal.resolve(), fmu, h, s, budget, polish, pure=False,
                                          key=f"tune-{optimize.study_name(fmu, h, s)}-{cluster.scratch}")
                    for fmu, h, s in todo]
         stopped = follow(futures, done, tick, POLL_S)

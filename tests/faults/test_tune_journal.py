@@ -12,7 +12,7 @@ from orchestration.outputs import PathLock
 from orchestration.study import optimize
 from support.cli import one_line, run
 
-ARGS = ["tune", "CT", "--budget", "2", "--seeds", "0", "--handlings", "accel", "--workers", "1"]
+ARGS = ["tune", "CT", "--budget", "2", "--polish", "0", "--seeds", "0", "--handlings", "accel", "--workers", "1"]
 
 
 def _trial_states(journal: Path) -> list[str]:

@@ -1,5 +1,5 @@
 """``sotc-cosim tune`` as a user runs it: the installed console script, from a folder outside the
-repository, with a tiny budget (the stored search is 64 trials per controller, handling and seed)."""
+repository, with a tiny budget (the stored search's is in docs/baselines.md)."""
 from __future__ import annotations
 
 import json
@@ -8,8 +8,9 @@ from pathlib import Path
 
 # enough trials that the Ctrl-C after the second one lands mid-search however fast the cores run (with
 # compiled cores a CT trial takes a fraction of a second: at 3 trials a search had finished before it)
-BUDGET = 12
-ARGS = ["tune", "CT", "--budget", str(BUDGET), "--seeds", "0", "1", "--handlings", "accel", "--workers", "1"]
+BUDGET, POLISH = 12, 4
+ARGS = ["tune", "CT", "--budget", str(BUDGET), "--polish", str(POLISH), "--seeds", "0", "1", "--handlings", "accel",
+        "--workers", "1"]
 
 
 def _finished(journal: Path) -> int:
@@ -24,7 +25,8 @@ def _searches(store: dict) -> dict:
 
 def test_tune_refuses_bad_values_with_one_line(shipped):
     work = shipped.workdir("tune-refused")
-    for args in (["tune", "--budget", "0"], ["tune", "PID"], ["tune", "--seeds", "-1"], ["tune", "--handlings", "none"]):
+    for args in (["tune", "--budget", "0"], ["tune", "PID"], ["tune", "--seeds", "-1"], ["tune", "--handlings", "none"],
+                 ["tune", "--polish", "-1"]):
         proc = shipped.cli(*args, cwd=work)
         assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, (args, proc.stderr)
         assert "Traceback" not in proc.stderr
@@ -36,11 +38,12 @@ def test_tune_writes_the_store_and_resumes_after_ctrl_c_to_the_same_trials(shipp
     whole = shipped.cli(*ARGS, "--out", "whole/tuned.json", cwd=work)
     assert whole.returncode == 0, whole.stderr
     store = json.loads((work / "whole" / "tuned.json").read_text())
-    assert (store["budget"], store["seeds"], store["training_points"], store["complete"]) == (BUDGET, [0, 1], 8, True)
+    assert (store["budget"], store["polish"], store["seeds"], store["training_points"], store["complete"]) == (
+        BUDGET, POLISH, [0, 1], 8, True)
     for seed, r in _searches(store).items():
-        assert len(r["criterion"]) == len(r["state"]) == BUDGET and set(r["best_design"]) == {"kp", "kd"}
-        assert r["criterion"][r["best"]] == min(v for v in r["criterion"] if v is not None)
-        assert f"CtController accel seed {seed}: {BUDGET} trials" in whole.stdout
+        assert len(r["criterion"]) == len(r["state"]) == BUDGET + POLISH and set(r["best_design"]) == {"kp", "kd"}
+        assert r["polish_from"] == BUDGET and r["criterion"][r["best"]] == min(v for v in r["criterion"] if v is not None)
+        assert f"CtController accel seed {seed}: {BUDGET + POLISH} trials" in whole.stdout
 
     journal = work / "cut" / "tuned.json.journal"
     cut = shipped.interrupt([*ARGS, "--out", "cut/tuned.json"], work, ready=lambda: _finished(journal) >= 2)

@@ -1,0 +1,204 @@
+"""The second phase of every tuning search: CMA-ES (``cmaes``, the implementation Optuna's own
+CmaEsSampler wraps) started from the best design of the TPE phase (``orchestration.study.optimize``), and
+the store of both phases.
+
+Why a second phase (docs/baselines.md, "Tuning protocol"): TPE's best moves in jumps, from one basin of
+the criterion to another, and a jump can come late: one SOTC search was flat from trial 256 to 512 and
+then fell 1.67 % by trial 1024. No budget of a global search shows that no later jump will come. What a
+search can show is that its best design is the bottom of its basin; that is what this phase does, and
+what the convergence rule (``tuning.still_improving``) judges. Which basin a search ends in is what the
+independent tuning seeds sample, and a verdict is stated only where every seed gives it.
+
+Coordinates: the log of each design parameter, scaled to [0, 1] over its search range
+(``tuning.SEARCH_SPACES``). The start is the TPE phase's best design; the initial step ``SIGMA0`` of that
+cube; the population CMA-ES's default for the dimension; the generator seeded from the tuning seed.
+Every trial runs all its training points (CMA-ES ranks every candidate of a generation; a failed run
+ranks last).
+
+Resume and determinism: a trial enters the journal only once its criterion is known (``add_trial``), so
+an interrupted one leaves nothing and runs again. A resumed phase replays CMA-ES from its start: each
+candidate it asks for must be the journal's trial of that number (to ``MATCH``, relative: the
+eigendecomposition may round otherwise on another machine), and the journal's design and criterion are
+told in its place. An uninterrupted run tells the design as stored too, so both give the same trials.
+"""
+from __future__ import annotations
+
+import datetime
+import hashlib
+import json
+import math
+import sys
+from pathlib import Path
+from typing import Any
+
+import cmaes
+import numpy as np
+import optuna
+from optuna.trial import TrialState
+
+from fmu_controller.saturation import LIMIT_HANDLINGS
+from orchestration.study import optimize, tuning
+
+COUNTED = (TrialState.COMPLETE,)  # the CMA-ES phase's trials (added complete, never pruned)
+SIGMA0 = 0.1  # the initial step, in the unit cube of the log-scaled search space
+MATCH = 1e-9  # a replayed candidate and the journal's trial of its number agree to this (relative)
+FAILED = sys.float_info.max  # a failed run's value for CMA-ES's ranking: behind every finite criterion
+STREAM = 2**31  # CMA-ES's generator (optimize.generator_seed): out of reach of the TPE phase's, one per trial number
+
+
+def study_name(fmu: str, handling: int, seed: int, budget: int) -> str:
+    """The phase started from the best of the TPE phase's first ``budget`` trials."""
+    return f"{optimize.study_name(fmu, handling, seed)}/cma-es-after-{budget}"
+
+
+def _scale(fmu: str) -> tuple[np.ndarray, np.ndarray]:
+    space = tuning.SEARCH_SPACES[fmu].values()
+    low = np.log([lo for lo, _, _ in space])
+    return low, np.log([hi for _, hi, _ in space]) - low
+
+
+def to_unit(fmu: str, design: dict[str, float]) -> np.ndarray:
+    low, width = _scale(fmu)
+    return (np.log([design[name] for name in tuning.SEARCH_SPACES[fmu]]) - low) / width
+
+
+def from_unit(fmu: str, unit: np.ndarray) -> dict[str, float]:
+    low, width = _scale(fmu)
+    lows = [lo for lo, _, _ in tuning.SEARCH_SPACES[fmu].values()]
+    highs = [hi for _, hi, _ in tuning.SEARCH_SPACES[fmu].values()]
+    values = np.exp(low + np.clip(unit, 0.0, 1.0) * width)
+    # exp(log(x)) may leave the range by a rounding; the bounds are the space's own numbers
+    return {name: min(max(float(v), lo), hi) for name, v, lo, hi in zip(tuning.SEARCH_SPACES[fmu], values, lows, highs)}
+
+
+def _protocol(fmu: str, seed: int, start: dict[str, float]) -> str:
+    # not cmaes's version: a version that asks for other candidates is refused by the replay itself
+    text = json.dumps({"tpe": optimize.protocol(fmu, seed), "start": start, "sigma0": SIGMA0}, sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def _open(journal: Path, fmu: str, handling: int, seed: int, budget: int, start: dict[str, float]) -> optuna.Study:
+    study = optuna.create_study(study_name=study_name(fmu, handling, seed, budget), storage=optimize.storage(journal),
+                                direction="minimize", load_if_exists=True)
+    digest = _protocol(fmu, seed, start)
+    if study.user_attrs.get("protocol", digest) != digest:
+        raise optimize.JournalError(f"{journal} holds the search {study.study_name} of another tuning protocol; "
+                                    "give another --out (or remove the journal)")
+    study.set_user_attr("protocol", digest)
+    return study
+
+
+def _distributions(fmu: str) -> dict[str, optuna.distributions.FloatDistribution]:
+    return {name: optuna.distributions.FloatDistribution(lo, hi, log=True)
+            for name, (lo, hi, _) in tuning.SEARCH_SPACES[fmu].items()}
+
+
+def _evaluate(study: optuna.Study, fmu: str, handling: int, design: dict[str, float]) -> float:
+    """Run one candidate on every training point and add it to the journal, complete, in one write."""
+    started = datetime.datetime.now()
+    value = tuning.criterion(fmu, tuning.parameters(fmu, design, handling))
+    trial = optuna.trial.create_trial(params=design, distributions=_distributions(fmu), value=value)
+    trial.datetime_start = started
+    study.add_trial(trial)
+    return value
+
+
+def _replayed(study: optuna.Study, trial: optuna.trial.FrozenTrial, design: dict[str, float]) -> tuple[dict, float]:
+    if not all(math.isclose(design[name], trial.params[name], rel_tol=MATCH) for name in design):
+        raise optimize.JournalError(f"the journal's search {study.study_name} no longer replays its trial "
+                                    f"{trial.number} ({trial.params}, now {design}): the code changed since it ran; "
+                                    "give another --out (or remove the journal)")
+    return dict(trial.params), trial.value
+
+
+def run_polish(journal: Path, fmu: str, handling: int, seed: int, budget: int, trials: int,
+               start: dict[str, float]) -> int:
+    """Run (or resume) the CMA-ES phase from ``start`` until ``trials`` count; return how many ran now."""
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    study = _open(journal, fmu, handling, seed, budget, start)
+    done = study.get_trials(deepcopy=False, states=COUNTED)
+    cma = cmaes.CMA(mean=to_unit(fmu, start), sigma=SIGMA0, bounds=np.array([[0.0, 1.0]] * len(start)),
+              seed=optimize.generator_seed(seed, STREAM))
+    ran, k = 0, 0
+    while k < trials:
+        told = []
+        for _ in range(min(cma.population_size, trials - k)):
+            design = from_unit(fmu, cma.ask())
+            if k < len(done):
+                design, value = _replayed(study, done[k], design)
+            else:
+                value = _evaluate(study, fmu, handling, design)
+                ran += 1
+            told.append((to_unit(fmu, design), value if math.isfinite(value) else FAILED))
+            k += 1
+        if len(told) == cma.population_size:
+            cma.tell(told)
+    return ran
+
+
+
+def search(journal: Path, fmu: str, handling: int, seed: int, budget: int, polish: int) -> int:
+    """One whole search: the TPE phase until ``budget`` trials count, then ``polish`` CMA-ES trials from its
+    best design; return how many trials ran now."""
+    ran = optimize.run_search(journal, fmu, handling, seed, budget)
+    if polish <= 0:
+        return ran
+    first = optimize.record(optimize.storage(journal), fmu, handling, seed, budget)
+    return ran + run_polish(journal, fmu, handling, seed, budget, polish, first["best_design"])
+
+
+def _polish_record(journal, fmu: str, handling: int, seed: int, budget: int, polish: int) -> dict[str, Any] | None:
+    name = study_name(fmu, handling, seed, budget)
+    if name not in {s.study_name for s in journal.get_all_studies()}:
+        return None
+    trials = optuna.load_study(study_name=name, storage=journal).get_trials(deepcopy=False, states=COUNTED)
+    return {"trials": trials[:polish]} if trials else None
+
+
+def record(journal, fmu: str, handling: int, seed: int, budget: int, polish: int) -> dict[str, Any] | None:
+    """The store's record of one search: its TPE phase (``optimize.record``) followed by its CMA-ES phase;
+    ``polish_from`` is the trial number where the CMA-ES phase starts."""
+    r = optimize.record(journal, fmu, handling, seed, budget)
+    if r is None or polish <= 0 or r["trials"] < budget:
+        return r
+    extra = _polish_record(journal, fmu, handling, seed, budget, polish)
+    if extra is None:
+        return r
+    trials = extra["trials"]
+    values = [t.value if math.isfinite(t.value) else None for t in trials]
+    r["criterion"] = r["criterion"] + values
+    r["state"] = r["state"] + ["complete" if v is not None else "failed" for v in values]
+    finite = [(v, i) for i, v in enumerate(r["criterion"]) if v is not None]
+    if finite:
+        r["best"] = min(finite)[1]
+        r["best_design"] = dict(trials[r["best"] - budget].params) if r["best"] >= budget else r["best_design"]
+    r["polish_from"] = budget
+    r["trials"] = len(r["criterion"])
+    r["trial_seconds"] = round(r["trial_seconds"] + sum((t.datetime_complete - t.datetime_start).total_seconds()
+                                                        for t in trials), 1)
+    r["finished"] = max([r["finished"]] + [t.datetime_complete.isoformat(timespec="seconds") for t in trials])
+    return r
+
+
+def store(path: Path, controllers, handlings, seeds, budget: int, polish: int) -> dict[str, Any]:
+    """The store (``tuning.TUNED_FILE``'s shape) of these searches in the journal at ``path``."""
+    journal = optimize.storage(path)
+    out: dict[str, Any] = {
+        "budget": budget, "polish": polish, "seeds": list(seeds), "training_points": len(tuning.training_points()),
+        "criterion": f"geometric mean of MSE_1 + MSE_2 over the training points, {tuning.STOP_TIME:g} s each",
+        "sampler": f"optuna {optuna.__version__} TPESampler (multivariate), {tuning.INITIAL_DESIGN} initial trials "
+                   f"(nominal + scipy.stats.qmc Latin hypercube), PercentilePruner({tuning.PRUNE_PERCENTILE:g}) from point "
+                   f"{tuning.PRUNE_AFTER} on" + (f"; then {polish} trials of CMA-ES (cmaes {cmaes.__version__}, "
+                                                 f"sigma0 {SIGMA0:g} of the log-scaled range) from the best" if polish else ""),
+        "controllers": {}}
+    for fmu in controllers:
+        per_handling = {}
+        for h in handlings:
+            seeds_done = {str(s): r for s in seeds if (r := record(journal, fmu, h, s, budget, polish)) is not None}
+            per_handling[LIMIT_HANDLINGS[h]] = {"seeds": seeds_done}
+        out["controllers"][fmu] = {"handlings": per_handling}
+    records = [r for c in out["controllers"].values() for h in c["handlings"].values() for r in h["seeds"].values()]
+    out["complete"] = len(records) == len(controllers) * len(handlings) * len(seeds) and all(
+        r["trials"] == budget + polish for r in records)
+    out["trial_seconds"] = round(sum(r["trial_seconds"] for r in records), 1)
+    return out
