@@ -77,11 +77,11 @@ def _sampler(seed: int, index: int) -> optuna.samplers.TPESampler:
                                           constant_liar=False, seed=generator_seed(seed, index))
 
 
-def _open(journal: Path, fmu: str, handling: int, seed: int) -> optuna.Study:
+def _open(journal: Path, fmu: str, handling: int, seed: int, opened: JournalStorage | None = None) -> optuna.Study:
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     pruner = optuna.pruners.PercentilePruner(tuning.PRUNE_PERCENTILE, n_startup_trials=tuning.INITIAL_DESIGN,
                                              n_warmup_steps=tuning.PRUNE_AFTER - 1)
-    study = optuna.create_study(study_name=study_name(fmu, handling, seed), storage=storage(journal),
+    study = optuna.create_study(study_name=study_name(fmu, handling, seed), storage=opened or storage(journal),
                                 direction="minimize", pruner=pruner, load_if_exists=True)
     digest = protocol(fmu, seed)
     if study.user_attrs.get("protocol", digest) != digest:
@@ -133,9 +133,11 @@ def _trial(study: optuna.Study, fmu: str, handling: int) -> None:
     study.tell(trial, value)
 
 
-def run_search(journal: Path, fmu: str, handling: int, seed: int, budget: int) -> int:
-    """Run (or resume) one search until ``budget`` trials count; return how many ran now."""
-    study = _open(journal, fmu, handling, seed)
+def run_search(journal: Path, fmu: str, handling: int, seed: int, budget: int,
+               opened: JournalStorage | None = None) -> int:
+    """Run (or resume) one search until ``budget`` trials count; return how many ran now. ``opened``: the
+    journal's storage if the caller has it open (opening one reads the whole journal)."""
+    study = _open(journal, fmu, handling, seed, opened)
     done = finished_trials(study)
     if done:
         _verify(study, fmu, handling, done)

@@ -77,8 +77,9 @@ def _protocol(fmu: str, seed: int, start: dict[str, float]) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
-def _open(journal: Path, fmu: str, handling: int, seed: int, budget: int, start: dict[str, float]) -> optuna.Study:
-    study = optuna.create_study(study_name=study_name(fmu, handling, seed, budget), storage=optimize.storage(journal),
+def _open(journal: Path, fmu: str, handling: int, seed: int, budget: int, start: dict[str, float],
+          opened=None) -> optuna.Study:
+    study = optuna.create_study(study_name=study_name(fmu, handling, seed, budget), storage=opened or optimize.storage(journal),
                                 direction="minimize", load_if_exists=True)
     digest = _protocol(fmu, seed, start)
     if study.user_attrs.get("protocol", digest) != digest:
@@ -112,10 +113,11 @@ def _replayed(study: optuna.Study, trial: optuna.trial.FrozenTrial, design: dict
 
 
 def run_polish(journal: Path, fmu: str, handling: int, seed: int, budget: int, trials: int,
-               start: dict[str, float]) -> int:
-    """Run (or resume) the CMA-ES phase from ``start`` until ``trials`` count; return how many ran now."""
+               start: dict[str, float], opened=None) -> int:
+    """Run (or resume) the CMA-ES phase from ``start`` until ``trials`` count; return how many ran now.
+    ``opened``: the journal's storage if the caller has it open."""
     optuna.logging.set_verbosity(optuna.logging.WARNING)
-    study = _open(journal, fmu, handling, seed, budget, start)
+    study = _open(journal, fmu, handling, seed, budget, start, opened)
     done = study.get_trials(deepcopy=False, states=COUNTED)
     cma = cmaes.CMA(mean=to_unit(fmu, start), sigma=SIGMA0, bounds=np.array([[0.0, 1.0]] * len(start)),
               seed=optimize.generator_seed(seed, STREAM))
@@ -139,12 +141,14 @@ def run_polish(journal: Path, fmu: str, handling: int, seed: int, budget: int, t
 
 def search(journal: Path, fmu: str, handling: int, seed: int, budget: int, polish: int) -> int:
     """One whole search: the TPE phase until ``budget`` trials count, then ``polish`` CMA-ES trials from its
-    best design; return how many trials ran now."""
-    ran = optimize.run_search(journal, fmu, handling, seed, budget)
+    best design; return how many trials ran now. The journal is read once (each reading parses all of it:
+    seconds, at the stored study's size)."""
+    opened = optimize.storage(journal)
+    ran = optimize.run_search(journal, fmu, handling, seed, budget, opened)
     if polish <= 0:
         return ran
-    first = optimize.record(optimize.storage(journal), fmu, handling, seed, budget)
-    return ran + run_polish(journal, fmu, handling, seed, budget, polish, first["best_design"])
+    first = optimize.record(opened, fmu, handling, seed, budget)
+    return ran + run_polish(journal, fmu, handling, seed, budget, polish, first["best_design"], opened)
 
 
 def _polish_record(journal, fmu: str, handling: int, seed: int, budget: int, polish: int) -> dict[str, Any] | None:
