@@ -240,7 +240,9 @@ def headline(root: Path) -> str:
                     f"to {number(max(ratios), '.3g')} over the seeds)")
     tuning = stored_tuning()
     converged = _converged_text(unconverged(tuning))
-    lines = [f"Tuned for the MSE by one protocol (seeds {', '.join(map(str, data['seeds']))}, {tuning['budget']} trials "
+    trials = (f"{tuning['budget']} TPE then {tuning['polish']} CMA-ES trials" if tuning.get("polish")
+              else f"{tuning['budget']} trials")
+    lines = [f"Tuned for the MSE by one protocol (seeds {', '.join(map(str, data['seeds']))}, {trials} "
              f"per search, {converged}),",
              f"judged under {VERDICT_HANDLING} on {data['n_points']} points per set that no search saw, {m} paired "
              "verdicts corrected together. What every seed gives:", ""]

@@ -161,14 +161,14 @@ def _polish_record(journal, fmu: str, handling: int, seed: int, budget: int, pol
 
 def record(journal, fmu: str, handling: int, seed: int, budget: int, polish: int) -> dict[str, Any] | None:
     """The store's record of one search: its TPE phase (``optimize.record``) followed by its CMA-ES phase;
-    ``polish_from`` is the trial number where the CMA-ES phase starts."""
+    ``polish_from`` is the trial number where the CMA-ES phase starts, ``polish_start`` the design it starts from."""
     r = optimize.record(journal, fmu, handling, seed, budget)
     if r is None or polish <= 0 or r["trials"] < budget:
         return r
     extra = _polish_record(journal, fmu, handling, seed, budget, polish)
     if extra is None:
         return r
-    trials = extra["trials"]
+    trials, start = extra["trials"], r["best_design"]
     values = [t.value if math.isfinite(t.value) else None for t in trials]
     r["criterion"] = r["criterion"] + values
     r["state"] = r["state"] + ["complete" if v is not None else "failed" for v in values]
@@ -176,7 +176,7 @@ def record(journal, fmu: str, handling: int, seed: int, budget: int, polish: int
     if finite:
         r["best"] = min(finite)[1]
         r["best_design"] = dict(trials[r["best"] - budget].params) if r["best"] >= budget else r["best_design"]
-    r["polish_from"] = budget
+    r["polish_from"], r["polish_start"] = budget, start
     r["trials"] = len(r["criterion"])
     r["trial_seconds"] = round(r["trial_seconds"] + sum((t.datetime_complete - t.datetime_start).total_seconds()
                                                         for t in trials), 1)
