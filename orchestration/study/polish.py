@@ -120,7 +120,7 @@ def run_polish(journal: Path, fmu: str, handling: int, seed: int, budget: int, t
     study = _open(journal, fmu, handling, seed, budget, start, opened)
     done = study.get_trials(deepcopy=False, states=COUNTED)
     cma = cmaes.CMA(mean=to_unit(fmu, start), sigma=SIGMA0, bounds=np.array([[0.0, 1.0]] * len(start)),
-              seed=optimize.generator_seed(seed, STREAM))
+                    seed=optimize.generator_seed(seed, STREAM))
     ran, k = 0, 0
     while k < trials:
         told = []
@@ -136,7 +136,6 @@ def run_polish(journal: Path, fmu: str, handling: int, seed: int, budget: int, t
         if len(told) == cma.population_size:
             cma.tell(told)
     return ran
-
 
 
 def search(journal: Path, fmu: str, handling: int, seed: int, budget: int, polish: int) -> int:

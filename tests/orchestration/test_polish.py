@@ -97,3 +97,21 @@ def test_the_rule_judges_the_cma_es_phase_when_there_is_one():
     assert math.isclose(tuning.improvement(record), (0.99 - 0.98) / 0.99)  # best after 2 CMA-ES trials, then after 4
     assert tuning.still_improving(record) and not tuning.still_improving({**record, "criterion": tpe + [1.0] * 4})
     assert tuning.improvement({"criterion": tpe}) == tuning.tpe_improvement({"criterion": tpe}) == 0.5
+
+
+def test_a_failed_candidate_ranks_last_and_the_phase_goes_on(monkeypatch, tmp_path):
+    """A design whose run fails (an infinite criterion) is kept as failed, and CMA-ES moves away from it:
+    here every design with kp above the start fails, and the phase still fills its trials."""
+    start = tuning.nominal_design(FMU)
+
+    def criterion(fmu, params):
+        return math.inf if params["kp"] > start["kp"] else abs(math.log(params["kd"] / start["kd"])) + 1.0
+
+    monkeypatch.setattr(tuning, "criterion", criterion)
+    journal = tmp_path / "failing.journal"
+    assert polish.run_polish(journal, FMU, HANDLING, SEED, BUDGET, 18, start) == 18
+    trials = polish._polish_record(optimize.storage(journal), FMU, HANDLING, SEED, BUDGET, 18)["trials"]
+    failed = [t for t in trials if math.isinf(t.value)]
+    assert 0 < len(failed) < 18
+    last = trials[-6:]  # the third generation: drawn after two generations told the failures ranked last
+    assert sum(math.isinf(t.value) for t in last) < sum(math.isinf(t.value) for t in trials[:6])
