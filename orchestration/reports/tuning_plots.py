@@ -45,7 +45,7 @@ def plot(root: Path) -> Path:
     phases = (f"{data['budget']} TPE + {data['polish']} CMA-ES trials per search (grey dotted: half the TPE phase; "
               "black dotted: CMA-ES starts" if data.get("polish") else
               f"{data['budget']} trials per search (dotted: half the budget")
-    fig.suptitle(f"Best-so-far criterion, {phases}; dashed: {100 * CONVERGED:g} % above the final best)")
+    fig.suptitle(f"Best-so-far criterion, {phases};\ndashed: {100 * CONVERGED:g} % above the final best)")
     fig.tight_layout()
     (root / PLOT).parent.mkdir(parents=True, exist_ok=True)
     return save_figure(fig, root / PLOT, 70)
