@@ -195,10 +195,13 @@ def test_a_parameterised_copy_starts_from_its_values_and_refuses_unknown_names(f
     assert plant.get("phi1") == [0.25]
     plant.free()
 
+    good = tmp_path / "good.fmu"
+    good.write_bytes(parameterised_copy(source, {"phi1_0": 0.25}, md))
     bad = tmp_path / "bad.fmu"
-    bad.write_bytes(parameterised_copy(source, {"phi1_0": 0.25}, md))
-    with zipfile.ZipFile(bad, "a") as z:
-        z.writestr("resources/parameter_starts.json", '{"no_such_parameter": 1.0}')
+    with zipfile.ZipFile(good) as src, zipfile.ZipFile(bad, "w") as z:  # the starts file replaced, not appended twice
+        for item in src.infolist():
+            z.writestr(item, '{"no_such_parameter": 1.0}' if item.filename == "resources/parameter_starts.json"
+                       else src.read(item))
     plant = FmuInstance(bad, "plant", tmp_path / "b")
     with pytest.raises(Exception):
         plant.initialize()
