@@ -71,7 +71,10 @@ def test_a_verdict_across_seeds_holds_only_where_every_seed_gives_it_and_names_t
         return PairedVerdict(Interval(math.sqrt(low * high), low, high, 16, 0), said, 0, 0, 8)
 
     every = _across({0: verdict(0.7, 0.9, "better"), 1: verdict(0.8, 0.995, "better")}, "mse")
-    assert every.startswith("mse better for every tuning seed, marginal for seed 1 (")
+    assert every.startswith("mse marginal: better for every tuning seed, but within 1 % of 1 for seed 1, so a new "
+                            "tuning draw may not give it (")
     assert "seed 1: better (marginal)" in every and "seed 0: better," in every
     split = _across({0: verdict(0.7, 0.9, "better"), 1: verdict(0.9, 1.1, "not distinguishable")}, "mse")
     assert split.startswith("mse depends on the tuning seed (") and "seed 1: not distinguishable" in split
+    firm = _across({0: verdict(0.7, 0.9, "better"), 1: verdict(0.8, 0.95, "better")}, "mse")
+    assert firm.startswith("mse better for every tuning seed (")
