@@ -86,9 +86,14 @@ def _searches_text(data: dict) -> list[str]:
             return f"last-half improvement {100 * improvement(r):.2f} %"
         return (f"last-half improvement: TPE {100 * tpe_improvement(r):.2f} %, CMA-ES {100 * improvement(r):.2f} %")
 
+    def verdict(r) -> str:
+        if r["trials"] < data["budget"] + data.get("polish", 0):
+            return "incomplete"
+        return f"{'still improving' if still_improving(r) else 'converged'}: the rule is below {100 * CONVERGED:g} %"
+
     return [f"{fmu} {h} seed {s}: {r['trials']} trials, best "
             f"{'none' if r['criterion'][r['best']] is None else format(r['criterion'][r['best']], '.6g')}, {phases(r)} "
-            f"({'still improving' if still_improving(r) else 'converged'}: the rule is below {100 * CONVERGED:g} %)"
+            f"({verdict(r)})"
             for fmu, c in data["controllers"].items() for h, per in c["handlings"].items() for s, r in per["seeds"].items()]
 
 

@@ -33,7 +33,7 @@ def plot(root: Path) -> Path:
                 ax.plot(range(1, len(curve) + 1), [c / curve[-1] for c in curve], label=f"seed {seed}")
             ax.axvline(data["budget"] / 2, color="grey", lw=0.8, ls=":")
             if data.get("polish"):
-                ax.axvline(data["budget"], color="black", lw=0.8, ls=":")
+                ax.axvline(data["budget"] + 0.5, color="black", lw=0.8, ls=":")  # trials are numbered from 1
             ax.axhline(1 + CONVERGED, color="grey", lw=0.8, ls="--")
             ax.set_ylim(0.98, 1.3)
             ax.set_title(f"{LABELS[fmu]}, {LIMIT_HANDLINGS[h]}", fontsize=10)

@@ -154,10 +154,15 @@ def last_half_improvement(values: list[float | None], start: int = 0) -> float:
 
 
 def improvement(record: dict[str, Any]) -> float:
-    """What the convergence rule judges in a stored search: the last-half improvement of its CMA-ES phase
-    (``orchestration.study.polish``; of the whole search when it has none); below ``CONVERGED``, the
-    budget is enough."""
-    return last_half_improvement(record["criterion"], record.get("polish_from", 0))
+    """What the convergence rule judges in a stored search (of the whole search when it has no CMA-ES
+    phase, ``orchestration.study.polish``): the larger of the last-half improvements of its CMA-ES phase
+    measured on the search's best-so-far (the TPE best where it began) and on the phase's own
+    best-so-far. CMA-ES is not elitist: a phase that never comes back down to its start reads 0 on the
+    first whatever it does, and the second says whether it still falls. Below ``CONVERGED``, enough."""
+    start = record.get("polish_from")
+    if start is None:
+        return last_half_improvement(record["criterion"])
+    return max(last_half_improvement(record["criterion"], start), last_half_improvement(record["criterion"][start:]))
 
 
 def tpe_improvement(record: dict[str, Any]) -> float:

@@ -97,6 +97,9 @@ def test_the_rule_judges_the_cma_es_phase_when_there_is_one():
     assert math.isclose(tuning.improvement(record), (0.99 - 0.98) / 0.99)  # best after 2 CMA-ES trials, then after 4
     assert tuning.still_improving(record) and not tuning.still_improving({**record, "criterion": tpe + [1.0] * 4})
     assert tuning.improvement({"criterion": tpe}) == tuning.tpe_improvement({"criterion": tpe}) == 0.5
+    above = {"criterion": tpe + [1.2, 1.15, 1.1, 1.05], "polish_from": 4}  # never back down to its start
+    assert tuning.last_half_improvement(above["criterion"], 4) == 0.0
+    assert math.isclose(tuning.improvement(above), (1.15 - 1.05) / 1.15) and tuning.still_improving(above)
 
 
 def test_a_failed_candidate_ranks_last_and_the_phase_goes_on(monkeypatch, tmp_path):

@@ -48,6 +48,7 @@ def test_tune_writes_the_store_and_resumes_after_ctrl_c_to_the_same_trials(shipp
     journal = work / "cut" / "tuned.json.journal"
     cut = shipped.interrupt([*ARGS, "--out", "cut/tuned.json"], work, ready=lambda: _finished(journal) >= 2)
     assert cut.returncode == 130 and "resume with:" in cut.stdout, cut.stdout + cut.stderr
+    assert f"--polish {POLISH}" in cut.stdout and "(incomplete)" in cut.stdout
     partial = json.loads((work / "cut" / "tuned.json").read_text())
     assert not partial["complete"]
     resumed = shipped.cli(*ARGS, "--out", "cut/tuned.json", cwd=work)
