@@ -14,7 +14,9 @@ from orchestration.sweep import tuning_jobs
 def _store(curve: list[float], polish_from: int | None = None) -> dict:
     record = {"trials": len(curve), "criterion": curve, "best": curve.index(min(curve))}
     record.update({} if polish_from is None else {"polish_from": polish_from})
-    return {"complete": True, "controllers": {"CtController": {"handlings": {"accel": {"seeds": {"0": record}}}}}}
+    budget = len(curve) if polish_from is None else polish_from
+    return {"complete": True, "budget": budget, "polish": len(curve) - budget,
+            "controllers": {"CtController": {"handlings": {"accel": {"seeds": {"0": record}}}}}}
 
 
 def _falling(trials: int) -> list[float]:
