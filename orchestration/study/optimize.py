@@ -77,17 +77,22 @@ def _sampler(seed: int, index: int) -> optuna.samplers.TPESampler:
                                           constant_liar=False, seed=generator_seed(seed, index))
 
 
-def _open(journal: Path, fmu: str, handling: int, seed: int, opened: JournalStorage | None = None) -> optuna.Study:
+def open_study(journal: Path, name: str, digest: str, opened: JournalStorage | None = None, **options) -> optuna.Study:
+    """The journal's study ``name`` (created if new), refused if it holds another protocol than ``digest``."""
     optuna.logging.set_verbosity(optuna.logging.WARNING)
-    pruner = optuna.pruners.PercentilePruner(tuning.PRUNE_PERCENTILE, n_startup_trials=tuning.INITIAL_DESIGN,
-                                             n_warmup_steps=tuning.PRUNE_AFTER - 1)
-    study = optuna.create_study(study_name=study_name(fmu, handling, seed), storage=opened or storage(journal),
-                                direction="minimize", pruner=pruner, load_if_exists=True)
-    digest = protocol(fmu, seed)
+    study = optuna.create_study(study_name=name, storage=opened or storage(journal), direction="minimize",
+                                load_if_exists=True, **options)
     if study.user_attrs.get("protocol", digest) != digest:
         raise JournalError(f"{journal} holds the search {study.study_name} of another tuning protocol; "
                            "give another --out (or remove the journal)")
     study.set_user_attr("protocol", digest)
+    return study
+
+
+def _open(journal: Path, fmu: str, handling: int, seed: int, opened: JournalStorage | None = None) -> optuna.Study:
+    pruner = optuna.pruners.PercentilePruner(tuning.PRUNE_PERCENTILE, n_startup_trials=tuning.INITIAL_DESIGN,
+                                             n_warmup_steps=tuning.PRUNE_AFTER - 1)
+    study = open_study(journal, study_name(fmu, handling, seed), protocol(fmu, seed), opened, pruner=pruner)
     for t in study.get_trials(deepcopy=False, states=(TrialState.RUNNING,)):  # cut off by an interruption
         study.tell(t.number, state=TrialState.FAIL)
     return study

@@ -79,14 +79,7 @@ def _protocol(fmu: str, seed: int, start: dict[str, float]) -> str:
 
 def _open(journal: Path, fmu: str, handling: int, seed: int, budget: int, start: dict[str, float],
           opened=None) -> optuna.Study:
-    study = optuna.create_study(study_name=study_name(fmu, handling, seed, budget), storage=opened or optimize.storage(journal),
-                                direction="minimize", load_if_exists=True)
-    digest = _protocol(fmu, seed, start)
-    if study.user_attrs.get("protocol", digest) != digest:
-        raise optimize.JournalError(f"{journal} holds the search {study.study_name} of another tuning protocol; "
-                                    "give another --out (or remove the journal)")
-    study.set_user_attr("protocol", digest)
-    return study
+    return optimize.open_study(journal, study_name(fmu, handling, seed, budget), _protocol(fmu, seed, start), opened)
 
 
 def _distributions(fmu: str) -> dict[str, optuna.distributions.FloatDistribution]:
@@ -116,7 +109,6 @@ def run_polish(journal: Path, fmu: str, handling: int, seed: int, budget: int, t
                start: dict[str, float], opened=None) -> int:
     """Run (or resume) the CMA-ES phase from ``start`` until ``trials`` count; return how many ran now.
     ``opened``: the journal's storage if the caller has it open."""
-    optuna.logging.set_verbosity(optuna.logging.WARNING)
     study = _open(journal, fmu, handling, seed, budget, start, opened)
     done = study.get_trials(deepcopy=False, states=COUNTED)
     cma = cmaes.CMA(mean=to_unit(fmu, start), sigma=SIGMA0, bounds=np.array([[0.0, 1.0]] * len(start)),
