@@ -285,7 +285,10 @@ def controllers_verdict() -> str:
             said.append(f"against {label(fmu)}: {v.said} (SOTC / it {number(v.ratio.value, '.3g')}, interval "
                         f"[{number(v.ratio.low, '.3g')}, {number(v.ratio.high, '.3g')}], worse on {v.worse_on} of "
                         f"{v.ratio.n} paired points)")
-        lines.append("The SOTC, paired point by point (geometric mean of the ratio of post-transient errors; family: "
+        lines.append("Tail (not tuned for: the criterion of every search is the MSE), this sweep's designs only (the "
+                     "tuned ones from a single tuning seed): a description of these points, not a verdict of the comparison, "
+                     "which judges every tuning seed in one family (\"The verdict\" below). "
+                     "The SOTC, paired point by point (geometric mean of the ratio of post-transient errors; family: "
                      f"these {family} verdicts, each interval at {100 * level(family):.3g} %, Bonferroni), is "
                      + "; ".join(said) + ".")
     return "\n".join(f"- {line}" for line in lines)

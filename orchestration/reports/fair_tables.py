@@ -271,5 +271,5 @@ def headline(root: Path) -> str:
              "verdicts corrected together. What every seed gives:", ""]
     lines += [f"- the tuned SOTC is {h}" for h in held] or [
         "- no MSE verdict of the tuned SOTC against a tuned baseline (each depends on the seed or is marginal)"]
-    return "\n".join(lines + ["", "Every other comparison depends on the tuning seed, is marginal or judges what no search "
+    return "\n".join(lines + ["", "Every other comparison is not distinguishable, depends on the tuning seed, is marginal or judges what no search "
                                "was tuned for: [docs/robustness.md](docs/robustness.md#the-verdict)."])
