@@ -30,6 +30,7 @@ import time
 from datetime import datetime, timezone
 from pathlib import Path
 
+from orchestration.bench.instruments import Timer, hosted_cores, patched
 from orchestration.bench.process import process_walls
 from orchestration.bench.targets import check_targets
 from orchestration.bench.trial import trial_costs
@@ -123,107 +124,45 @@ def _check(result) -> None:
         raise RuntimeError(f"benchmark run failed: {result.error}")
 
 
-class _Timer:
-    """Adds up the time spent in wrapped callables, per label. The wrapper's own work outside its two
-    clock readings (its frame, the sum) is counted in the caller's share: it is kept to a minimum (no
-    keyword arguments, the clock and the table as locals)."""
-
-    def __init__(self):
-        self.seconds: dict[str, float] = {}
-
-    def wrap(self, label: str, fn):
-        seconds, clock = self.seconds, time.perf_counter
-        seconds.setdefault(label, 0.0)
-
-        def timed(*args):
-            t0 = clock()
-            try:
-                return fn(*args)
-            finally:
-                seconds[label] += clock() - t0
-        return timed
-
-
-@contextlib.contextmanager
-def _patched(obj, name: str, value):
-    old = getattr(obj, name)
-    setattr(obj, name, value)
-    try:
-        yield
-    finally:
-        setattr(obj, name, old)
-
-
-@contextlib.contextmanager
-def _hosted_cores(timer: _Timer):
-    """Time the cores where the FMUs run them: the FMUs' bundled copies of ``SotcCore.evaluate``,
-    ``SotcCore.advance``, ``integrate`` (the plant step) and ``CircleTrajectory.sample``, found in ``sys.modules``
-    once the FMUs were loaded (pythonfmu keeps their modules; each instantiation re-runs the FMU
-    script, which imports the wrapped ``integrate``)."""
-    # (name, method or None for a function, the module it must come from, bundled copies included)
-    labels = {("SotcCore", "evaluate", "fmu_controller.sotc"): "controller evaluate",
-              ("SotcCore", "advance", "fmu_controller.sotc"): "controller learn",
-              ("CircleTrajectory", "sample", "fmu_plant.trajectory"): "reference",
-              ("integrate", None, "fmu_plant.dynamics"): "plant step"}
-    undo, wrapped, wrappers = [], {}, set()
-    for module in list(sys.modules.values()):
-        space = getattr(module, "__dict__", {})
-        for (name, method, home), label in labels.items():
-            obj = space.get(name)
-            owner, attr = (obj, method) if method else (module, name)
-            if not str(getattr(obj, "__module__", "")).endswith(home) or (method and not isinstance(obj, type)):
-                continue
-            original = getattr(owner, attr)
-            if id(original) in wrappers:
-                continue  # the same class or function seen through another module: timed already
-            if id(original) not in wrapped:
-                wrapped[id(original)] = timer.wrap(label, original)
-                wrappers.add(id(wrapped[id(original)]))
-            undo.append((owner, attr, original))
-            setattr(owner, attr, wrapped[id(original)])
-    if not any(owner.__name__ == "SotcCore" for owner, _, _ in undo if isinstance(owner, type)):
-        raise RuntimeError("the speed bench found no SotcCore in the loaded FMUs' modules")
-    try:
-        yield
-    finally:
-        for owner, attr, original in reversed(undo):
-            setattr(owner, attr, original)
-
-
 def floor_cores(scenario) -> dict[str, float]:
     """Microseconds per step of the same cores in the floor's loop (an instrumented pure loop)."""
     from fmu_plant.trajectory import CircleTrajectory
     from orchestration.study import pure_loop
 
     make_core, start = floor_core(scenario)
-    timer = _Timer()
+    timer = Timer()
     core = make_core()
     core.evaluate = timer.wrap("controller evaluate", core.evaluate)
     core.advance = timer.wrap("controller learn", core.advance)
-    with _patched(pure_loop, "integrate", timer.wrap("plant step", pure_loop.integrate)), \
-            _patched(CircleTrajectory, "sample", timer.wrap("reference", CircleTrajectory.sample)):
+    with patched(pure_loop, "integrate", timer.wrap("plant step", pure_loop.integrate)), \
+            patched(CircleTrajectory, "sample", timer.wrap("reference", CircleTrajectory.sample)):
         pure_loop.simulate(core, scenario.stop_time, scenario.step_size, **start)
     return {label: s * 1e6 / scenario.steps for label, s in timer.seconds.items()}
 
 
-def cost_split(scenario, paths) -> dict:
-    """Microseconds per step of each part of one recorded co-simulation step (see module doc)."""
+def cost_split(scenario, paths, writer=None) -> dict:
+    """Microseconds per step of each part of one recorded co-simulation step (see module doc);
+    ``writer``: the ``WriterProcess`` that writes the recording, as ``sotc-cosim run`` has it written
+    (else this process writes it)."""
     from orchestration.bench.design import _TimedRecorder
     from orchestration.recording.writer import BLOCK_SIZE, RunRecorder
+    from orchestration.recording.writer_process import ChildRecorder
     from orchestration.run import master
     from orchestration.run.summary import SummaryObserver
 
-    cores, fmi, session = _Timer(), _Timer(), _Timer()
+    cores, fmi, session = Timer(), Timer(), Timer()
     with tempfile.TemporaryDirectory(prefix="sotc_bench_") as tmp:
         with RunRecorder(Path(tmp) / "warm.rrd") as warm:  # the FMUs' modules and what the recorder imports are loaded
             _check(master.run(scenario.with_stop_time(scenario.step_size), paths, observer=warm))
-    with tempfile.TemporaryDirectory(prefix="sotc_bench_") as tmp, _hosted_cores(cores), \
-            _patched(master._Loaded, "read_outputs", fmi.wrap("get", master._Loaded.read_outputs)), \
-            _patched(master._Loaded, "do_step", fmi.wrap("doStep", master._Loaded.do_step)), \
-            _patched(master._Inputs, "push", fmi.wrap("set", master._Inputs.push)), \
-            _patched(master._Session, "load", session.wrap(SET_UP, master._Session.load)), \
-            _patched(master._Session, "finish", session.wrap("finish", master._Session.finish)):
-        recorder = _TimedRecorder(RunRecorder(Path(tmp) / "split.rrd"))
+    with tempfile.TemporaryDirectory(prefix="sotc_bench_") as tmp, hosted_cores(cores), \
+            patched(master._Loaded, "read_outputs", fmi.wrap("get", master._Loaded.read_outputs)), \
+            patched(master._Loaded, "do_step", fmi.wrap("doStep", master._Loaded.do_step)), \
+            patched(master._Inputs, "push", fmi.wrap("set", master._Inputs.push)), \
+            patched(master._Session, "load", session.wrap(SET_UP, master._Session.load)), \
+            patched(master._Session, "finish", session.wrap("finish", master._Session.finish)):
+        target = Path(tmp) / "split.rrd"
+        recorder = _TimedRecorder(RunRecorder(target) if writer is None else ChildRecorder(writer, target))
+        before = dict(writer.seconds) if writer is not None else {}
         with recorder.recorder:
             result = master.run(scenario, paths, observer=[SummaryObserver(), recorder], block_size=BLOCK_SIZE,
                                 keep_samples=False)
@@ -239,6 +178,8 @@ def cost_split(scenario, paths) -> dict:
     split["recording"] = recorder.seconds * per_step
     return {"us_per_step": split, "total_us_per_step": total_s * per_step,
             "recording_parts_us_per_step": {k: v * per_step for k, v in recorder.parts.items()},
+            "writer_us_per_step": None if writer is None else
+            {k: (v - before.get(k, 0.0)) * per_step for k, v in writer.seconds.items()},
             "fmi_calls_us_per_step": {k: v * per_step for k, v in fmi.seconds.items()},
             "floor_us_per_step": floor_cores(scenario)}
 
@@ -249,11 +190,11 @@ def plumbing_floor(scenario, paths) -> dict:
     from orchestration.bench.floor import empty_fmus
     from orchestration.run import master
 
-    fmi = _Timer()
+    fmi = Timer()
     with tempfile.TemporaryDirectory(prefix="sotc_bench_floor_") as tmp, \
-            _patched(master._Loaded, "read_outputs", fmi.wrap("get", master._Loaded.read_outputs)), \
-            _patched(master._Loaded, "do_step", fmi.wrap("doStep", master._Loaded.do_step)), \
-            _patched(master._Inputs, "push", fmi.wrap("set", master._Inputs.push)):
+            patched(master._Loaded, "read_outputs", fmi.wrap("get", master._Loaded.read_outputs)), \
+            patched(master._Loaded, "do_step", fmi.wrap("doStep", master._Loaded.do_step)), \
+            patched(master._Inputs, "push", fmi.wrap("set", master._Inputs.push)):
         result = master.run(scenario, empty_fmus(paths, Path(tmp)), keep_samples=False)
     _check(result)
     per_call = {k: v * 1e6 / scenario.steps for k, v in fmi.seconds.items()}
@@ -300,6 +241,14 @@ def long_runs(fmu_dir: Path, stop_times, record_every: int) -> list[dict]:
 def bench_speed(fmu_dir: Path, repeats: int = 3, long: tuple[float, ...] = LONG_RUNS, record_every: int = 1,
                 stop_time: float | None = None) -> dict:
     """Every measurement of the module doc; ``stop_time`` shortens the side-by-side runs (smoke tests)."""
+    from orchestration.recording.writer_process import forked_writer
+
+    with forked_writer() as writer:  # first, as ``run`` forks it: the split's recording is written by it
+        return _bench_speed(fmu_dir, repeats, long, record_every, stop_time, writer)
+
+
+def _bench_speed(fmu_dir: Path, repeats: int, long: tuple[float, ...], record_every: int,
+                 stop_time: float | None, writer) -> dict:
     from orchestration.run.scenario import load_scenario
 
     scenario = load_scenario(SCENARIO)
@@ -317,9 +266,9 @@ def bench_speed(fmu_dir: Path, repeats: int = 3, long: tuple[float, ...] = LONG_
     }
     data["compiled"] = compiled.target() if isinstance(fast, dict) else f"not measured: {fast}"
     data.update(side_by_side(scenario, paths, repeats, fast if isinstance(fast, dict) else None))
-    data["split"] = cost_split(scenario, paths)
+    data["split"] = cost_split(scenario, paths, writer)
     if isinstance(fast, dict):
-        data["split_compiled"] = cost_split(scenario, fast)
+        data["split_compiled"] = cost_split(scenario, fast, writer)
     data["plumbing_floor"] = plumbing_floor(scenario, paths)
     data["process"] = process_walls(next(iter((fast if isinstance(fast, dict) else paths).values())).parent, repeats)
     if stop_time is None:  # a shortened bench (a smoke test) leaves out the trials of 8 x 20 s
@@ -415,11 +364,18 @@ def format_markdown(data: dict) -> str:
         "",
         f"Compiled cores: {data.get('compiled', 'not measured (this measurement predates them)')}.",
     ]
-    parts = (data.get("split_compiled") or data["split"]).get("recording_parts_us_per_step")
+    split = data.get("split_compiled") or data["split"]
+    parts = split.get("recording_parts_us_per_step")
     if parts:
         lines += ["", f"The recording's row, per step{' (cores compiled)' if data.get('split_compiled') else ''}: "
                   f"start {parts['start']:.1f} us (file, blueprint, properties; once per run), the blocks of "
                   f"samples {parts['block']:.1f}, finish {parts['finish']:.1f} (footer, file closed)."]
+    if split.get("writer_us_per_step"):
+        own = ", ".join(f"{k} {v:.1f}" for k, v in split["writer_us_per_step"].items())
+        lines[-1] += (" As `sotc-cosim run` does, the recording was written by the writer process, which works "
+                      "on its own core while the run goes on; the row is what the run waited for (handing each call "
+                      f"over, and the answers it needs before the next block and at the end). The writer's own time, "
+                      f"per step: {own}.")
     if "plumbing_floor" in data:
         f = data["plumbing_floor"]
         lines += ["", f"The plumbing's floor: the same master and instrumentation on empty pythonfmu FMUs with our "

@@ -117,15 +117,12 @@ def _cmd_run(args: argparse.Namespace) -> int:
         raise ScenarioError("--summary takes one scenario; run them one by one")
     if args.recording and len(args.scenarios) > 1:
         raise ScenarioError("--recording takes one scenario; without it each run writes recordings/<scenario>.rrd")
-    if args.no_recording or "rerun" in sys.modules:  # imported already (a caller's process): written here
+    if args.no_recording:
         return _run_and_report(args, None)
-    from orchestration.recording.writer_process import WriterProcess
+    from orchestration.recording.writer_process import forked_writer
 
-    writer = WriterProcess()  # first: it imports Rerun while this process loads and runs the FMUs
-    try:
+    with forked_writer() as writer:  # first: it imports Rerun while this process loads and runs the FMUs
         return _run_and_report(args, writer)
-    finally:
-        writer.close()
 
 
 def _run_and_report(args: argparse.Namespace, writer) -> int:

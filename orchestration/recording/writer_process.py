@@ -5,10 +5,13 @@ a short run's start-up) overlaps with the parent loading the FMUs and simulating
 numpy nor Rerun, so both processes import numpy side by side; a process that has imported Rerun already,
 whose Rerun may have started threads, writes its recordings itself); the child imports ``recording.writer`` and then serves ``RunRecorder`` calls
 sent over a pipe. ``ChildRecorder`` is the parent's ``RunObserver``: each call is pickled to the child. Opening
-the file and ``start`` are not waited for (the FMUs load meanwhile); every block, ``finish`` and
-closing wait for all answers so far, so a block is in the file before the run goes on, as with an
-in-process ``RunRecorder``, and the child's errors come back as they were raised (a full disk is the
-same ``OutputError``; an error while opening, with the first block). The parent holds the lock.
+the file and ``start`` are not waited for (the FMUs load meanwhile). A block is handed over and the run
+goes on while the child writes it: the next block waits until the child has answered the one before it,
+so one block at most is in the child's hands while the run simulates the next one, and a block is in the
+file before the one after it is handed over. ``finish`` and closing wait for every answer. The child's
+errors come back as they were raised (a full disk is the same ``OutputError``, with the next block or
+the end of the run; an error while opening, with the first block). Each answer
+carries the child's own time for that call (``WriterProcess.seconds``). The parent holds the lock.
 
 Signals: the child ignores SIGINT, SIGTERM and SIGHUP (a terminal's Ctrl-C reaches both): the parent
 stops between two steps, finishes the recording through the child and then closes the pipe; the child
@@ -18,11 +21,14 @@ naming how it ended, and its temporary file is removed; it never leaves the pare
 """
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import errno
+import mmap
 import os
 import signal
 import sys
+import time
 from multiprocessing.connection import Pipe
 from pathlib import Path
 from types import SimpleNamespace
@@ -40,25 +46,63 @@ class _Described:
         return self.text
 
 
-def _serve(conn) -> None:
+class SharedBlocks:
+    """Blocks of samples handed to the child through memory both processes share (an anonymous mapping
+    made before the fork: no file, gone with the processes) instead of pickled through the pipe, which
+    cost over a microsecond a step. Two halves: the parent copies a block into one while the child may
+    still be writing the block before it from the other (``ChildRecorder.block`` keeps one block unanswered
+    at most, so the half written over has been answered for)."""
+
+    HALF = 16 << 20  # bytes; a block larger than this (more samples or columns than MAX_BLOCK of paper) is pickled
+
+    def __init__(self):
+        self.memory = mmap.mmap(-1, 2 * self.HALF)  # MAP_SHARED: the forked child sees the same pages
+        self.next = 0  # the half the next block goes to
+
+    def put(self, rows: dict) -> list | None:
+        """Copy ``rows`` (name -> array) into the next half; their layout, or None if they do not fit."""
+        import numpy as np  # the parent has imported it long before its first block
+
+        if sum(r.nbytes for r in rows.values()) > self.HALF:
+            return None
+        offset, layout = self.next * self.HALF, []
+        self.next ^= 1
+        for name, r in rows.items():
+            np.ndarray(r.shape, r.dtype, self.memory, offset)[...] = r
+            layout.append((name, offset, r.shape, r.dtype.str))
+            offset += r.nbytes
+        return layout
+
+    def rows(self, layout: list) -> dict:
+        """The child's views of a block ``put`` laid out (valid until its answer is sent)."""
+        import numpy as np
+
+        return {name: np.ndarray(shape, dtype, self.memory, offset) for name, offset, shape, dtype in layout}
+
+
+def _serve(conn, shared: SharedBlocks) -> None:
     """The child: one ``RunRecorder`` at a time, driven by the parent's (operation, arguments)."""
     from orchestration.recording.writer import RunRecorder  # the import this process exists for
 
     recorder = None
+    clock = time.perf_counter
     try:
         while True:
             op, args = conn.recv()
+            began = clock()
             try:
                 if op == "open":
                     recorder = RunRecorder(*args)
                     recorder.lock = PathLock(recorder.path, "recording")  # the parent holds it: never acquired here
                 elif op == "close":
                     recorder.close(None if args[0] is None else _Described(args[0]))
+                elif op == "shared_block":
+                    recorder.block(args[0], shared.rows(args[1]))
                 else:
                     getattr(recorder, op)(*args)
-                answer = ("ok", None)
+                answer = ("ok", None, clock() - began)
             except Exception as exc:  # sent back as it was raised
-                answer = ("error", exc)
+                answer = ("error", exc, clock() - began)
             _answer(conn, answer)
     except (EOFError, OSError):  # the parent is gone (the pipe closed or broke): finish what it left open
         if recorder is not None:
@@ -71,7 +115,7 @@ def _answer(conn, answer: tuple) -> None:
     except OSError:
         raise
     except Exception:  # an exception that does not pickle: its type and message
-        conn.send(("error", RuntimeError(f"{type(answer[1]).__name__}: {answer[1]}")))
+        conn.send(("error", RuntimeError(f"{type(answer[1]).__name__}: {answer[1]}"), answer[2]))
 
 
 class WriterGone(Exception):
@@ -85,6 +129,7 @@ class WriterProcess:
         sys.stdout.flush()
         sys.stderr.flush()
         self.conn, child_end = Pipe()
+        self.shared = SharedBlocks()
         self.pid = os.fork()
         if self.pid == 0:  # the child never returns into the command's code
             code = 0
@@ -92,28 +137,30 @@ class WriterProcess:
                 for s in SIGNALS:
                     signal.signal(s, signal.SIG_IGN)
                 self.conn.close()
-                _serve(child_end)
+                _serve(child_end, self.shared)
             except BaseException:
                 code = 1
             finally:
                 os._exit(code)
         child_end.close()
-        self.unanswered = 0  # calls sent whose answer was not read yet
+        self.sent: list[str] = []  # the operations sent whose answer was not read yet, oldest first
+        self.seconds: dict[str, float] = {}  # per operation, the child's own time in the answers read
         self.ended: str | None = None  # how the child ended, once it did
 
-    def call(self, op: str, *args, wait: bool = True):
-        """Run ``op`` on the child's recorder. ``wait``: until the child has answered every call so
-        far, raising the first exception it sent back; else the answer is collected by the next call
-        that waits. ``WriterGone`` if the child is not there."""
+    def call(self, op: str, *args, keep: int | None = 0):
+        """Run ``op`` on the child's recorder, then read answers until at most ``keep`` are unread
+        (None: read none now; the next call that reads collects them), raising the first exception
+        the child sent back. ``WriterGone`` if the child is not there."""
         if self.ended is not None:
             raise WriterGone(self.ended)
         try:
             self.conn.send((op, args))
-            self.unanswered += 1
+            self.sent.append(op)
             first = None
-            while wait and self.unanswered:
-                kind, payload = self.conn.recv()
-                self.unanswered -= 1
+            while keep is not None and len(self.sent) > keep:
+                kind, payload, spent = self.conn.recv()
+                done = self.sent.pop(0)
+                self.seconds[done] = self.seconds.get(done, 0.0) + spent
                 first = first or (payload if kind == "error" else None)
         except (EOFError, OSError):
             raise WriterGone(self.died()) from None
@@ -136,6 +183,21 @@ class WriterProcess:
             self.ended = "had ended"
 
 
+@contextlib.contextmanager
+def forked_writer():
+    """A ``WriterProcess`` for the recordings of the block, closed after it; None where this process has
+    imported Rerun already (a caller's process, whose Rerun may have started threads: not forked, the
+    recordings are written in process)."""
+    if "rerun" in sys.modules:
+        yield None
+        return
+    writer = WriterProcess()
+    try:
+        yield writer
+    finally:
+        writer.close()
+
+
 def _plain(result) -> SimpleNamespace:
     """A ``RunResult`` and its log records as plain namespaces: unpickling the master's classes would
     import the master, and fmpy with it, in the writer process."""
@@ -152,10 +214,12 @@ class ChildRecorder:
         self.lock: PathLock | None = None
         self.output_error: OutputError | None = None
 
-    def _call(self, op: str, *args, wait: bool = True) -> None:
+    def _call(self, op: str, *args, keep: int | None = 0) -> None:
         try:
-            self.writer.call(op, *args, wait=wait)
+            self.writer.call(op, *args, keep=keep)
         except OutputError as exc:
+            if self.output_error is not None and op == "close":
+                return  # a block's failure, reported already, answered again (as RunRecorder.close does)
             self.output_error = self.output_error or exc
             raise
         except WriterGone as exc:
@@ -165,10 +229,15 @@ class ChildRecorder:
             raise self.output_error from None
 
     def start(self, scenario, columns, parameters=None) -> None:
-        self._call("start", scenario, columns, parameters, wait=False)  # answered with the first block
+        self._call("start", scenario, columns, parameters, keep=None)  # answered with the first block
 
     def block(self, time, rows) -> None:
-        self._call("block", time, rows)
+        # written while the run goes on (the module docstring), which keeps one block unanswered at most
+        layout = self.writer.shared.put(rows) if self.writer.ended is None else None
+        if layout is None:
+            self._call("block", time, rows, keep=1)
+        else:
+            self._call("shared_block", time, layout, keep=1)
 
     def finish(self, result) -> None:
         if self.output_error is None:  # after a failed write, or the writer's end: nothing more to write
@@ -177,7 +246,7 @@ class ChildRecorder:
     def __enter__(self) -> "ChildRecorder":
         self.lock = PathLock(self.path, "recording").acquire()
         try:  # not waited for: the child may still be importing Rerun while the FMUs load
-            self._call("open", self.path, self.every, wait=False)
+            self._call("open", self.path, self.every, keep=None)
         except BaseException:
             self.lock.release()
             raise

@@ -350,12 +350,25 @@ def test_fig9_bounds_hold_the_arm_base_and_the_whole_circle_with_a_margin():
     assert WORKSPACE_Y[0] + margin <= ys.min() and ys.max() <= WORKSPACE_Y[1] - margin
 
 
-def test_the_commands_writer_process_records_what_a_run_recorder_records(fmu_dir, ct_run, tmp_path):
-    """``sotc-cosim run`` writes through its child process: the same entities, steps and values as
-    the in-process ``RunRecorder`` of the same run (``ct_run``)."""
-    from support.cli import run as cli
+# ``sotc-cosim run`` in a fresh interpreter whose shared halves hold no block: every block is pickled
+PICKLED_BLOCKS = ("import sys\nfrom orchestration.recording.writer_process import SharedBlocks\n"
+                  "SharedBlocks.HALF = 4096\nfrom orchestration.cli import main\nsys.exit(main(sys.argv[1:]))")
 
-    proc = cli(["run", "paper-ct", "--recording", "child.rrd", "--fmu-dir", str(fmu_dir)], tmp_path)
+
+@pytest.mark.parametrize("blocks", ["shared", "pickled"])
+def test_the_commands_writer_process_records_what_a_run_recorder_records(fmu_dir, ct_run, tmp_path, blocks):
+    """``sotc-cosim run`` writes through its child process: the same entities, steps and values as
+    the in-process ``RunRecorder`` of the same run (``ct_run``), whether its blocks go through the
+    shared memory or (larger than it) through the pipe."""
+    import subprocess
+    import sys
+
+    from support.cli import SCRIPT, TIME_LIMIT, env_for
+
+    argv = ["run", "paper-ct", "--recording", "child.rrd", "--fmu-dir", str(fmu_dir)]
+    command = [SCRIPT, *argv] if blocks == "shared" else [sys.executable, "-c", PICKLED_BLOCKS, *argv]
+    proc = subprocess.run(command, cwd=tmp_path, capture_output=True, text=True, env=env_for(tmp_path),
+                          timeout=TIME_LIMIT)
     assert proc.returncode == 0, proc.stderr
     mine, reference = read_entities(tmp_path / "child.rrd"), ct_run[2]
     assert sorted(mine) == sorted(reference)
@@ -364,3 +377,18 @@ def test_the_commands_writer_process_records_what_a_run_recorder_records(fmu_dir
         for column, values in reference[entity].items():
             if entity != "/events/run":  # its text says the run's wall time
                 assert np.array_equal(mine[entity][column], values), (entity, column)
+
+
+def test_shared_blocks_alternate_halves_and_refuse_a_block_larger_than_one():
+    from orchestration.recording.writer_process import SharedBlocks
+
+    shared = SharedBlocks()
+    first = {"a": np.arange(6.0).reshape(3, 2), "b": np.full((3, 1), -0.0)}
+    second = {"a": np.arange(6.0).reshape(3, 2) + 10.0, "b": np.full((3, 1), np.nan)}
+    one, two = shared.put(first), shared.put(second)
+    assert one[0][1] == 0 and two[0][1] == SharedBlocks.HALF  # the second block does not overwrite the first
+    for layout, rows in ((one, first), (two, second)):
+        got = shared.rows(layout)
+        for name, values in rows.items():
+            assert got[name].tobytes() == values.tobytes(), name  # bit for bit, signed zeros and NaN included
+    assert shared.put({"a": np.zeros(SharedBlocks.HALF // 8 + 1)}) is None
