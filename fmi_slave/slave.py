@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import json
 import math
+import operator
 import os
 import sys
 from contextlib import contextmanager
@@ -123,6 +124,7 @@ class DescribedSlave(VariableAccessMixin, FmuStateMixin, Fmi2Slave):
         self._meta: dict[str, VariableMeta] = {}
         self._input_ranges: list[tuple[str, float | None, float | None]] = []  # name, low, high
         self._bounded_inputs = False  # some input declares a min or max
+        self._input_values: Callable[[Any], Sequence[float]] = lambda slave: ()  # every input, declaration order
         self._mode = INSTANTIATED
         self._initialized = False  # ``initialize`` succeeded with the current parameter values
         self._preview_stale = True  # initialization mode: a parameter changed since the last preview
@@ -207,6 +209,8 @@ class DescribedSlave(VariableAccessMixin, FmuStateMixin, Fmi2Slave):
         )
         self._input_ranges.append((name, low, high))
         self._bounded_inputs = self._bounded_inputs or low is not None or high is not None
+        names = [n for n, _, _ in self._input_ranges]  # one C call per read (attrgetter of one name: no tuple)
+        self._input_values = operator.attrgetter(*names) if len(names) > 1 else lambda slave: (getattr(slave, name),)
 
     def declare_output(
         self, name: str, unit: str, description: str, depends_on: Sequence[str] = (),
@@ -305,6 +309,10 @@ class DescribedSlave(VariableAccessMixin, FmuStateMixin, Fmi2Slave):
 
     def do_step(self, current_time: float, step_size: float) -> bool:
         try:
+            if current_time == self._time and step_size == self._uniform_step and self._mode == STEPPING:
+                # the usual step: from where the FMU is, the size of every step before it (accepted
+                # then as finite and > 0; nan, once a size changed, equals nothing): nothing to recheck
+                return self._advance(current_time, step_size)
             return self._do_step(current_time, step_size)
         except Exception as exc:  # a bug must not take the host down: refuse the step instead
             return self.discard(f"doStep failed: {type(exc).__name__}: {exc}")
@@ -320,6 +328,10 @@ class DescribedSlave(VariableAccessMixin, FmuStateMixin, Fmi2Slave):
                 f"doStep starts at t = {current_time!r} but the FMU is at t = {self._time!r}; "
                 "rewind with fmi2SetFMUstate instead of jumping in time"
             )
+        return self._advance(current_time, step_size)
+
+    def _advance(self, current_time: float, step_size: float) -> bool:
+        """A step whose time and size were accepted: the inputs checked, ``step``, the clock moved."""
         reason = None if self.inputs_checked() else self.input_problem()
         if reason:
             return self.discard(reason)
@@ -357,7 +369,7 @@ class DescribedSlave(VariableAccessMixin, FmuStateMixin, Fmi2Slave):
         case costs one pass (``all_finite``, no declared range); otherwise each input is looked at.
         ``values``: every input in declaration order, when the caller has read them already."""
         if values is None:
-            values = [getattr(self, n) for n, _, _ in self._input_ranges]
+            values = self._input_values(self)
         if not self._bounded_inputs and all_finite(values):
             return None
         for name, low, high in self._input_ranges:

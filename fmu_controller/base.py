@@ -53,6 +53,9 @@ class ControllerCore(ABC):
 
     PARAMETER_SPECS: ClassVar[tuple[ParameterSpec, ...]] = ()
     EXTRA_OUTPUTS: ClassVar[tuple[OutputSpec, ...]] = ()
+    # True when ``evaluate`` gives numpy no floating-point warning to print (no numpy arithmetic, or
+    # only inside its own ``np.errstate``): the FMU then calls it without entering one itself
+    SILENT_FLOATING_POINT: ClassVar[bool] = False
 
     def __init__(self, model: ArmParameters | None = None, **params: float):
         self.model = model if model is not None else ArmParameters()

@@ -175,6 +175,7 @@ class SotcCore(ControllerCore):
 
     PARAMETER_SPECS: ClassVar[tuple[ParameterSpec, ...]] = SOTC_PARAMETER_SPECS
     EXTRA_OUTPUTS: ClassVar[tuple[OutputSpec, ...]] = _EXTRA
+    SILENT_FLOATING_POINT: ClassVar[bool] = True  # C doubles compiled; the Python build's numpy in errstate
 
     def __init__(self, model: ArmParameters | None = None, **params: float):
         super().__init__(model, **params)

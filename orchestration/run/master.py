@@ -138,6 +138,7 @@ class _Loaded:
         self.raw_set = self.fmu._functions["fmi2SetReal"]
         self.raw_step = self.fmu._functions["fmi2DoStep"]
         self.n_out = len(self.output_names)
+        self.get_args = (self.fmu.component, self.out_vr, self.n_out, self.out_buf)  # looked up once, not per call
 
     def initialize(self, stop_time: float) -> None:
         self.fmu.setupExperiment(startTime=0.0, stopTime=stop_time)
@@ -145,10 +146,14 @@ class _Loaded:
         self.fmu.exitInitializationMode()
 
     def read_outputs(self) -> None:
-        _checked(self.raw_get(self.fmu.component, self.out_vr, self.n_out, self.out_buf), "fmi2GetReal")
+        status = self.raw_get(*self.get_args)
+        if status > fmi2Warning:  # ``_checked``, inline (a call less per step and instance)
+            raise FMICallException(function="fmi2GetReal", status=status)
 
     def do_step(self, t: float, h: float) -> None:
-        _checked(self.raw_step(self.fmu.component, t, h, fmi2True), "fmi2DoStep")
+        status = self.raw_step(self.fmu.component, t, h, fmi2True)
+        if status > fmi2Warning:
+            raise FMICallException(function="fmi2DoStep", status=status)
 
     def parameter_values(self) -> dict[str, float]:
         """Every Real and Integer parameter as the instance holds it now."""
@@ -198,7 +203,7 @@ class _Inputs:
     outputs were read into: nothing is copied."""
 
     def __init__(self, target: _Loaded, links: list[_Link]):
-        self.target = target
+        self.target, self.raw_set = target, target.raw_set
         vrs = [vr for link in links for vr in link.target_vrs]
         self.n = len(vrs)
         self.vr = (fmi2ValueReference * self.n)(*vrs)
@@ -208,17 +213,20 @@ class _Inputs:
             self.source_buf = links[0].source.out_buf  # kept alive with the view into it
             offset = int(first[0]) * ctypes.sizeof(fmi2Real)
             self.buf = (fmi2Real * self.n).from_address(ctypes.addressof(self.source_buf) + offset)
-            return
-        self.buf = (fmi2Real * self.n)()
-        view, lo = np.ctypeslib.as_array(self.buf), 0
-        for link in links:  # (source outputs, which of them, where they go in the buffer)
-            self.parts.append((link.source.out_view, link.src_index, view[lo:lo + len(link.src_index)]))
-            lo += len(link.src_index)
+        else:
+            self.buf = (fmi2Real * self.n)()
+            view, lo = np.ctypeslib.as_array(self.buf), 0
+            for link in links:  # (source outputs, which of them, where they go in the buffer)
+                self.parts.append((link.source.out_view, link.src_index, view[lo:lo + len(link.src_index)]))
+                lo += len(link.src_index)
+        self.set_args = (target.fmu.component, self.vr, self.n, self.buf)  # looked up once, not per call
 
     def push(self) -> None:
         for outputs, index, into in self.parts:
             outputs.take(index, out=into)  # no per-step allocation
-        _checked(self.target.raw_set(self.target.fmu.component, self.vr, self.n, self.buf), "fmi2SetReal")
+        status = self.raw_set(*self.set_args)
+        if status > fmi2Warning:  # ``_checked``, inline
+            raise FMICallException(function="fmi2SetReal", status=status)
 
 
 def _input_pushes(order: list[str], links: list[_Link]) -> dict[str, list[_Inputs]]:
