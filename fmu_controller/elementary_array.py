@@ -1,8 +1,9 @@
-"""``elementary``'s exp, log1p, tanh and sinh on float64 arrays, each element to the scalar function's bits.
+"""``elementary``'s exp, log1p, tanh, sinh and hypot on float64 arrays, each element to the scalar function's bits.
 
 Why: in the Python build (the cores not compiled) the CL replay evaluates the saturated cost (17) of
 every stored row, a few hundred scalar calls per step; numpy runs each step of an algorithm as one
-operation on all elements. Only the interpreted cores call this module (``sotc_replay``); the compiled
+operation on all elements. Only the interpreted cores call this module (``sotc_replay``; and the run
+summary's torque norms, ``orchestration.run.metrics``, where ``elementary`` is not compiled); the compiled
 build keeps ``elementary``'s C functions.
 
 How the bits stay the same: every element goes through exactly the scalar function's sequence of
@@ -24,9 +25,9 @@ from __future__ import annotations
 import numpy as np
 
 from fmu_controller import elementary as el
-from fmu_controller.elementary import (EXP_OVER, EXP_UNDER, INF, NAN, P2_M54, SINH_N, SINH_OVER, SINH_POLY,
-                                       SINH_POLY_MAX, SQRT_HALF, TANH_N, TANH_POLY, TANH_POLY_MAX, TINY, _exp_parts,
-                                       _horner, _log_reduced, _two_prod)
+from fmu_controller.elementary import (EXP_OVER, EXP_UNDER, INF, NAN, P2_60, P2_500, P2_M54, P2_M500, SINH_N,
+                                       SINH_OVER, SINH_POLY, SINH_POLY_MAX, SQRT_HALF, TANH_N, TANH_POLY,
+                                       TANH_POLY_MAX, TINY, _exp_parts, _horner, _log_reduced, _two_prod)
 
 FEW = 8  # elements outside a function's main branch computed one by one (cheaper than its other branches as arrays)
 
@@ -163,3 +164,25 @@ def _sinh_all(x: np.ndarray) -> np.ndarray:
     pair = np.where(a <= SINH_OVER, _scale(hi + (lo + -1.0 * inv), k - 1.0), INF)
     h = np.where(a <= SINH_POLY_MAX, _sinh_poly(x), np.where(x > 0.0, pair, -pair))
     return np.where((a > TINY) & (a != INF), h, x)
+
+
+def hypot(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """``elementary.hypot`` elementwise. Its main branch (both finite, the larger in [2^-500, 2^500], the
+    smaller neither 0 nor below 2^-60 of it: no scaling, no shortcut) is computed on all elements; numpy's
+    sqrt is correctly rounded, as ``math.sqrt``; the others go through the scalar function."""
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    with np.errstate(all="ignore"):
+        a, b = np.abs(x), np.abs(y)
+        a, b = np.maximum(a, b), np.minimum(a, b)
+        main = (a >= P2_M500) & (a <= P2_500) & (b * P2_60 >= a) & (b != 0.0)
+        p, pl = _two_prod(a, a)
+        q, ql = _two_prod(b, b)
+        t = p + q
+        tl = ((q - (t - p)) + pl) + ql
+        h = np.sqrt(t)
+        sq, sql = _two_prod(h, h)
+        out = h + (((t - sq) - sql) + tl) / (h + h)
+    rest = np.flatnonzero(~main)
+    if rest.size:
+        out[rest] = [el.hypot(u, v) for u, v in zip(x[rest].tolist(), y[rest].tolist())]
+    return out

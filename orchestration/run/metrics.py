@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from fmu_controller.elementary import hypot
+from fmu_controller import elementary
 from fmu_plant.dynamics import TORQUE_LIMIT
 
 # tolerance of "at the limit": ||tau|| >= limit - LIMIT_TOLERANCE counts (a norm scaled to the
@@ -24,6 +24,17 @@ from fmu_plant.dynamics import TORQUE_LIMIT
 LIMIT_TOLERANCE = 1e-9
 SETTLE_BAND = 0.01  # rad
 TRANSIENT_END = 5.0  # s: "post-transient" metrics use t >= 5 s
+
+
+def _norms(tau: np.ndarray) -> np.ndarray:
+    """||tau|| per row (m, 2) by the cores' hypot, the same bits anywhere: its C function where
+    ``elementary`` is compiled, else ``elementary_array``'s (the same bits on the whole column at once;
+    one interpreted call per row cost over 1 us a sample)."""
+    if elementary.__file__.endswith(".py"):
+        from fmu_controller import elementary_array
+
+        return elementary_array.hypot(tau[:, 0], tau[:, 1])
+    return np.array([elementary.hypot(a, b) for a, b in tau.tolist()]).reshape(len(tau))
 # controller outputs that flag a sample where the torque limit acts (SOTC: bound (5) on tau^a or
 # chi_vd^a, the actuator limit; CT/LQR: the limit handling; OTC: the torque before the limit is over it)
 LIMIT_FLAG_OUTPUTS = ("tau_a_bounded", "chi_a_bounded", "tau_limited", "saturated", "over_limit")
@@ -180,7 +191,7 @@ class TrackingMetrics:
             f = ed + e
             zz = (e[:, 0] ** 2 + e[:, 1] ** 2) + (f[:, 0] ** 2 + f[:, 1] ** 2)  # z'z of ``tracking_cost``
         ae = np.abs(e)
-        norm = np.array([hypot(a, b) for a, b in tau.tolist()]).reshape(m)  # the cores' hypot: same bits anywhere
+        norm = _norms(tau)
         e2 = e * e
         late = t >= TRANSIENT_END - 1e-12
         self.late[0] = ordered_sum(e2[late], self.late[0])

@@ -53,6 +53,17 @@ def test_each_element_has_the_scalar_functions_bits(xs, name):
     assert bits(vector(np.array(xs)).tolist()) == bits([scalar(x) for x in xs])
 
 
+HYPOT_EDGES = sorted({u for v in (el.P2_M500, el.P2_500, el.P2_60, 2.0 ** -560, 1e-300, 1e300) for u in around(v)})
+HYPOT_ARGUMENTS = st.one_of(ARGUMENTS, st.floats(-4.0, 4.0), st.sampled_from(HYPOT_EDGES))
+
+
+@settings(max_examples=300, deadline=None)
+@given(pairs=st.lists(st.tuples(HYPOT_ARGUMENTS, HYPOT_ARGUMENTS), min_size=1, max_size=40))
+def test_hypot_of_each_pair_has_the_scalar_functions_bits(pairs):
+    x, y = (np.array(v) for v in zip(*pairs))
+    assert bits(ea.hypot(x, y).tolist()) == bits([el.hypot(a, b) for a, b in pairs])
+
+
 @settings(max_examples=200, deadline=None)
 @given(xs=st.lists(ARGUMENTS, min_size=1, max_size=40))
 def test_the_saturated_cost_term_has_the_scalar_bits(xs):
