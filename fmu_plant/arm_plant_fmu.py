@@ -22,7 +22,7 @@ from fmu_plant.dynamics import (
     integrate,
     substeps_needed,
 )
-from fmu_plant.kinematics import elbow_position, forward_kinematics
+from fmu_plant.kinematics import arm_points
 from fmu_plant.paper_setting import INITIAL_ANGLES, INITIAL_VELOCITIES, SUBSTEPS
 
 INITIAL_STATE_SPECS = (
@@ -76,8 +76,7 @@ class ArmPlant(Fmi2Slave):
 
     def _set_state(self, q1: float, q2: float, w1: float, w2: float) -> None:
         self.phi1, self.phi2, self.dphi1, self.dphi2 = q1, q2, w1, w2
-        self.ee_x, self.ee_y = forward_kinematics(q1, q2, self._arm.l1, self._arm.l2)
-        self.elbow_x, self.elbow_y = elbow_position(q1, self._arm.l1)
+        self.elbow_x, self.elbow_y, self.ee_x, self.ee_y = arm_points(q1, q2, self._arm.l1, self._arm.l2)
 
     def step(self, current_time: float, step_size: float) -> bool:
         # the base class has refused non-finite inputs already

@@ -9,15 +9,18 @@ from __future__ import annotations
 from fmu_controller.elementary import acos, atan2, cos, sin
 
 
-def elbow_position(phi1: float, l1: float) -> tuple[float, float]:
-    """Position of the elbow joint (end of link 1)."""
-    return l1 * cos(phi1), l1 * sin(phi1)
+def arm_points(phi1: float, phi2: float, l1: float, l2: float) -> tuple[float, float, float, float]:
+    """The elbow (the end of link 1) and the end effector E = (X, Y) of eq. (49): (elbow x, elbow y, X, Y),
+    cos and sin of phi1 once for both."""
+    a = phi1 + phi2
+    ex, ey = l1 * cos(phi1), l1 * sin(phi1)
+    return ex, ey, ex + l2 * cos(a), ey + l2 * sin(a)
 
 
 def forward_kinematics(phi1: float, phi2: float, l1: float, l2: float) -> tuple[float, float]:
     """End-effector E = (X, Y), eq. (49)."""
-    a = phi1 + phi2
-    return l1 * cos(phi1) + l2 * cos(a), l1 * sin(phi1) + l2 * sin(a)
+    _, _, x, y = arm_points(phi1, phi2, l1, l2)
+    return x, y
 
 
 def inverse_kinematics(x: float, y: float, l1: float, l2: float) -> tuple[float, float]:
