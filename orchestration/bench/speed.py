@@ -30,7 +30,7 @@ import time
 from datetime import datetime, timezone
 from pathlib import Path
 
-from orchestration.bench.instruments import Timer, hosted_cores, patched
+from orchestration.bench.instruments import Timer, hosted_cores, patched, wrapper_cost
 from orchestration.bench.process import process_walls
 from orchestration.bench.targets import check_targets
 from orchestration.bench.trial import trial_costs
@@ -137,13 +137,32 @@ def floor_cores(scenario) -> dict[str, float]:
     with patched(pure_loop, "integrate", timer.wrap("plant step", pure_loop.integrate)), \
             patched(CircleTrajectory, "sample", timer.wrap("reference", CircleTrajectory.sample)):
         pure_loop.simulate(core, scenario.stop_time, scenario.step_size, **start)
-    return {label: s * 1e6 / scenario.steps for label, s in timer.seconds.items()}
+    own = wrapper_cost()[1]
+    return {label: (s - timer.calls[label] * own) * 1e6 / scenario.steps for label, s in timer.seconds.items()}
 
 
-def cost_split(scenario, paths, writer=None) -> dict:
-    """Microseconds per step of each part of one recorded co-simulation step (see module doc);
-    ``writer``: the ``WriterProcess`` that writes the recording, as ``sotc-cosim run`` has it written
-    (else this process writes it)."""
+def cost_split(scenario, paths, writer=None, repeats: int = 1) -> dict:
+    """Microseconds per step of each part of one recorded co-simulation step (see module doc), each
+    figure the median of ``repeats`` runs; ``writer``: the ``WriterProcess`` that writes the recording,
+    as ``sotc-cosim run`` has it written (else this process writes it)."""
+    from orchestration.recording.writer import RunRecorder
+    from orchestration.run import master
+
+    with tempfile.TemporaryDirectory(prefix="sotc_bench_") as tmp:
+        with RunRecorder(Path(tmp) / "warm.rrd") as warm:  # the FMUs' modules and what the recorder imports are loaded
+            _check(master.run(scenario.with_stop_time(scenario.step_size), paths, observer=warm))
+    split = _medians([_one_split(scenario, paths, writer) for _ in range(max(repeats, 1))])
+    split["us_per_step"]["recording"] = sum(split["recording_parts_us_per_step"].values())  # its parts' medians
+    split["total_us_per_step"] = sum(split["us_per_step"].values())  # the rows' medians, which it splits
+    caller, own = wrapper_cost()
+    split["wrapper_us_per_call"] = {"caller": caller * 1e6, "own": own * 1e6}
+    split["floor_us_per_step"] = floor_cores(scenario)
+    return split
+
+
+def _one_split(scenario, paths, writer) -> dict:
+    """One instrumented recorded run, split; each row without the timing wrappers' own cost
+    (``instruments.wrapper_cost``: what each wrapped call adds to its caller's row and to its own)."""
     from orchestration.bench.design import _TimedRecorder
     from orchestration.recording.writer import BLOCK_SIZE, RunRecorder
     from orchestration.recording.writer_process import ChildRecorder
@@ -151,13 +170,7 @@ def cost_split(scenario, paths, writer=None) -> dict:
     from orchestration.run.summary import SummaryObserver
 
     cores, fmi, session = Timer(), Timer(), Timer()
-    with tempfile.TemporaryDirectory(prefix="sotc_bench_") as tmp:
-        with RunRecorder(Path(tmp) / "warm.rrd") as warm:  # the FMUs' modules and what the recorder imports are loaded
-            _check(master.run(scenario.with_stop_time(scenario.step_size), paths, observer=warm))
-    with tempfile.TemporaryDirectory(prefix="sotc_bench_") as tmp, hosted_cores(cores), \
-            patched(master._Loaded, "read_outputs", fmi.wrap("get", master._Loaded.read_outputs)), \
-            patched(master._Loaded, "do_step", fmi.wrap("doStep", master._Loaded.do_step)), \
-            patched(master._Inputs, "push", fmi.wrap("set", master._Inputs.push)), \
+    with tempfile.TemporaryDirectory(prefix="sotc_bench_") as tmp, hosted_cores(cores), _fmi_timed(fmi), \
             patched(master._Session, "load", session.wrap(SET_UP, master._Session.load)), \
             patched(master._Session, "finish", session.wrap("finish", master._Session.finish)):
         target = Path(tmp) / "split.rrd"
@@ -167,21 +180,31 @@ def cost_split(scenario, paths, writer=None) -> dict:
             result = master.run(scenario, paths, observer=[SummaryObserver(), recorder], block_size=BLOCK_SIZE,
                                 keep_samples=False)
     _check(result)
-    per_step = 1e6 / scenario.steps
-    fmi_s = sum(fmi.seconds.values())
+    per_step, (caller, own) = 1e6 / scenario.steps, wrapper_cost()
+    core_calls, fmi_calls = sum(cores.calls.values()), sum(fmi.calls.values())
+    fmi_s, cores_s = sum(fmi.seconds.values()), sum(cores.seconds.values())
     total_s = result.wall_time_s + session.seconds["finish"]  # the last block and the observers' finish follow the wall time
     set_up_s = session.seconds[SET_UP] - recorder.parts["start"]  # the recorder starts in the set-up: its own row
-    split = {f"{label} (core, inside the FMU)": s * per_step for label, s in sorted(cores.seconds.items())}
-    split["FMI get/set/doStep plumbing"] = (fmi_s - sum(cores.seconds.values())) * per_step
-    split["master's own work"] = (total_s - fmi_s - set_up_s - recorder.seconds) * per_step
+    split = {f"{label} (core, inside the FMU)": (s - cores.calls[label] * own) * per_step
+             for label, s in sorted(cores.seconds.items())}
+    # the cores' wrappers run inside the FMI calls: their outer share lands in the plumbing
+    split["FMI get/set/doStep plumbing"] = (fmi_s - cores_s - fmi_calls * own - core_calls * caller) * per_step
+    split["master's own work"] = (total_s - fmi_s - set_up_s - recorder.seconds - fmi_calls * caller) * per_step
     split[SET_UP] = set_up_s * per_step
     split["recording"] = recorder.seconds * per_step
-    return {"us_per_step": split, "total_us_per_step": total_s * per_step,
+    removed = (core_calls + fmi_calls) * (caller + own)
+    return {"us_per_step": split, "total_us_per_step": (total_s - removed) * per_step,
+            "instrumentation_us_per_step": removed * per_step,
             "recording_parts_us_per_step": {k: v * per_step for k, v in recorder.parts.items()},
             "writer_us_per_step": None if writer is None else
             {k: (v - before.get(k, 0.0)) * per_step for k, v in writer.seconds.items()},
-            "fmi_calls_us_per_step": {k: v * per_step for k, v in fmi.seconds.items()},
-            "floor_us_per_step": floor_cores(scenario)}
+            "fmi_calls_us_per_step": {k: (v - fmi.calls[k] * own) * per_step for k, v in fmi.seconds.items()}}
+
+
+def _medians(runs: list[dict]) -> dict:
+    """Figure by figure (nested dicts alike), the median over ``runs`` of the same shape."""
+    return {k: _medians([r[k] for r in runs]) if isinstance(v, dict) else
+            None if v is None else statistics.median(r[k] for r in runs) for k, v in runs[0].items()}
 
 
 def plumbing_floor(scenario, paths) -> dict:
@@ -190,15 +213,23 @@ def plumbing_floor(scenario, paths) -> dict:
     from orchestration.bench.floor import empty_fmus
     from orchestration.run import master
 
-    fmi = Timer()
-    with tempfile.TemporaryDirectory(prefix="sotc_bench_floor_") as tmp, \
-            patched(master._Loaded, "read_outputs", fmi.wrap("get", master._Loaded.read_outputs)), \
-            patched(master._Loaded, "do_step", fmi.wrap("doStep", master._Loaded.do_step)), \
-            patched(master._Inputs, "push", fmi.wrap("set", master._Inputs.push)):
+    fmi, own = Timer(), wrapper_cost()[1]
+    with tempfile.TemporaryDirectory(prefix="sotc_bench_floor_") as tmp, _fmi_timed(fmi):
         result = master.run(scenario, empty_fmus(paths, Path(tmp)), keep_samples=False)
     _check(result)
-    per_call = {k: v * 1e6 / scenario.steps for k, v in fmi.seconds.items()}
+    per_call = {k: (v - fmi.calls[k] * own) * 1e6 / scenario.steps for k, v in fmi.seconds.items()}
     return {"fmi_calls_us_per_step": per_call, "us_per_step": sum(per_call.values())}
+
+
+@contextlib.contextmanager
+def _fmi_timed(timer: Timer):
+    """The master's get, doStep and set calls timed under those labels."""
+    from orchestration.run import master
+
+    with patched(master._Loaded, "read_outputs", timer.wrap("get", master._Loaded.read_outputs)), \
+            patched(master._Loaded, "do_step", timer.wrap("doStep", master._Loaded.do_step)), \
+            patched(master._Inputs, "push", timer.wrap("set", master._Inputs.push)):
+        yield
 
 
 def child_run(stop_time: float, fmu_dir: Path, record: Path, record_every: int) -> dict:
@@ -266,9 +297,9 @@ def _bench_speed(fmu_dir: Path, repeats: int, long: tuple[float, ...], record_ev
     }
     data["compiled"] = compiled.target() if isinstance(fast, dict) else f"not measured: {fast}"
     data.update(side_by_side(scenario, paths, repeats, fast if isinstance(fast, dict) else None))
-    data["split"] = cost_split(scenario, paths, writer)
+    data["split"] = cost_split(scenario, paths, writer, repeats)
     if isinstance(fast, dict):
-        data["split_compiled"] = cost_split(scenario, fast, writer)
+        data["split_compiled"] = cost_split(scenario, fast, writer, repeats)
     data["plumbing_floor"] = plumbing_floor(scenario, paths)
     data["process"] = process_walls(next(iter((fast if isinstance(fast, dict) else paths).values())).parent, repeats)
     if stop_time is None:  # a shortened bench (a smoke test) leaves out the trials of 8 x 20 s
@@ -365,6 +396,13 @@ def format_markdown(data: dict) -> str:
         f"Compiled cores: {data.get('compiled', 'not measured (this measurement predates them)')}.",
     ]
     split = data.get("split_compiled") or data["split"]
+    if "wrapper_us_per_call" in split:
+        w = split["wrapper_us_per_call"]
+        lines += ["", f"Each figure of the split is the median of {data['method']['repeats']} instrumented runs, "
+                  "without the timing wrappers' own cost: measured in the same process on a method that does "
+                  f"nothing, a wrapped call adds {w['caller']:.3f} us to its caller's row and {w['own']:.3f} us to "
+                  f"its own, and {split['instrumentation_us_per_step']:.1f} us a step were taken out of each column's "
+                  "rows (the same calls in both builds; `orchestration/bench/instruments.py`)."]
     parts = split.get("recording_parts_us_per_step")
     if parts:
         lines += ["", f"The recording's row, per step{' (cores compiled)' if data.get('split_compiled') else ''}: "

@@ -38,6 +38,9 @@ def test_the_cost_split_adds_up_to_the_instrumented_run(short_bench):
     assert cores | {"FMI get/set/doStep plumbing", "master's own work", SET_UP, "recording"} == set(parts)
     assert all(parts[c] > 0 for c in cores) and parts["FMI get/set/doStep plumbing"] > 0 and parts[SET_UP] > 0
     assert math.isclose(sum(parts.values()), split["total_us_per_step"], rel_tol=1e-9)
+    # the timing wrappers' own cost is measured and taken out, never more than it is
+    assert split["wrapper_us_per_call"]["caller"] > 0 and split["instrumentation_us_per_step"] > 0
+    assert split["instrumentation_us_per_step"] < split["total_us_per_step"]
     recording = split["recording_parts_us_per_step"]  # start, blocks and finish make up the recording's row
     assert set(recording) == {"start", "block", "finish"} and all(v > 0 for v in recording.values())
     assert math.isclose(sum(recording.values()), parts["recording"], rel_tol=1e-9)
