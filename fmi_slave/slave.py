@@ -76,13 +76,10 @@ PARAMETER_STARTS = "parameter_starts.json"
 
 
 def all_finite(values: Sequence[float]) -> bool:
-    """No NaN or infinity among ``values`` (one C-level sum in the common case)."""
-    try:
-        return math.isfinite(math.fsum(values))
-    except OverflowError:  # finite values whose sum overflows
-        return all(math.isfinite(v) for v in values)
-    except ValueError:  # inf - inf
-        return False
+    """No NaN or infinity among ``values`` (a list or tuple of floats): one C-level sum in the common case
+    (a NaN or an infinity makes it NaN or infinite); only a sum that is not finite, which finite values
+    that overflow also give, looks at each value."""
+    return math.isfinite(sum(values)) or all(math.isfinite(v) for v in values)
 
 
 

@@ -118,7 +118,8 @@ class ControllerSlave(DescribedSlave):
         if self._invalid_inputs is not None:
             return
         self._last_valid = (y, r)
-        if not all_finite(self._core.outputs):
+        outputs = self._core.outputs  # a list, or the kernel's float64 buffer (summed as floats: a list)
+        if not all_finite(outputs if type(outputs) is list else outputs.tolist()):
             self._output_problem = f"it is not finite for the finite inputs at t = {self._time!r}"
 
     def inputs_checked(self) -> bool:

@@ -128,7 +128,7 @@ def test_sotc_has_lower_mse_than_otc_on_both_joints_and_stays_in_the_bound(paper
 
 
 def test_the_100_s_recording_has_every_entity_at_every_step(paper_recorded):
-    from test_recording import read_entities, statics
+    from support.rrd_contents import read_entities, statics
 
     result, path = paper_recorded
     entities = read_entities(path)

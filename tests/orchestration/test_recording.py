@@ -8,7 +8,6 @@ import textwrap
 from pathlib import Path
 
 import numpy as np
-import pyarrow as pa
 import pytest
 from fmpy import read_model_description
 from rerun.chunk import RrdReader
@@ -20,37 +19,9 @@ from orchestration.recording.rrd_file import APPLICATION_ID
 from orchestration.recording.writer import BLOCK_SIZE, RunRecorder
 from orchestration.run.master import run
 from orchestration.run.scenario import load_scenario
+from support.rrd_contents import read_entities, statics
 
 STEP_NS = 10_000_000  # T = 0.01 s
-
-
-def read_entities(path: Path) -> dict[str, dict[str, np.ndarray]]:
-    """Per temporal entity: its steps, sim_time (int ns) and components, rows sorted by step."""
-    parts: dict[str, list[pa.RecordBatch]] = {}
-    for chunk in RrdReader(path).stream().to_chunks():
-        if not chunk.is_static:
-            parts.setdefault(chunk.entity_path, []).append(chunk.to_record_batch())
-    out = {}
-    for entity, batches in parts.items():
-        table = pa.Table.from_batches([b.drop_columns(["rerun.controls.RowId"]) for b in batches]).combine_chunks()
-        cols = {name: table.column(name) for name in table.column_names}
-        order = np.argsort(cols["step"].to_numpy(), kind="stable")
-        out[entity] = {
-            "step": cols.pop("step").to_numpy()[order],
-            "sim_time": cols.pop("sim_time").cast(pa.int64()).to_numpy()[order],
-            **{name: [col[int(i)].as_py() for i in order] for name, col in cols.items()},
-        }
-    return out
-
-
-def statics(path: Path) -> dict[str, dict[str, list]]:
-    out: dict[str, dict[str, list]] = {}
-    for chunk in RrdReader(path).stream().to_chunks():
-        if chunk.is_static:
-            rb = chunk.to_record_batch()
-            out.setdefault(chunk.entity_path, {}).update(
-                {n: rb.column(n).to_pylist() for n in rb.schema.names if n not in ("rerun.controls.RowId", "RecordingInfo:start_time")})
-    return out
 
 
 def scalars(entity: dict) -> np.ndarray:
