@@ -164,8 +164,8 @@ def add_commands(sub) -> None:
                         f"(default {POLISH})")
     p.add_argument("--until-converged", type=positive_int, metavar="CAP",
                    help="then double the CMA-ES phase (the budget, with --polish 0) of every search alike while any "
-                        f"search's best-so-far still improves by {100 * CONVERGED:g} %% or more over its last half, "
-                        "up to CAP trials (docs/baselines.md)")
+                        f"search still improves by {100 * CONVERGED:g} %% or more over the last half of that phase "
+                        "(its best-so-far, or the phase's own best), up to CAP trials (docs/baselines.md)")
     p.add_argument("--seeds", type=seed, nargs="+", metavar="SEED",
                    help=f"tuning seeds, one independent search each (default {' '.join(map(str, SEEDS))})")
     p.add_argument("--handlings", type=handling, nargs="+", metavar="HANDLING",
