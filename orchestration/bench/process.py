@@ -18,7 +18,7 @@ from pathlib import Path
 from orchestration.fmu_build.build import PACKAGE_ROOT
 
 PLAIN_NUMPY = PACKAGE_ROOT / "benchmarks" / "plain_numpy.py"
-RUN = "from orchestration.cli import main; raise SystemExit(main())"
+RUN = "from orchestration.cli import console; console()"  # what the installed script runs
 PACKAGES = ("fmi_slave", "fmi3_slave", "fmu_plant", "fmu_controller", "orchestration")  # pyproject's packages
 STARTUP_STOP_TIME = "0.01"  # one step: what is measured is start-up, loading and the recording's set-up
 

@@ -10,6 +10,7 @@ then killed the command silently, exit -15)."""
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 
 from fmi_slave import VERSION
@@ -72,5 +73,22 @@ def main(argv: list[str] | None = None) -> int:
         return code
 
 
+def console() -> None:
+    """The ``sotc-cosim`` script: ``main``, then, after ``run``, out without tearing the interpreter down.
+    When ``run`` returns, its outputs are written, closed and renamed, its writer process reaped and its
+    FMUs freed: finalizing the interpreter (the loaded FMU binaries, numpy, fmpy) only took time, about
+    40 ms of a one-step run's 0.5 s. Every other command exits as usual."""
+    argv = sys.argv[1:]
+    code = main(argv)
+    if argv[:1] != ["run"]:
+        sys.exit(code)
+    try:
+        sys.stdout.flush()
+        sys.stderr.flush()
+    except OSError:  # a closed pipe (| head): what was left to print has nowhere to go
+        pass
+    os._exit(code)
+
+
 if __name__ == "__main__":
-    raise SystemExit(main())
+    console()

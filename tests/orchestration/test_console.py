@@ -1,0 +1,30 @@
+"""The installed ``sotc-cosim`` script (``orchestration.cli.console``): after ``run`` it leaves without
+finalizing the interpreter, so everything it prints must already be out, through a pipe as well,
+and its exit status must be ``main``'s."""
+from __future__ import annotations
+
+import subprocess
+
+from support.cli import SCRIPT, TIME_LIMIT, env_for, leftovers
+
+
+def _piped(args: list[str], cwd) -> subprocess.CompletedProcess:
+    return subprocess.run([SCRIPT, *args], cwd=cwd, capture_output=True, text=True, env=env_for(cwd),
+                          timeout=TIME_LIMIT)
+
+
+def test_a_run_prints_its_whole_table_through_a_pipe_and_exits_with_mains_status(fmu_dir, tmp_path):
+    proc = _piped(["run", "paper", "paper-ct", "--stop-time", "0.05", "--no-recording", "--fmu-dir", str(fmu_dir)],
+                  tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    rows = [line.split()[0] for line in proc.stdout.splitlines()[2:] if line.strip()]
+    assert rows == ["paper", "paper-ct"] and proc.stdout.endswith("\n"), proc.stdout
+    assert leftovers(tmp_path) == []
+
+
+def test_a_run_refused_exits_2_in_one_line_and_a_recorded_one_leaves_its_file(fmu_dir, tmp_path):
+    proc = _piped(["run", "nosuch", "--fmu-dir", str(fmu_dir)], tmp_path)
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+    proc = _piped(["run", "paper", "--stop-time", "0.05", "--recording", "r.rrd", "--fmu-dir", str(fmu_dir)], tmp_path)
+    assert proc.returncode == 0 and (tmp_path / "r.rrd").stat().st_size > 0, proc.stderr
+    assert sorted(p.name for p in tmp_path.glob(".*")) == [] and leftovers(tmp_path) == []
