@@ -479,11 +479,19 @@ def hypot(x: float, y: float) -> float:
     if b * P2_60 < a or b == 0.0:
         return a
     scale = P2_600 if a > P2_500 else P2_M600 if a < P2_M500 else 1.0
-    a, b = a / scale, b / scale
+    t, tl = _sum_of_squares(a / scale, b / scale)
+    return scale * _corrected_root(math.sqrt(t), t, tl)
+
+
+def _sum_of_squares(a: float, b: float) -> tuple:
+    """(t, tl): a^2 + b^2 = t + tl, the squares' exact errors (``_two_prod``) and Fast2Sum's (a >= b)."""
     p, pl = _two_prod(a, a)
     q, ql = _two_prod(b, b)
     t = p + q
-    tl = ((q - (t - p)) + pl) + ql
-    h = math.sqrt(t)
+    return t, ((q - (t - p)) + pl) + ql
+
+
+def _corrected_root(h: float, t: float, tl: float) -> float:
+    """sqrt(t + tl) from h = sqrt(t) rounded: one Newton correction with h^2's exact error."""
     sq, sql = _two_prod(h, h)
-    return scale * (h + (((t - sq) - sql) + tl) / (h + h))
+    return h + (((t - sq) - sql) + tl) / (h + h)

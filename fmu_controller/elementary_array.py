@@ -27,7 +27,8 @@ import numpy as np
 from fmu_controller import elementary as el
 from fmu_controller.elementary import (EXP_OVER, EXP_UNDER, INF, NAN, P2_60, P2_500, P2_M54, P2_M500, SINH_N,
                                        SINH_OVER, SINH_POLY, SINH_POLY_MAX, SQRT_HALF, TANH_N, TANH_POLY,
-                                       TANH_POLY_MAX, TINY, _exp_parts, _horner, _log_reduced, _two_prod)
+                                       TANH_POLY_MAX, TINY, _corrected_root, _exp_parts, _horner, _log_reduced,
+                                       _sum_of_squares, _two_prod)
 
 FEW = 8  # elements outside a function's main branch computed one by one (cheaper than its other branches as arrays)
 
@@ -175,13 +176,8 @@ def hypot(x: np.ndarray, y: np.ndarray) -> np.ndarray:
         a, b = np.abs(x), np.abs(y)
         a, b = np.maximum(a, b), np.minimum(a, b)
         main = (a >= P2_M500) & (a <= P2_500) & (b * P2_60 >= a) & (b != 0.0)
-        p, pl = _two_prod(a, a)
-        q, ql = _two_prod(b, b)
-        t = p + q
-        tl = ((q - (t - p)) + pl) + ql
-        h = np.sqrt(t)
-        sq, sql = _two_prod(h, h)
-        out = h + (((t - sq) - sql) + tl) / (h + h)
+        t, tl = _sum_of_squares(a, b)
+        out = _corrected_root(np.sqrt(t), t, tl)
     rest = np.flatnonzero(~main)
     if rest.size:
         out[rest] = [el.hypot(u, v) for u, v in zip(x[rest].tolist(), y[rest].tolist())]
