@@ -4,14 +4,15 @@ a short run's start-up) overlaps with the parent loading the FMUs and simulating
 ``WriterProcess`` forks at once (the parent has imported the command line's light modules only, neither
 numpy nor Rerun, so both processes import numpy side by side; a process that has imported Rerun already,
 whose Rerun may have started threads, writes its recordings itself); the child imports ``recording.writer`` and then serves ``RunRecorder`` calls
-sent over a pipe. ``ChildRecorder`` is the parent's ``RunObserver``: each call is pickled to the child. Opening
-the file and ``start`` are not waited for (the FMUs load meanwhile). A block is handed over and the run
-goes on while the child writes it: the next block waits until the child has answered the one before it,
-so one block at most is in the child's hands while the run simulates the next one, and a block is in the
-file before the one after it is handed over. ``finish`` and closing wait for every answer. The child's
-errors come back as they were raised (a full disk is the same ``OutputError``, with the next block or
-the end of the run; an error while opening, with the first block). Each answer
-carries the child's own time for that call (``WriterProcess.seconds``). The parent holds the lock.
+sent over a pipe. ``ChildRecorder`` is the parent's ``RunObserver``: each call is sent to the child (a block's
+samples through shared memory, ``SharedBlocks``). Opening the file and ``start`` are not waited for (the
+FMUs load meanwhile). A block is handed over and the run goes on while the child writes it; right after
+the next block is handed over, the child's answer to this one is read, so the child is one block behind
+at most. ``finish`` and closing wait for every answer. The child's errors come back as they were raised
+(a full disk is the same ``OutputError``, with the next block or the end of the run; an error while
+opening or starting, with the first block); once its recorder failed, the child answers every later
+call but closing with that same failure without attempting it. Each answer carries the child's own
+(elapsed) time for that call (``WriterProcess.seconds``). The parent holds the lock.
 
 Signals: the child ignores SIGINT, SIGTERM and SIGHUP (a terminal's Ctrl-C reaches both): the parent
 stops between two steps, finishes the recording through the child and then closes the pipe; the child
@@ -84,7 +85,7 @@ def _serve(conn, shared: SharedBlocks) -> None:
     """The child: one ``RunRecorder`` at a time, driven by the parent's (operation, arguments)."""
     from orchestration.recording.writer import RunRecorder  # the import this process exists for
 
-    recorder = None
+    recorder, failed = None, None  # failed: the recorder's first failure, the answer to every later call
     clock = time.perf_counter
     try:
         while True:
@@ -92,10 +93,12 @@ def _serve(conn, shared: SharedBlocks) -> None:
             began = clock()
             try:
                 if op == "open":
-                    recorder = RunRecorder(*args)
+                    recorder, failed = RunRecorder(*args), None
                     recorder.lock = PathLock(recorder.path, "recording")  # the parent holds it: never acquired here
                 elif op == "close":
                     recorder.close(None if args[0] is None else _Described(args[0]))
+                elif failed is not None:  # not attempted on a recorder that failed (its stream may be gone)
+                    raise failed
                 elif op == "shared_block":
                     recorder.block(args[0], shared.rows(args[1]))
                 else:
@@ -103,6 +106,8 @@ def _serve(conn, shared: SharedBlocks) -> None:
                 answer = ("ok", None, clock() - began)
             except Exception as exc:  # sent back as it was raised
                 answer = ("error", exc, clock() - began)
+                if op != "close":
+                    failed = failed or exc
             _answer(conn, answer)
     except (EOFError, OSError):  # the parent is gone (the pipe closed or broke): finish what it left open
         if recorder is not None:
@@ -213,26 +218,31 @@ class ChildRecorder:
         self.writer, self.path, self.every = writer, Path(path), every
         self.lock: PathLock | None = None
         self.output_error: OutputError | None = None
+        self.raised = False  # a call raised the child's failure already
 
     def _call(self, op: str, *args, keep: int | None = 0) -> None:
         try:
             self.writer.call(op, *args, keep=keep)
-        except OutputError as exc:
-            if self.output_error is not None and op == "close":
-                return  # a block's failure, reported already, answered again (as RunRecorder.close does)
-            self.output_error = self.output_error or exc
-            raise
         except WriterGone as exc:
             temporary_path(self.path, self.writer.pid).unlink(missing_ok=True)
             self.output_error = OutputError(self.path, errno.EPIPE,
                                             f"the recording's writer (process {self.writer.pid}) {exc}")
             raise self.output_error from None
+        except Exception as exc:
+            if self.raised and op == "close":
+                return  # the failure raised already, answered again for a later block (RunRecorder.close's rule)
+            self.raised = True
+            if isinstance(exc, OutputError):
+                self.output_error = self.output_error or exc
+            raise
 
     def start(self, scenario, columns, parameters=None) -> None:
         self._call("start", scenario, columns, parameters, keep=None)  # answered with the first block
 
     def block(self, time, rows) -> None:
         # written while the run goes on (the module docstring), which keeps one block unanswered at most
+        # the half written over holds the block before the previous one, answered for by now
+        assert sum(op.endswith("block") for op in self.writer.sent) <= 1, "a shared half still unanswered"
         layout = self.writer.shared.put(rows) if self.writer.ended is None else None
         if layout is None:
             self._call("block", time, rows, keep=1)

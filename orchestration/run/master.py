@@ -133,7 +133,8 @@ class _Loaded:
         self.instantiated = True
         self.initialized = False
 
-        # fmpy's raw ctypes functions: its per-call wrapper costs more than the call (see _checked)
+        # fmpy's raw ctypes functions: its per-call wrapper costs more than the call; each status is
+        # checked as it checks it (anything worse than a warning raises)
         self.raw_get = self.fmu._functions["fmi2GetReal"]
         self.raw_set = self.fmu._functions["fmi2SetReal"]
         self.raw_step = self.fmu._functions["fmi2DoStep"]
@@ -147,7 +148,7 @@ class _Loaded:
 
     def read_outputs(self) -> None:
         status = self.raw_get(*self.get_args)
-        if status > fmi2Warning:  # ``_checked``, inline (a call less per step and instance)
+        if status > fmi2Warning:
             raise FMICallException(function="fmi2GetReal", status=status)
 
     def do_step(self, t: float, h: float) -> None:
@@ -179,12 +180,6 @@ def _instance(inst, fmu_file: Path, logs: list[LogRecord], clock: _Clock):
 
         return Instance3(inst.name, fmu_file, _LogSink(inst.name, logs, clock))
     return _Loaded(inst.name, fmu_file, logs, clock)
-
-
-def _checked(status: int, function: str) -> None:
-    """What fmpy's wrapper does with a status: anything worse than a warning raises."""
-    if status > fmi2Warning:
-        raise FMICallException(function=function, status=status)
 
 
 class _Link:
@@ -225,7 +220,7 @@ class _Inputs:
         for outputs, index, into in self.parts:
             outputs.take(index, out=into)  # no per-step allocation
         status = self.raw_set(*self.set_args)
-        if status > fmi2Warning:  # ``_checked``, inline
+        if status > fmi2Warning:
             raise FMICallException(function="fmi2SetReal", status=status)
 
 

@@ -67,3 +67,22 @@ def test_a_killed_command_leaves_no_writer_and_a_finished_recording(fmu_dir, tmp
     assert _gone(writer)
     verified = subprocess.run([RERUN, "rrd", "verify", str(target)], capture_output=True, text=True)
     assert verified.returncode == 0, verified.stderr  # finalised by the writer, with a "run aborted" event
+
+
+# ``sotc-cosim run`` whose writer cannot create its temporary file (its folder does not exist): the
+# recorder fails at its start, which the command learns with the first block
+UNWRITABLE_START = ("import sys\nimport orchestration.outputs as o\nreal = o.temporary_path\n"
+                    "o.temporary_path = lambda path, pid=None: real(path.parent / 'no-such-folder' / path.name, pid)\n"
+                    "from orchestration.cli import main\nsys.exit(main(sys.argv[1:]))")
+
+
+def test_a_recording_that_cannot_start_ends_the_run_in_one_line(fmu_dir, tmp_path):
+    """The failed start comes back with the first block, and the blocks after it (sent before that answer
+    was read) are answered with the same failure, not a traceback of a recorder that has no stream."""
+    target = tmp_path / "x.rrd"
+    proc = subprocess.run([sys.executable, "-c", UNWRITABLE_START, "run", "paper-ct", "--stop-time", "20",
+                           "--recording", str(target), "--fmu-dir", str(fmu_dir)], cwd=tmp_path, capture_output=True,
+                          text=True, timeout=TIME_LIMIT)
+    assert proc.returncode == 1, proc.stderr
+    assert one_line(proc.stderr).startswith(f"sotc-cosim: error: cannot write {target}: "), proc.stderr
+    assert "Traceback" not in proc.stderr and not target.exists() and leftovers(tmp_path) == []
