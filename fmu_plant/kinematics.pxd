@@ -6,8 +6,6 @@ from fmu_controller.elementary cimport acos, atan2, cos, sin
 
 @cython.locals(a=double, ex=double, ey=double)
 cpdef (double, double, double, double) arm_points(double phi1, double phi2, double l1, double l2)
-@cython.locals(x=double, y=double)
-cpdef (double, double) forward_kinematics(double phi1, double phi2, double l1, double l2)
 @cython.locals(c2=double, phi1=double, phi2=double)
 cpdef (double, double) inverse_kinematics(double x, double y, double l1, double l2)
 @cython.locals(a=double)

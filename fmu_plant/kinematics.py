@@ -17,12 +17,6 @@ def arm_points(phi1: float, phi2: float, l1: float, l2: float) -> tuple[float, f
     return ex, ey, ex + l2 * cos(a), ey + l2 * sin(a)
 
 
-def forward_kinematics(phi1: float, phi2: float, l1: float, l2: float) -> tuple[float, float]:
-    """End-effector E = (X, Y), eq. (49)."""
-    _, _, x, y = arm_points(phi1, phi2, l1, l2)
-    return x, y
-
-
 def inverse_kinematics(x: float, y: float, l1: float, l2: float) -> tuple[float, float]:
     """Joint angles reaching (x, y), eq. (48), on the branch phi2 = +arccos(...) that (48) selects.
 

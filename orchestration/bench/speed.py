@@ -11,7 +11,9 @@ cost scales, measured side by side in one invocation (never in a test).
    get/set/doStep calls minus those cores: ctypes, pythonfmu, the slave classes), the run's set-up
    (unpacking, instantiating and initialising the FMUs: once per run, spread over its steps), the
    master's own work (the rest of the run's time, the summary's included) and the recorder's own
-   time (its start, blocks and finish, also given apart).
+   time (its start, blocks and finish, also given apart; the recording written by the writer
+   process, as ``sotc-cosim run`` has it). Each figure is the median of ``repeats`` instrumented
+   runs, without the timing wrappers' own cost (``instruments.wrapper_cost``), which is kept per row.
 4. Long runs, each ``sotc-cosim run paper --stop-time S`` with recording in a fresh child process:
    wall time per simulated second against the same child run of 100 s, the peak RSS of the child
    (``ru_maxrss``: interpreter and libraries included) and the size of the recording.
@@ -32,7 +34,7 @@ from pathlib import Path
 
 from orchestration.bench.instruments import Timer, hosted_cores, patched, wrapper_cost
 from orchestration.bench.process import process_walls
-from orchestration.bench.targets import check_targets
+from orchestration.bench.targets import MASTER, PLUMBING, check_targets
 from orchestration.bench.trial import trial_costs
 from orchestration.fmu_build import compiled
 from orchestration.markdown import table
@@ -185,16 +187,19 @@ def _one_split(scenario, paths, writer) -> dict:
     fmi_s, cores_s = sum(fmi.seconds.values()), sum(cores.seconds.values())
     total_s = result.wall_time_s + session.seconds["finish"]  # the last block and the observers' finish follow the wall time
     set_up_s = session.seconds[SET_UP] - recorder.parts["start"]  # the recorder starts in the set-up: its own row
-    split = {f"{label} (core, inside the FMU)": (s - cores.calls[label] * own) * per_step
-             for label, s in sorted(cores.seconds.items())}
-    # the cores' wrappers run inside the FMI calls: their outer share lands in the plumbing
-    split["FMI get/set/doStep plumbing"] = (fmi_s - cores_s - fmi_calls * own - core_calls * caller) * per_step
-    split["master's own work"] = (total_s - fmi_s - set_up_s - recorder.seconds - fmi_calls * caller) * per_step
+    split = {f"{label} (core, inside the FMU)": s * per_step for label, s in sorted(cores.seconds.items())}
+    # what the wrappers add, per row: the cores' run inside the FMI calls, so their outer share lands in the plumbing
+    removed = {f"{label} (core, inside the FMU)": cores.calls[label] * own for label in cores.seconds}
+    removed[PLUMBING] = fmi_calls * own + core_calls * caller
+    removed[MASTER] = fmi_calls * caller
+    split[PLUMBING] = (fmi_s - cores_s) * per_step
+    split[MASTER] = (total_s - fmi_s - set_up_s - recorder.seconds) * per_step
+    split = {row: us - removed.get(row, 0.0) * per_step for row, us in split.items()}
     split[SET_UP] = set_up_s * per_step
     split["recording"] = recorder.seconds * per_step
-    removed = (core_calls + fmi_calls) * (caller + own)
-    return {"us_per_step": split, "total_us_per_step": (total_s - removed) * per_step,
-            "instrumentation_us_per_step": removed * per_step,
+    return {"us_per_step": split, "instrumented_us_per_step": total_s * per_step,
+            "removed_us_per_step": {row: s * per_step for row, s in removed.items()},
+            "instrumentation_us_per_step": sum(removed.values()) * per_step,
             "recording_parts_us_per_step": {k: v * per_step for k, v in recorder.parts.items()},
             "writer_us_per_step": None if writer is None else
             {k: (v - before.get(k, 0.0)) * per_step for k, v in writer.seconds.items()},
@@ -402,7 +407,9 @@ def format_markdown(data: dict) -> str:
                   "without the timing wrappers' own cost: measured in the same process on a method that does "
                   f"nothing, a wrapped call adds {w['caller']:.3f} us to its caller's row and {w['own']:.3f} us to "
                   f"its own, and {split['instrumentation_us_per_step']:.1f} us a step were taken out of each column's "
-                  "rows (the same calls in both builds; `orchestration/bench/instruments.py`)."]
+                  "rows (the same calls in both builds; `orchestration/bench/instruments.py`): "
+                  + ", ".join(f"{row} {us:.2f}" for row, us in split["removed_us_per_step"].items())
+                  + ". The target table gives the per-step figures with that cost as well."]
     parts = split.get("recording_parts_us_per_step")
     if parts:
         lines += ["", f"The recording's row, per step{' (cores compiled)' if data.get('split_compiled') else ''}: "

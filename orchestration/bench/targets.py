@@ -27,11 +27,19 @@ def _cores(split: dict) -> float:
 
 
 def _per_step(data: dict, which: str) -> dict:
-    split = data["split_compiled" if "split_compiled" in data else "split"]["us_per_step"]
+    """Judged on the split's figures, which leave out the timing wrappers' own cost: each label gives the
+    figure with it too, where some was taken out of that row."""
+    chosen = data["split_compiled" if "split_compiled" in data else "split"]
+    split, removed = chosen["us_per_step"], chosen.get("removed_us_per_step", {})
+
+    def label(target: str, row: str) -> str:
+        with_wrappers = f"; {split[row] + removed[row]:.1f} us with the timing wrappers' own cost" if row in removed else ""
+        return f"{target} ({which}{with_wrappers})"
+
     return {
-        f"FMI plumbing <= 30 us per step ({which})": split[PLUMBING] <= TARGETS["plumbing_us_per_step"],
-        f"master <= 5 us per step ({which})": split[MASTER] <= TARGETS["master_us_per_step"],
-        f"recording <= 3 us per step ({which})": split[RECORDING] <= TARGETS["recording_us_per_step"],
+        label("FMI plumbing <= 30 us per step", PLUMBING): split[PLUMBING] <= TARGETS["plumbing_us_per_step"],
+        label("master <= 5 us per step", MASTER): split[MASTER] <= TARGETS["master_us_per_step"],
+        label("recording <= 3 us per step", RECORDING): split[RECORDING] <= TARGETS["recording_us_per_step"],
     }
 
 

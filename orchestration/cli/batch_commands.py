@@ -128,7 +128,8 @@ def add_commands(sub) -> None:
     p = sub.add_parser("bench", help="measure speed and scaling (default), or the measurements behind design choices")
     p.add_argument("names", nargs="*", metavar="NAME",
                    help="benchmarks to run: speed (default), integrator, recording, recording-blocks, sweep")
-    p.add_argument("--repeats", type=positive_int, default=3, help="alternated runs of each variant (default 3)")
+    p.add_argument("--repeats", type=positive_int, default=3, help="alternated runs of each variant, instrumented runs of the cost split and whole-process runs "
+                        "(default 3)")
     p.add_argument("--long", type=stop_times, default=[1000.0, 10000.0], metavar="S[,S...]",
                    help="stop times of the long single runs, s (default 1000,10000; 'none' skips them)")
     p.add_argument("--record-every", type=positive_int, default=1, metavar="N",
