@@ -166,8 +166,8 @@ def _one_split(scenario, paths, writer) -> dict:
     """One instrumented recorded run, split; each row without the timing wrappers' own cost
     (``instruments.wrapper_cost``: what each wrapped call adds to its caller's row and to its own)."""
     from orchestration.bench.design import _TimedRecorder
-    from orchestration.recording.writer import BLOCK_SIZE, RunRecorder
-    from orchestration.recording.writer_process import ChildRecorder
+    from orchestration.recording.writer import BLOCK_SIZE
+    from orchestration.recording.writer_process import recorder_for
     from orchestration.run import master
     from orchestration.run.summary import SummaryObserver
 
@@ -176,7 +176,7 @@ def _one_split(scenario, paths, writer) -> dict:
             patched(master._Session, "load", session.wrap(SET_UP, master._Session.load)), \
             patched(master._Session, "finish", session.wrap("finish", master._Session.finish)):
         target = Path(tmp) / "split.rrd"
-        recorder = _TimedRecorder(RunRecorder(target) if writer is None else ChildRecorder(writer, target))
+        recorder = _TimedRecorder(recorder_for(target, 1, writer))
         before = dict(writer.seconds) if writer is not None else {}
         with recorder.recorder:
             result = master.run(scenario, paths, observer=[SummaryObserver(), recorder], block_size=BLOCK_SIZE,

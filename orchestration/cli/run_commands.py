@@ -77,11 +77,12 @@ def run_each(scenarios, paths, recording_for=None, keep_samples: bool = True, re
             result = run(scenario, paths, observer=observers or None, keep_samples=keep_samples)
         else:
             from orchestration.recording import BLOCK_SIZE
+            from orchestration.recording.writer_process import recorder_for
 
             # a thinned recording gets proportionally longer blocks: chunks of the usual size, and
             # fewer of them (the recording stream's bookkeeping grows with their number)
             block = min(BLOCK_SIZE * record_every, MAX_BLOCK)
-            with _recorder(target, record_every, writer) as recorder:
+            with recorder_for(target, record_every, writer) as recorder:
                 result = run(scenario, paths, observer=[*observers, recorder], block_size=block,
                              keep_samples=keep_samples)
             if recorder.output_error is not None:  # the disk took no more: stop, the finished runs are kept
@@ -94,16 +95,6 @@ def run_each(scenarios, paths, recording_for=None, keep_samples: bool = True, re
     if progress is not None:
         progress.close()
     return out
-
-
-def _recorder(target: Path, every: int, writer):
-    if writer is not None:
-        from orchestration.recording.writer_process import ChildRecorder
-
-        return ChildRecorder(writer, target, every)
-    from orchestration.recording.writer import RunRecorder
-
-    return RunRecorder(target, every=every)
 
 
 def exit_code(summaries: list[dict]) -> int:

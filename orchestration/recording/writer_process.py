@@ -203,6 +203,16 @@ def forked_writer():
         writer.close()
 
 
+def recorder_for(path: Path, every: int, writer: WriterProcess | None):
+    """The run's recorder of ``path``: written by ``writer`` (a ``ChildRecorder``), or in this process
+    (a ``RunRecorder``, which imports Rerun) when there is none."""
+    if writer is not None:
+        return ChildRecorder(writer, path, every)
+    from orchestration.recording.writer import RunRecorder
+
+    return RunRecorder(path, every=every)
+
+
 def _plain(result) -> SimpleNamespace:
     """A ``RunResult`` and its log records as plain namespaces: unpickling the master's classes would
     import the master, and fmpy with it, in the writer process."""
