@@ -15,6 +15,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from orchestration.cli import user_environment
 from orchestration.fmu_build.build import PACKAGE_ROOT
 
 PLAIN_NUMPY = PACKAGE_ROOT / "benchmarks" / "plain_numpy.py"
@@ -24,8 +25,10 @@ STARTUP_STOP_TIME = "0.01"  # one step: what is measured is start-up, loading an
 
 
 def _timed(argv: list[str], cwd: Path) -> float:
+    """Wall seconds of one process, started with the user's environment (each chooses its own BLAS threads)."""
+    env = user_environment()
     t0 = time.perf_counter()
-    proc = subprocess.run(argv, cwd=cwd, capture_output=True, text=True)
+    proc = subprocess.run(argv, cwd=cwd, capture_output=True, text=True, env=env)
     wall = time.perf_counter() - t0
     if proc.returncode != 0:
         raise RuntimeError(f"{' '.join(argv[:3])} failed: {proc.stderr.strip()[-500:]}")

@@ -4,6 +4,7 @@ and its exit status must be ``main``'s."""
 from __future__ import annotations
 
 import subprocess
+import sys
 
 from support.cli import SCRIPT, TIME_LIMIT, env_for, leftovers
 
@@ -28,3 +29,31 @@ def test_a_run_refused_exits_2_in_one_line_and_a_recorded_one_leaves_its_file(fm
     proc = _piped(["run", "paper", "--stop-time", "0.05", "--recording", "r.rrd", "--fmu-dir", str(fmu_dir)], tmp_path)
     assert proc.returncode == 0 and (tmp_path / "r.rrd").stat().st_size > 0, proc.stderr
     assert sorted(p.name for p in tmp_path.glob(".*")) == [] and leftovers(tmp_path) == []
+
+
+_BLAS_PROBE = (
+    "import os, sys\n"
+    "import orchestration.cli as cli\n"
+    "def probe(argv):\n"
+    "    before = 'numpy' in sys.modules\n"
+    "    import numpy\n"
+    "    threads = len(os.listdir('/proc/self/task'))\n"
+    "    print(os.environ.get('OPENBLAS_NUM_THREADS'), before, threads, cli.user_environment().get('OPENBLAS_NUM_THREADS'))\n"
+    "    return 0\n"
+    "cli.main = probe\n"
+    "sys.argv = ['sotc-cosim', 'list']\n"
+    "cli.console()\n"
+)
+
+
+def test_the_script_gives_numpys_blas_one_thread_unless_the_user_chose(tmp_path):
+    env = {k: v for k, v in env_for(tmp_path).items() if k != "OPENBLAS_NUM_THREADS"}
+    proc = subprocess.run([sys.executable, "-c", _BLAS_PROBE], cwd=tmp_path, capture_output=True, text=True,
+                          env=env, timeout=TIME_LIMIT)
+    assert proc.returncode == 0, proc.stderr
+    # set before numpy loaded; OpenBLAS started no thread of its own; the bench's children get the user's
+    assert proc.stdout.split() == ["1", "False", "1", "None"], proc.stdout
+    proc = subprocess.run([sys.executable, "-c", _BLAS_PROBE], cwd=tmp_path, capture_output=True, text=True,
+                          env={**env, "OPENBLAS_NUM_THREADS": "2"}, timeout=TIME_LIMIT)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.split()[::3] == ["2", "2"], proc.stdout  # the user's choice stands, and is passed on
