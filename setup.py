@@ -46,8 +46,7 @@ def hot_extensions() -> list:
     flags = compiled.CFLAGS.split()
     modules = [Extension(rel[:-3].replace("/", "."), [rel], extra_compile_args=flags, optional=True)
                for rel in compiled.HOT]
-    return cythonize(modules, build_dir="build/cython", quiet=True,
-                     compiler_directives={"language_level": 3, "annotation_typing": False})
+    return cythonize(modules, build_dir="build/cython", quiet=True, compiler_directives=compiled.DIRECTIVES)
 
 
 setup(ext_modules=hot_extensions(), cmdclass={"build_ext": OptionalBuildExt})

@@ -5,15 +5,15 @@ cimport cython
 from libc cimport math
 
 @cython.locals(acc=double, k=int)
-cpdef double dot(double[::1] a, double[::1] b, int n)
+cpdef double dot(double[::1] a, double[::1] b, int n) noexcept
 @cython.locals(acc=double, k=int)
 cpdef double dot_sequence(object a, object b)
 @cython.locals(k=int)
-cpdef void scale_into(double[::1] out, double a, double[::1] x, int n)
+cpdef void scale_into(double[::1] out, double a, double[::1] x, int n) noexcept
 @cython.locals(k=int)
-cpdef void add_scaled(double[::1] out, double a, double[::1] x, int n)
+cpdef void add_scaled(double[::1] out, double a, double[::1] x, int n) noexcept
 @cython.locals(acc=double, k=int)
-cpdef double trace(double[::1] A, int n)
+cpdef double trace(double[::1] A, int n) noexcept
 @cython.locals(acc=double, djj=double, i=int, j=int, k=int)
 cpdef bint cholesky(double[::1] A, int n, double[::1] L)
 @cython.locals(acc=double, i=int, k=int)
@@ -28,7 +28,7 @@ cpdef void tridiagonalize(double[::1] M, int n, double[::1] d, double[::1] e, do
 @cython.locals(count=int, q=double, i=int)
 cpdef int sturm_count(double[::1] d, double[::1] e, int n, double x)
 @cython.locals(lo=double, hi=double, r=double, i=int)
-cpdef (double, double) gershgorin(double[::1] d, double[::1] e, int n)
+cpdef (double, double) gershgorin(double[::1] d, double[::1] e, int n) noexcept
 @cython.locals(k=int, span=double)
 cpdef int halvings(double width, double resolution)
 @cython.locals(lo=double, hi=double, mid=double, it=int)

@@ -6,7 +6,7 @@ cimport cython
 from fmu_controller.elementary cimport atan2, cos, hypot, sin
 
 @cython.locals(c1=double, c2=double)
-cpdef (double, double, bint) clip_box(double v1, double v2, double bound)
+cpdef (double, double, bint) clip_box(double v1, double v2, double bound) noexcept
 cpdef bint _in_disc(double v1, double v2, double bound, double h) except -1
 @cython.locals(k=double, i=int)
 cpdef (double, double) shrink_into_disc(double v1, double v2, double bound)

@@ -13,7 +13,7 @@ cdef class CriticConstants:
     cdef public bint backstepping, coupled
 
 @cython.locals(a=double, h=double)
-cpdef double log_cosh(double x)
+cpdef double log_cosh(double x) noexcept
 @cython.locals(a=double, e=double)
 cpdef double _x_tanh_minus_log_cosh(double x, double t)
 cpdef double omega_term(double x, double t, double s, double r)
@@ -38,13 +38,13 @@ cpdef (double, double, double, double) policy_arguments(CriticConstants K, doubl
 @cython.locals(zd1=double, zd2=double)
 cpdef (double, double, double, double) error_rate(CriticConstants K, double zp1, double zp2, double zv1, double zv2,
                                                   double mu1, double mu2, double mu3, double mu4, double fe1,
-                                                  double fe2, double i11, double i12, double i22)
+                                                  double fe2, double i11, double i12, double i22) noexcept
 @cython.locals(zd1=double, zd2=double, zd3=double, zd4=double, rew=double, omega=double)
 cpdef (double, double, double, double, double, double) critic_row(
     CriticConstants K, double zp1, double zp2, double zv1, double zv2, double x1, double x2, double x3, double x4,
     double t1, double t2, double t3, double t4, double mu1, double mu2, double mu3, double mu4, double fe1,
     double fe2, double i11, double i12, double i22, double[::1] eta, int o)
-cpdef double normalisation(double ee)
+cpdef double normalisation(double ee) noexcept
 @cython.locals(s1=double, s2=double, s12=double, s112=double, s24=double)
 cpdef double probing_signal(double t, double amplitude=*)
 @cython.locals(N=int, a=int, k=int, g=double, acc=double)

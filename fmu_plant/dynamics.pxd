@@ -18,7 +18,7 @@ cpdef (double, double) forward_dynamics(double phi2, double dphi1, double dphi2,
 cdef (double, double, double) _inertia(double phi2, coef_t k)
 @cython.locals(s=double)
 cdef (double, double, double) _coriolis(double phi2, double dphi1, double dphi2, coef_t k)
-cdef (double, double) _friction(double dphi1, double dphi2, coef_t k)
+cdef (double, double) _friction(double dphi1, double dphi2, coef_t k) noexcept
 @cython.locals(h11=double, h12=double, h21=double, g1=double, g2=double)
 cdef (double, double) _bias(double phi2, double dphi1, double dphi2, coef_t k)
 @cython.locals(d11=double, d12=double, d22=double, det=double)

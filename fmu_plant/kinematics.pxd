@@ -10,7 +10,7 @@ cpdef (double, double, double, double) arm_points(double phi1, double phi2, doub
 cpdef (double, double) inverse_kinematics(double x, double y, double l1, double l2)
 @cython.locals(a=double)
 cpdef (double, double, double, double) jacobian(double phi1, double phi2, double l1, double l2)
-cpdef (double, double, double, double) jacobian_of(double s1, double c1, double sa, double ca, double l1, double l2)
+cpdef (double, double, double, double) jacobian_of(double s1, double c1, double sa, double ca, double l1, double l2) noexcept
 @cython.locals(j11=double, j12=double, j21=double, j22=double, det=double, dq1=double, dq2=double, a=double,
                s1=double, c1=double, sa=double, ca=double, da=double, jd1=double, jd2=double, rx=double, ry=double,
                ddq1=double, ddq2=double)

@@ -53,11 +53,12 @@ TIME_LIMIT = 900.0  # s for compiling one bundle
 CACHE = ("cores", "compiled")  # the cache folder under the private root (outputs.private_folder)
 LOCK_FILE = ".compile.lock"  # in the cache folder: one compile at a time across processes (a build compiles one
 # bundle after the other anyway)
-_SCRIPT = """import sys
+# Cython's directives for every build of the cores (setup.py's too); each module adds its own on its first line
+DIRECTIVES = {"language_level": 3, "annotation_typing": False}
+_SCRIPT = f"""import sys
 from setuptools import setup
 from Cython.Build import cythonize
-setup(ext_modules=cythonize(sys.argv[2:], quiet=True, nthreads=2,
-                            compiler_directives={"language_level": 3, "annotation_typing": False}),
+setup(ext_modules=cythonize(sys.argv[2:], quiet=True, nthreads=2, compiler_directives={DIRECTIVES!r}),
       script_args=["build_ext", "--inplace", "--parallel", "2", "--build-temp", sys.argv[1], "--build-lib", sys.argv[1]])
 """
 
