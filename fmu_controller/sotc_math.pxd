@@ -15,26 +15,26 @@ cdef class CriticConstants:
 @cython.locals(a=double, h=double)
 cpdef double log_cosh(double x) noexcept
 @cython.locals(a=double, e=double)
-cpdef double _x_tanh_minus_log_cosh(double x, double t)
-cpdef double omega_term(double x, double t, double s, double r)
-cpdef double omega_term_of_arg(double x, double s, double r)
+cpdef double _x_tanh_minus_log_cosh(double x, double t) noexcept
+cpdef double omega_term(double x, double t, double s, double r) noexcept
+cpdef double omega_term_of_arg(double x, double s, double r) noexcept
 cpdef double omega4(double x1, double x2, double x3, double x4, double t1, double t2, double t3, double t4, double s,
-                    double r1, double r2, double r3, double r4)
+                    double r1, double r2, double r3, double r4) noexcept
 cpdef double omega_of_arg(object x, double s, object r)
 @cython.locals(omega=double)
 cpdef (double, double) reward(CriticConstants K, double zp1, double zp2, double zv1, double zv2, double x1,
-                              double x2, double x3, double x4, double t1, double t2, double t3, double t4)
-cpdef void basis_into(double[::1] out, double a, double b, double c, double d)
+                              double x2, double x3, double x4, double t1, double t2, double t3, double t4) noexcept
+cpdef void basis_into(double[::1] out, double a, double b, double c, double d) noexcept
 cpdef list basis(object z)
-cpdef (double, double) hessian_phi_times(double[::1] W, double v1, double v2, double v3, double v4)
+cpdef (double, double) hessian_phi_times(double[::1] W, double v1, double v2, double v3, double v4) noexcept
 cpdef void directional_into(double[::1] out, int o, double a, double b, double c, double d, double p, double q,
-                            double u, double w)
-cpdef (double, double, double, double) gradient(double a, double b, double c, double d, double[::1] W)
+                            double u, double w) noexcept
+cpdef (double, double, double, double) gradient(double a, double b, double c, double d, double[::1] W) noexcept
 cpdef (double, double, double, double) value_gradient(object z, object W)
 @cython.locals(s=double, g1=double, g2=double, g3=double, g4=double)
 cpdef (double, double, double, double) policy_arguments(CriticConstants K, double zp1, double zp2, double zv1,
                                                         double zv2, double[::1] W, double i11, double i12,
-                                                        double i22)
+                                                        double i22) noexcept
 @cython.locals(zd1=double, zd2=double)
 cpdef (double, double, double, double) error_rate(CriticConstants K, double zp1, double zp2, double zv1, double zv2,
                                                   double mu1, double mu2, double mu3, double mu4, double fe1,
@@ -43,7 +43,7 @@ cpdef (double, double, double, double) error_rate(CriticConstants K, double zp1,
 cpdef (double, double, double, double, double, double) critic_row(
     CriticConstants K, double zp1, double zp2, double zv1, double zv2, double x1, double x2, double x3, double x4,
     double t1, double t2, double t3, double t4, double mu1, double mu2, double mu3, double mu4, double fe1,
-    double fe2, double i11, double i12, double i22, double[::1] eta, int o)
+    double fe2, double i11, double i12, double i22, double[::1] eta, int o) noexcept
 cpdef double normalisation(double ee) noexcept
 @cython.locals(s1=double, s2=double, s12=double, s112=double, s24=double)
 cpdef double probing_signal(double t, double amplitude=*)
