@@ -443,11 +443,12 @@ def format_markdown(data: dict) -> str:
 
 def _process_line(p: dict, repeats: int) -> str:
     span = lambda k: f"{p[k]['median']:.2f} s ({p[k]['min']:.2f}-{p[k]['max']:.2f})"  # noqa: E731
-    parts = [f"start-up, `sotc-cosim run paper --stop-time 0.01` recorded, {span('startup')}"] if "startup" in p else []
+    parts = [f"start-up, `sotc-cosim run paper --stop-time 0.01` recorded, {p['startup'].get('runs', repeats)} runs, "
+             f"{span('startup')}"] if "startup" in p else []
     if "script" in p:
         parts.append(f"`sotc-cosim run paper` {span('run')} against the same experiment as a numpy user would write "
-                     f"it (`benchmarks/plain_numpy.py`) {span('script')}: {p['ratio']:.2f}x")
-    return f"Whole processes (fresh interpreters, {repeats} each, median (min-max)): {'; '.join(parts)}."
+                     f"it (`benchmarks/plain_numpy.py`) {span('script')}, {repeats} each alternated: {p['ratio']:.2f}x")
+    return f"Whole processes (fresh interpreters, median (min-max)): {'; '.join(parts)}."
 
 
 def _trial_line(t: dict, what: str = "One tuning trial (the nominal SOTC design on the 8 training points of 20 s, "
