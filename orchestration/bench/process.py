@@ -15,8 +15,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from orchestration.cli import user_environment
 from orchestration.fmu_build.build import PACKAGE_ROOT
+from orchestration.threads import user_environment
 
 PLAIN_NUMPY = PACKAGE_ROOT / "benchmarks" / "plain_numpy.py"
 RUN = "from orchestration.cli import console; console()"  # what the installed script runs

@@ -17,6 +17,7 @@ from fmi_slave import VERSION
 from orchestration import exit_codes
 from orchestration.exit_codes import UsageError
 from orchestration.run import interrupt
+from orchestration.threads import one_blas_thread
 
 
 def _command_groups() -> tuple:
@@ -73,24 +74,14 @@ def main(argv: list[str] | None = None) -> int:
         return code
 
 
-BLAS_THREADS = "OPENBLAS_NUM_THREADS"  # read once, when numpy loads its OpenBLAS
-_blas_default_set = False  # whether ``console`` chose the BLAS threads (not the user)
-
-
 def console() -> None:
     """The ``sotc-cosim`` script: ``main``, then, after ``run``, out without tearing the interpreter down.
     When ``run`` returns, its outputs are written, closed and renamed, its writer process reaped and its
     FMUs freed: finalizing the interpreter (the loaded FMU binaries, numpy, fmpy) only took time, about
     40 ms of a one-step run's 0.5 s. Every other command exits as usual.
 
-    Before anything imports numpy, its BLAS gets one thread unless the user set ``OPENBLAS_NUM_THREADS``:
-    no command multiplies a matrix larger than the critic's 10 x 10, where OpenBLAS runs one thread
-    anyway, while its pool costs its start at numpy's import and spins idle on the core that the
-    recording's writer process (and a sweep's second worker, which inherits the setting) works on."""
-    global _blas_default_set
-    if BLAS_THREADS not in os.environ:
-        os.environ[BLAS_THREADS] = "1"
-        _blas_default_set = True
+    First, before anything imports numpy: one BLAS thread unless the user chose (``orchestration.threads``)."""
+    one_blas_thread()
     argv = sys.argv[1:]
     code = main(argv)
     if argv[:1] != ["run"]:
@@ -101,15 +92,6 @@ def console() -> None:
     except OSError:  # a closed pipe (| head): what was left to print has nowhere to go
         pass
     os._exit(code)
-
-
-def user_environment() -> dict[str, str]:
-    """This process's environment without what ``console`` set itself: for the processes the bench times
-    as a user starts them (a plain numpy script gets OpenBLAS's own default there)."""
-    env = dict(os.environ)
-    if _blas_default_set:
-        env.pop(BLAS_THREADS, None)
-    return env
 
 
 if __name__ == "__main__":

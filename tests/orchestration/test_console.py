@@ -34,11 +34,12 @@ def test_a_run_refused_exits_2_in_one_line_and_a_recorded_one_leaves_its_file(fm
 _BLAS_PROBE = (
     "import os, sys\n"
     "import orchestration.cli as cli\n"
+    "from orchestration.threads import user_environment\n"
     "def probe(argv):\n"
     "    before = 'numpy' in sys.modules\n"
     "    import numpy\n"
     "    threads = len(os.listdir('/proc/self/task'))\n"
-    "    print(os.environ.get('OPENBLAS_NUM_THREADS'), before, threads, cli.user_environment().get('OPENBLAS_NUM_THREADS'))\n"
+    "    print(os.environ.get('OPENBLAS_NUM_THREADS'), before, threads, user_environment().get('OPENBLAS_NUM_THREADS'))\n"
     "    return 0\n"
     "cli.main = probe\n"
     "sys.argv = ['sotc-cosim', 'list']\n"
