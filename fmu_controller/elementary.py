@@ -15,7 +15,7 @@ integer are exact, then a fixed polynomial on the reduced interval. The constant
 are derived in exact rational arithmetic by ``docs/elementary_coefficients.py`` (Chebyshev
 economization of the Taylor series; a test checks that this module holds exactly its output).
 
-Compiled, it divides as C (first line: no zero test, no path that raises): no denominator here can be 0.
+Compiled, it divides as C (first line: no zero test, no ZeroDivisionError): no denominator here can be 0.
 
 Accuracy: within 1 ulp of the exact value on the tested ranges (tests/unit/test_elementary.py,
 against an extended-precision reference). Special values follow C99 Annex F (nan in, nan out;

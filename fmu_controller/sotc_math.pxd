@@ -8,8 +8,8 @@ from fmu_controller.elementary cimport atanh, cos, exp, log, log1p, sin, sinh, t
 
 cdef double LN2  # a C constant: no module lookup per sample
 
-cdef class CriticConstants:
-    cdef public double s, r1, r2, r3, r4, theta1, theta2, theta3, theta4, lam11, lam12, lam21, lam22
+cdef class CriticConstants:  # read-only: s and r_i are checked once, in __init__
+    cdef readonly double s, r1, r2, r3, r4, theta1, theta2, theta3, theta4, lam11, lam12, lam21, lam22
     cdef public bint backstepping, coupled
 
 @cython.locals(a=double, h=double)

@@ -214,6 +214,8 @@ class CriticConstants:
 
     def __init__(self, s: float, r: Sequence[float], theta: Sequence[float], lam1: Sequence[float],
                  lam2: Sequence[float], backstepping: bool, coupled: bool):
+        if not all(2.0 * s * r_i > 0.0 for r_i in r):  # the denominators of ``policy_arguments``
+            raise ValueError(f"s = {s!r} and r = {tuple(r)!r} must be positive, with 2 s r_i > 0")
         self.s = s
         self.r1, self.r2, self.r3, self.r4 = r
         self.theta1, self.theta2, self.theta3, self.theta4 = theta

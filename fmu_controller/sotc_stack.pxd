@@ -36,7 +36,7 @@ cdef class CLStack:
     cpdef void clear(self) except *
     cdef void _bind(self) except *
     cpdef void refresh(self) except *
-    cpdef double[::1] cl_terms(self, double[::1] W) noexcept
+    cpdef double[::1] cl_terms(self, double[::1] W)
     @cython.locals(n=int, margin=double, lam=double, rank=int)
     cpdef (double, int, double) spectrum(self, double shift=*) except *
     @cython.locals(ready=bint, lam=double, rank=int, margin=double, row=int)

@@ -249,7 +249,10 @@ class CLStack:
             cl_matrix(self.count, self.E, self.rew_now, self.M, self.b, self.sc)
 
     def terms(self, W: Sequence[float]) -> array:
-        """``cl_terms`` at weights W given as any sequence of 10 floats."""
+        """``cl_terms`` at weights W given as any sequence of 10 floats (checked: compiled, the kernels read
+        their weights without bounds checks)."""
+        if len(W) != N_BASIS:
+            raise ValueError(f"W has {len(W)} weights, the critic {N_BASIS}")
         return self.cl_terms(as_buffer(W))
 
     def cl_terms(self, W: array) -> array:

@@ -6,6 +6,7 @@ from __future__ import annotations
 import subprocess
 import sys
 
+from orchestration.threads import USER_CHOICES
 from support.cli import SCRIPT, TIME_LIMIT, env_for, leftovers
 
 
@@ -47,14 +48,18 @@ _BLAS_PROBE = (
 )
 
 
-def test_the_script_gives_numpys_blas_one_thread_unless_the_user_chose(tmp_path):
-    env = {k: v for k, v in env_for(tmp_path).items() if k != "OPENBLAS_NUM_THREADS"}
+def _probe(env: dict[str, str], tmp_path) -> list[str]:
     proc = subprocess.run([sys.executable, "-c", _BLAS_PROBE], cwd=tmp_path, capture_output=True, text=True,
                           env=env, timeout=TIME_LIMIT)
     assert proc.returncode == 0, proc.stderr
+    return proc.stdout.split()
+
+
+def test_the_script_gives_numpys_blas_one_thread_unless_the_user_chose(tmp_path):
+    env = {k: v for k, v in env_for(tmp_path).items() if k not in USER_CHOICES}
     # set before numpy loaded; OpenBLAS started no thread of its own; the bench's children get the user's
-    assert proc.stdout.split() == ["1", "False", "1", "None"], proc.stdout
-    proc = subprocess.run([sys.executable, "-c", _BLAS_PROBE], cwd=tmp_path, capture_output=True, text=True,
-                          env={**env, "OPENBLAS_NUM_THREADS": "2"}, timeout=TIME_LIMIT)
-    assert proc.returncode == 0, proc.stderr
-    assert proc.stdout.split()[::3] == ["2", "2"], proc.stdout  # the user's choice stands, and is passed on
+    assert _probe(env, tmp_path) == ["1", "False", "1", "None"]
+    out = _probe({**env, "OPENBLAS_NUM_THREADS": "2"}, tmp_path)  # the user's choice stands, and is passed on
+    assert [out[0], out[1], out[3]] == ["2", "False", "2"], out
+    out = _probe({**env, "OMP_NUM_THREADS": "2"}, tmp_path)  # another variable OpenBLAS reads: the user's too
+    assert [out[0], out[1], out[3]] == ["None", "False", "None"], out

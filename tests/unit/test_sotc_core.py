@@ -48,6 +48,9 @@ def test_basis_gradient_matches_finite_differences():
         grad = lambda zz: np.array(sm.value_gradient(zz, W))  # noqa: E731
         hess_fd = np.column_stack([(grad(z + h * e) - grad(z - h * e)) / (2 * h) for e in E])
         assert np.allclose(sm.value_hessian(W), hess_fd, rtol=0, atol=1e-6)
+        S = sm.weights_to_matrix(W)
+        assert math.isclose(z @ S @ z, J(z), rel_tol=1e-12, abs_tol=1e-12)
+        assert np.allclose(sm.matrix_to_weights(S), W, rtol=0, atol=1e-15)
 
 
 @pytest.mark.parametrize("n", [9, 11])
@@ -55,9 +58,6 @@ def test_value_gradient_refuses_weights_of_another_length(n):
     # compiled, the gradient reads its weights without bounds checks: the wrapper on sequences checks
     with pytest.raises(ValueError, match=f"W has {n} weights, the critic 10"):
         sm.value_gradient((0.1, 0.2, 0.3, 0.4), [1.0] * n)
-        S = sm.weights_to_matrix(W)
-        assert math.isclose(z @ S @ z, J(z), rel_tol=1e-12, abs_tol=1e-12)
-        assert np.allclose(sm.matrix_to_weights(S), W, rtol=0, atol=1e-15)
 
 
 # --- saturated cost, eqs. (13)-(17) -------------------------------------------------------------------------
