@@ -60,6 +60,14 @@ def test_value_gradient_refuses_weights_of_another_length(n):
         sm.value_gradient((0.1, 0.2, 0.3, 0.4), [1.0] * n)
 
 
+@pytest.mark.parametrize("s, r", [(0.0, (1.0, 1.0, 1.0, 1.0)), (0.6, (1.0, 0.0, 1.0, 1.0)), (1e-200, (1e-200,) * 4),
+                                  (0.6, (1.0, 1.0, -1.0, 1.0)), (float("nan"), (1.0,) * 4)])
+def test_critic_constants_refuse_a_policy_denominator_that_is_not_positive(s, r):
+    # compiled, policy_arguments divides by 2 s r_i without a zero test
+    with pytest.raises(ValueError, match="must be positive"):
+        sm.CriticConstants(s, r, (1.0,) * 4, (1.0, 1.0), (1.0, 1.0), False, True)
+
+
 # --- saturated cost, eqs. (13)-(17) -------------------------------------------------------------------------
 
 
