@@ -201,9 +201,15 @@ def gradient(a: float, b: float, c: float, d: float, W: array) -> tuple[float, f
 
 def value_gradient(z: Sequence[float], W: Sequence[float]) -> tuple[float, float, float, float]:
     """``gradient`` on sequences (W: the N_BASIS weights)."""
+    return gradient(z[0], z[1], z[2], z[3], weights_buffer(W))
+
+
+def weights_buffer(W: Sequence[float]) -> array:
+    """The critic's weights given as any sequence, as a float64 buffer, their number checked: compiled, the
+    kernels read them without bounds checks."""
     if len(W) != N_BASIS:
         raise ValueError(f"W has {len(W)} weights, the critic {N_BASIS}")
-    return gradient(z[0], z[1], z[2], z[3], as_buffer(W))
+    return as_buffer(W)
 
 
 class CriticConstants:

@@ -49,10 +49,11 @@ from typing import Any, Sequence
 import numpy as np
 
 from fmu_controller.elementary import tanh
-from fmu_controller.fixed_linalg import (EPS, as_buffer, buffer, cholesky, dot, forward_substitute,
+from fmu_controller.fixed_linalg import (EPS, buffer, cholesky, dot, forward_substitute,
                                          smallest_eigenvalue, sturm_count, trace)
 from fmu_controller.fixed_linalg_interpreted import in_order
-from fmu_controller.sotc_math import N_BASIS, CriticConstants, critic_row, normalisation, policy_arguments
+from fmu_controller.sotc_math import (N_BASIS, CriticConstants, critic_row, normalisation, policy_arguments,
+                                      weights_buffer)
 
 SELECTIONS = ("maxeig", "fill", "fifo", "maxeig-raw")
 REPLAYS = ("current", "stored")
@@ -249,11 +250,8 @@ class CLStack:
             cl_matrix(self.count, self.E, self.rew_now, self.M, self.b, self.sc)
 
     def terms(self, W: Sequence[float]) -> array:
-        """``cl_terms`` at weights W given as any sequence of 10 floats (checked: compiled, the kernels read
-        their weights without bounds checks)."""
-        if len(W) != N_BASIS:
-            raise ValueError(f"W has {len(W)} weights, the critic {N_BASIS}")
-        return self.cl_terms(as_buffer(W))
+        """``cl_terms`` at weights W given as any sequence of 10 floats (``weights_buffer``)."""
+        return self.cl_terms(weights_buffer(W))
 
     def cl_terms(self, W: array) -> array:
         """The CL sum M W + b of (30)/(31) at the weights W (a float64 buffer; the result is a buffer kept by
