@@ -16,9 +16,10 @@ same bits (docs/paper-notes.md, section 2.10b).
 
 Compiled, the kernels index their buffers without bounds checks and divide without a zero test (the
 directive on the first line, inert in Python): every index is a fixed offset below the sizes the
-controller and its CL stack allocate (N_BASIS weights, rows of N_BASIS), the wrappers on sequences check
-the length they are given, and every denominator is positive (1 + e^{-2|x|}; 2 s r_i, with s and r_i at
-least 1e-6 by the controller's parameter ranges). So no kernel has a path that raises.
+controller and its CL stack allocate (N_BASIS weights, rows of N_BASIS), weights given as a sequence
+have their number checked (``weights_buffer``), and every denominator is positive (1 + e^{-2|x|}; 2 s r_i,
+which ``CriticConstants`` checks once). So the kernels that call neither sin nor cos (whose reduction of
+huge arguments uses Python integers) nor the interpreted paths have no path that raises.
 
 Symbols: ``s`` is the saturation level of the optimal input (sigma in the chosen reading, see
 ``docs/paper-notes.md``), ``x`` the *pre-saturation argument* of the control law (28), i.e.
