@@ -15,7 +15,7 @@ from fractions import Fraction as F
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from fmu_controller.elementary import _pi_scaled  # noqa: E402
+from fmu_controller.elementary_big import _pi_scaled  # noqa: E402
 
 BITS = 300
 TOL = F(1, 2**60)

@@ -19,10 +19,8 @@ cdef double ATAN_POLY[13]
 cdef double POW2_E[10]
 cdef double POW2_UP[10]
 cdef double POW2_DOWN[10]
-cdef int EXP_N, LOG_N, TANH_N, SINH_N, SIN_N, COS_N, ATAN_N, POW2_N
+cdef int POW2_N
 
-@cython.locals(acc=double, i=int)
-cdef double _horner(double x, const double* coeffs, int n) noexcept
 cdef double _nearest(double v) noexcept
 @cython.locals(e=int)
 cdef double _pow2(double k) noexcept
@@ -31,31 +29,35 @@ cdef double _scale(double y, double k) noexcept
 cdef (double, double) _normalize(double u) noexcept
 @cython.locals(p=double, t=double, ah=double, al=double, bh=double, bl=double)
 cdef (double, double) _two_prod(double a, double b) noexcept
-@cython.locals(k=double, r=double, one_r=double, tail=double, hi=double)
+@cython.locals(k=double, r=double, one_r=double, c="const double *", series=double, tail=double, hi=double)
 cdef (double, double, double) _exp_parts(double x) noexcept
 @cython.locals(k=double, hi=double, lo=double)
 cpdef double exp(double x) noexcept
-@cython.locals(s=double, z=double, hfsq=double)
+@cython.locals(s=double, z=double, hfsq=double, q="const double *", series=double)
 cdef double _log_reduced(double k, double f, double c) noexcept
 @cython.locals(k=double, m=double)
 cpdef double log(double x) noexcept
 cpdef double log1p(double x) noexcept
 @cython.locals(u=double, err=double, k=double, m=double)
 cdef double _log1p_parts(double x, double xl) noexcept
-@cython.locals(a=double, z=double, zl=double, p=double, pl=double, t=double, k=double, hi=double, lo=double,
-               scale=double, d=double, dl=double, q=double, ql=double)
+@cython.locals(z=double, zl=double, c="const double *", series=double, p=double, pl=double, t=double)
+cdef double _tanh_poly(double x) noexcept
+@cython.locals(z=double, c="const double *")
+cdef double _sinh_poly(double x) noexcept
+@cython.locals(a=double, t=double, k=double, hi=double, lo=double, scale=double, d=double, dl=double, q=double,
+               ql=double, p=double, pl=double)
 cpdef double tanh(double x) noexcept
 @cython.locals(k=double, hi=double, lo=double, inv=double)
 cdef double _exp_pair(double a, double sign) noexcept
-@cython.locals(a=double, z=double, h=double)
+@cython.locals(a=double, h=double)
 cpdef double sinh(double x) noexcept
 @cython.locals(a=double, h=double)
 cpdef double cosh(double x) noexcept
 @cython.locals(a=double, d=double, dl=double, y=double, p=double, pl=double, r=double)
 cpdef double atanh(double x) noexcept
-@cython.locals(z=double)
+@cython.locals(z=double, c="const double *", series=double)
 cdef double _sin_kernel(double hi, double lo) noexcept
-@cython.locals(z=double, hz=double, w=double)
+@cython.locals(z=double, hz=double, w=double, c="const double *", series=double)
 cdef double _cos_kernel(double hi, double lo) noexcept
 @cython.locals(k=double, a=double, b=double, r=double, bv=double, err=double, tail=double, hi=double, q=double,
                n=double)
@@ -64,10 +66,12 @@ cdef (double, double, double) _reduce(double x)
 cpdef double sin(double x)
 @cython.locals(a=double, n=double, hi=double, lo=double, v=double)
 cpdef double cos(double x)
+@cython.locals(a=double, n=double, hi=double, lo=double, s=double, c=double)
+cpdef (double, double) sincos(double x)
 @cython.locals(b=double, s=double, bv=double, err=double)
 cdef double _two_sum_plus(double a_hi, double a_lo, double sign, double b_hi, double b_lo) noexcept
 @cython.locals(num=double, den=double, den_lo=double, c_hi=double, c_lo=double, r=double, p=double, pl=double,
-               rl=double, z=double)
+               rl=double, z=double, c="const double *", series=double)
 cdef (double, double) _atan_ratio(double n, double d, double extra) noexcept
 @cython.locals(neg_x=bint, t=double)
 cdef double _atan2_special(double y, double x) noexcept

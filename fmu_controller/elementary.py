@@ -13,19 +13,21 @@ Method (Cody & Waite, "Software Manual for the Elementary Functions", 1980; the 
 fdlibm): an argument reduction with a constant split in parts whose products with the reduction's
 integer are exact, then a fixed polynomial on the reduced interval. The constants and polynomials
 are derived in exact rational arithmetic by ``docs/elementary_coefficients.py`` (Chebyshev
-economization of the Taylor series; a test checks that this module holds exactly its output).
-
-Compiled, it divides as C (first line: no zero test, no ZeroDivisionError): no denominator here can be 0.
+economization of the Taylor series; a test checks that this module holds exactly its output). Each
+polynomial is Horner's rule written out: the operations of the loop from 0.0, in
+its order, without the loop's cost. Compiled, it divides as C (no zero test): no denominator can be 0.
 
 Accuracy: within 1 ulp of the exact value on the tested ranges (tests/unit/test_elementary.py,
 against an extended-precision reference). Special values follow C99 Annex F (nan in, nan out;
 inf, signed zero; overflow to inf; results in the subnormal range are rounded twice, still within
 1 ulp of the subnormal spacing). sin and cos reduce |x| <= 2^20 by a three-part pi/2 (exact for
-that range); beyond it by exact integer arithmetic with pi to 1300 bits (slow, still the same bits).
+that range); beyond it in exact integer arithmetic (``elementary_big``: slow, the same bits).
 """
 from __future__ import annotations
 
 import math
+
+from fmu_controller.elementary_big import reduce_big
 
 INF = float("inf")
 NAN = float("nan")
@@ -74,14 +76,10 @@ ATAN_POLY = (-0.3333333333333333, 0.19999999999999973, -0.14285714285706191, 0.1
              -0.012531151601365812)
 # ----------------------------------------------------------------------------------------------------
 
-# e, 2^e and 2^-e for the exact power-of-two scalings, largest first
-POW2_E = tuple(float(1 << i) for i in range(9, -1, -1))
+POW2_E = tuple(float(1 << i) for i in range(9, -1, -1))  # e, 2^e, 2^-e for exact scalings, largest first
 POW2_UP = tuple(float.fromhex(f"0x1p{1 << i}") for i in range(9, -1, -1))
 POW2_DOWN = tuple(float.fromhex(f"0x1p-{1 << i}") for i in range(9, -1, -1))
-# the lengths, C ints where compiled (len() of a C array builds a Python list on every call)
-EXP_N, LOG_N, TANH_N, SINH_N, SIN_N, COS_N, ATAN_N, POW2_N = (len(EXP_POLY), len(LOG_POLY), len(TANH_POLY),
-                                                              len(SINH_POLY), len(SIN_POLY), len(COS_POLY),
-                                                              len(ATAN_POLY), len(POW2_E))
+POW2_N = len(POW2_E)  # a C int where compiled (len() of a C array builds a Python list on every call)
 EXP_OVER = 709.782712893384  # the largest x with exp(x) finite
 EXP_UNDER = -745.1332191019412  # below it exp(x) rounds to 0
 SINH_OVER = 710.4758600739439  # the largest x with sinh(x), cosh(x) finite
@@ -90,15 +88,6 @@ TANH_POLY_MAX = 0.5
 SINH_POLY_MAX = 1.0
 COSH_HALF_MAX = 0.5
 MEDIUM = 1048576.0  # 2^20: sin and cos reduce up to here with the three-part pi/2
-BIG_BITS = 1300  # bits of pi for the reduction beyond MEDIUM (covers every finite double)
-
-
-def _horner(x: float, coeffs: tuple, n: int) -> float:
-    """coeffs[0] + coeffs[1] x + ... + coeffs[n-1] x^(n-1) evaluated from the highest power (fixed order)."""
-    acc = 0.0
-    for i in range(n - 1, -1, -1):
-        acc = acc * x + coeffs[i]
-    return acc
 
 
 def _nearest(v: float) -> float:
@@ -161,7 +150,10 @@ def _exp_parts(x: float) -> tuple:
     k = _nearest(x * INV_LN2)
     r = (x - k * LN2_HI) - k * LN2_LO
     one_r = 1.0 + r
-    tail = ((1.0 - one_r) + r) + r * r * _horner(r, EXP_POLY, EXP_N)
+    c = EXP_POLY  # e^r = 1 + r + r^2 (c[0] + c[1] r + ...), Horner's rule from the highest power
+    series = ((((((((((((0.0 * r + c[11]) * r + c[10]) * r + c[9]) * r + c[8]) * r + c[7]) * r + c[6]) * r + c[5])
+             * r + c[4]) * r + c[3]) * r + c[2]) * r + c[1]) * r + c[0])
+    tail = ((1.0 - one_r) + r) + r * r * series
     hi = one_r + tail
     return k, hi, (one_r - hi) + tail
 
@@ -186,7 +178,10 @@ def _log_reduced(k: float, f: float, c: float) -> float:
     s = f / (2.0 + f)
     z = s * s
     hfsq = 0.5 * f * f
-    return k * LN2_HI + (f - (hfsq - (s * (hfsq + z * _horner(z, LOG_POLY, LOG_N)) + (k * LN2_LO + c))))
+    q = LOG_POLY  # Q(z) = q[0] + q[1] z + ..., Horner's rule from the highest power
+    series = (((((((((0.0 * z + q[8]) * z + q[7]) * z + q[6]) * z + q[5]) * z + q[4]) * z + q[3]) * z + q[2])
+             * z + q[1]) * z + q[0])
+    return k * LN2_HI + (f - (hfsq - (s * (hfsq + z * series) + (k * LN2_LO + c))))
 
 
 def log(x: float) -> float:
@@ -219,6 +214,25 @@ def _log1p_parts(x: float, xl: float) -> float:
     return _log_reduced(k, m - 1.0, (err + xl) / u)
 
 
+def _tanh_poly(x: float) -> float:
+    """tanh x = x + x^3 T(x^2) for |x| <= TANH_POLY_MAX, x^2 and the product with their exact errors (``_two_prod``)."""
+    z, zl = _two_prod(x, x)
+    c = TANH_POLY
+    series = ((((((((((((0.0 * z + c[11]) * z + c[10]) * z + c[9]) * z + c[8]) * z + c[7]) * z + c[6]) * z + c[5])
+             * z + c[4]) * z + c[3]) * z + c[2]) * z + c[1]) * z + c[0])
+    p, pl = _two_prod(x, z * series + zl * c[0])
+    t = x + p
+    return t + ((p - (t - x)) + pl)  # Fast2Sum: |x| > |p|
+
+
+def _sinh_poly(x: float) -> float:
+    """sinh x = x + x^3 S(x^2) for |x| <= SINH_POLY_MAX."""
+    z = x * x
+    c = SINH_POLY
+    return x + x * (z * (((((((((0.0 * z + c[7]) * z + c[6]) * z + c[5]) * z + c[4]) * z + c[3]) * z + c[2])
+                         * z + c[1]) * z + c[0])))
+
+
 def tanh(x: float) -> float:
     """tanh x: x + x^3 T(x^2) for |x| <= TANH_POLY_MAX, else 1 - 2 / (e^{2|x|} + 1) with e^{2|x|} + 1 from
     ``_exp_parts`` before rounding and the quotient's error kept (``_two_prod``); +-1 beyond 22."""
@@ -226,10 +240,7 @@ def tanh(x: float) -> float:
     if not a > TINY:
         return x
     if a <= TANH_POLY_MAX:
-        z, zl = _two_prod(x, x)
-        p, pl = _two_prod(x, z * _horner(z, TANH_POLY, TANH_N) + zl * TANH_POLY[0])
-        t = x + p
-        return t + ((p - (t - x)) + pl)  # Fast2Sum: |x| > |p|
+        return _tanh_poly(x)
     if a > 22.0:
         t = 1.0
     else:
@@ -258,8 +269,7 @@ def sinh(x: float) -> float:
     if not a > TINY or a == INF:
         return x
     if a <= SINH_POLY_MAX:
-        z = x * x
-        return x + x * (z * _horner(z, SINH_POLY, SINH_N))
+        return _sinh_poly(x)
     h = _exp_pair(a, -1.0) if a <= SINH_OVER else INF
     return h if x > 0.0 else -h
 
@@ -294,7 +304,9 @@ def atanh(x: float) -> float:
 def _sin_kernel(hi: float, lo: float) -> float:
     """sin(hi + lo) for |hi| <= pi/4 (+ rounding), |lo| <= ulp(hi): hi + hi^3 S(hi^2) + lo (1 - hi^2/2)."""
     z = hi * hi
-    return hi + ((hi * z) * _horner(z, SIN_POLY, SIN_N) + (lo - 0.5 * z * lo))
+    c = SIN_POLY
+    series = ((((((0.0 * z + c[6]) * z + c[5]) * z + c[4]) * z + c[3]) * z + c[2]) * z + c[1]) * z + c[0]
+    return hi + ((hi * z) * series + (lo - 0.5 * z * lo))
 
 
 def _cos_kernel(hi: float, lo: float) -> float:
@@ -302,43 +314,16 @@ def _cos_kernel(hi: float, lo: float) -> float:
     z = hi * hi
     hz = 0.5 * z
     w = 1.0 - hz
-    return w + (((1.0 - w) - hz) + (z * z * _horner(z, COS_POLY, COS_N) - hi * lo))
-
-
-def _pi_scaled(bits: int) -> int:
-    """pi 2^bits as an integer (Machin: pi = 16 atan(1/5) - 4 atan(1/239)), off by a few units at most."""
-    one = 1 << (bits + 20)
-    total = 0
-    for n, weight in ((5, 16), (239, -4)):
-        power, k, sign = one // n, 1, 1
-        while power:
-            total += weight * sign * (power // k)
-            power //= n * n
-            k += 2
-            sign = -sign
-    return total >> 20
-
-
-PIO2_BIG = _pi_scaled(BIG_BITS) >> 1  # pi/2 2^BIG_BITS
-
-
-def _reduce_big(x: float) -> tuple:
-    """(n mod 4, hi, lo) with x = n pi/2 + hi + lo, in exact integer arithmetic (any finite x)."""
-    num, den = x.as_integer_ratio()
-    scaled = (num << BIG_BITS) // den  # exact: den is a power of two below 2^BIG_BITS
-    n = (2 * scaled + PIO2_BIG) // (2 * PIO2_BIG)
-    rest = scaled - n * PIO2_BIG
-    hi = rest / (1 << BIG_BITS)
-    hn, hd = hi.as_integer_ratio()
-    lo = (rest * hd - (hn << BIG_BITS)) / (hd << BIG_BITS)
-    return float(n % 4), hi, lo  # integer arithmetic: exact
+    c = COS_POLY
+    series = ((((((0.0 * z + c[6]) * z + c[5]) * z + c[4]) * z + c[3]) * z + c[2]) * z + c[1]) * z + c[0]
+    return w + (((1.0 - w) - hz) + (z * z * series - hi * lo))
 
 
 def _reduce(x: float) -> tuple:
     """(n mod 4, hi, lo) with x = n pi/2 + hi + lo, |hi| <= pi/4 (+ rounding): Cody-Waite with pi/2 in
     three parts for |x| <= 2^20 (k pio2_1 and k pio2_2 exact), the subtraction's error kept (TwoSum)."""
     if abs(x) > MEDIUM:
-        return _reduce_big(x)
+        return reduce_big(x)
     k = _nearest(x * INV_PIO2)
     a = x - k * PIO2_1
     b = k * PIO2_2
@@ -378,6 +363,18 @@ def cos(x: float) -> float:
     return v if n == 0.0 or n == 3.0 else -v
 
 
+def sincos(x: float) -> tuple:
+    """(sin x, cos x), each the bits of ``sin``, ``cos``; beyond pi/4 the reduction is done once for both."""
+    a = abs(x)
+    if not a > QUARTER_PI_HI or a == INF:
+        return sin(x), cos(x)
+    n, hi, lo = _reduce(x)
+    s, c = _sin_kernel(hi, lo), _cos_kernel(hi, lo)
+    if n < 2.0:
+        return (s, c) if n == 0.0 else (c, -s)
+    return (-s, -c) if n == 2.0 else (-c, s)
+
+
 def _two_sum_plus(a_hi: float, a_lo: float, sign: float, b_hi: float, b_lo: float) -> float:
     """(a_hi + a_lo) + sign (b_hi + b_lo), the leading sum's rounding error kept (TwoSum)."""
     b = sign * b_hi
@@ -404,7 +401,10 @@ def _atan_ratio(n: float, d: float, extra: float) -> tuple:
     p, pl = _two_prod(r, den)
     rl = (((num - p) - pl) - r * den_lo) / den
     z = r * r
-    return c_hi, c_lo + (r + (r * (z * _horner(z, ATAN_POLY, ATAN_N)) + (rl / (1.0 + z) + extra)))
+    c = ATAN_POLY
+    series = (((((((((((((0.0 * z + c[12]) * z + c[11]) * z + c[10]) * z + c[9]) * z + c[8]) * z + c[7]) * z + c[6])
+             * z + c[5]) * z + c[4]) * z + c[3]) * z + c[2]) * z + c[1]) * z + c[0])
+    return c_hi, c_lo + (r + (r * (z * series) + (rl / (1.0 + z) + extra)))
 
 
 def _atan2_special(y: float, x: float) -> float:

@@ -9,8 +9,8 @@ build keeps ``elementary``'s C functions.
 How the bits stay the same: every element goes through exactly the scalar function's sequence of
 IEEE-754 operations (numpy's +, -, *, / on float64 are correctly rounded, elementwise, with no fused
 multiply-add; no reduction, and none of numpy's own exp, tanh, log ..., which are libm's or SIMD code
-and differ by CPU). ``elementary``'s helpers that are arithmetic alone (``_horner``, ``_two_prod``,
-``_exp_parts``, ``_log_reduced``) run on the arrays as they are. A branch of the scalar function
+and differ by CPU). ``elementary``'s helpers that are arithmetic alone (``_tanh_poly``, ``_sinh_poly``,
+``_two_prod``, ``_exp_parts``, ``_log_reduced``) run on the arrays as they are. A branch of the scalar function
 becomes a mask (``by_branch``): the main branch, where a run's arguments nearly all fall, is computed
 on every element and kept where it applies; the few other elements go through the scalar function
 itself, or, when there are many, through every branch as masks (``np.where``). Array code runs under
@@ -25,10 +25,9 @@ from __future__ import annotations
 import numpy as np
 
 from fmu_controller import elementary as el
-from fmu_controller.elementary import (EXP_OVER, EXP_UNDER, INF, NAN, P2_60, P2_500, P2_M54, P2_M500, SINH_N,
-                                       SINH_OVER, SINH_POLY, SINH_POLY_MAX, SQRT_HALF, TANH_N, TANH_POLY,
-                                       TANH_POLY_MAX, TINY, _corrected_root, _exp_parts, _horner, _log_reduced,
-                                       _sum_of_squares, _two_prod)
+from fmu_controller.elementary import (EXP_OVER, EXP_UNDER, INF, NAN, P2_60, P2_500, P2_M54, P2_M500, SINH_OVER,
+                                       SINH_POLY_MAX, SQRT_HALF, TANH_POLY_MAX, TINY, _corrected_root, _exp_parts,
+                                       _log_reduced, _sinh_poly, _sum_of_squares, _tanh_poly, _two_prod)
 
 FEW = 8  # elements outside a function's main branch computed one by one (cheaper than its other branches as arrays)
 
@@ -126,13 +125,6 @@ def _tanh_all(x: np.ndarray) -> np.ndarray:
     return np.where(a > TINY, t, x)
 
 
-def _tanh_poly(x: np.ndarray) -> np.ndarray:
-    z, zl = _two_prod(x, x)
-    p, pl = _two_prod(x, z * _horner(z, TANH_POLY, TANH_N) + zl * TANH_POLY[0])
-    t = x + p
-    return t + ((p - (t - x)) + pl)
-
-
 def _tanh_exp(a: np.ndarray) -> np.ndarray:
     k, hi, lo = _exp_parts(a + a)
     scale = _pow2(k)
@@ -150,11 +142,6 @@ def sinh(x: np.ndarray) -> np.ndarray:
     with np.errstate(all="ignore"):
         a = np.abs(x)
         return by_branch(x, (a > TINY) & (a <= SINH_POLY_MAX), _sinh_poly, _sinh_all, el.sinh)
-
-
-def _sinh_poly(x: np.ndarray) -> np.ndarray:
-    z = x * x
-    return x + x * (z * _horner(z, SINH_POLY, SINH_N))
 
 
 def _sinh_all(x: np.ndarray) -> np.ndarray:
