@@ -3,7 +3,7 @@
 # libc's here (sqrt, ceil, isfinite: exact or correctly rounded); cos, sin, tanh and hypot are elementary.pxd's.
 cimport cython
 from libc cimport math
-from fmu_controller.elementary cimport cos, hypot, sin, tanh
+from fmu_controller.elementary cimport cos, hypot, sin, sincos, tanh
 
 ctypedef (double, double, double, double, double, double, double) coef_t  # ArmParameters.coefficients
 
@@ -14,16 +14,15 @@ cpdef (double, double) bias_torque(double phi2, double dphi1, double dphi2, obje
 cpdef (double, double) solve_inertia(double phi2, double r1, double r2, object p)
 cpdef (double, double) forward_dynamics(double phi2, double dphi1, double dphi2, double tau1, double tau2, object p)
 
-@cython.locals(c2=double)
-cdef (double, double, double) _inertia(double phi2, coef_t k)
+cdef (double, double, double) _inertia(double c2, coef_t k) noexcept
 @cython.locals(s=double)
-cdef (double, double, double) _coriolis(double phi2, double dphi1, double dphi2, coef_t k)
+cdef (double, double, double) _coriolis(double s2, double dphi1, double dphi2, coef_t k) noexcept
 cdef (double, double) _friction(double dphi1, double dphi2, coef_t k) noexcept
 @cython.locals(h11=double, h12=double, h21=double, g1=double, g2=double)
-cdef (double, double) _bias(double phi2, double dphi1, double dphi2, coef_t k)
+cdef (double, double) _bias(double s2, double dphi1, double dphi2, coef_t k) noexcept
 @cython.locals(d11=double, d12=double, d22=double, det=double)
-cdef (double, double) _solve_inertia(double phi2, double r1, double r2, coef_t k)
-@cython.locals(c1=double, c2=double)
+cdef (double, double) _solve_inertia(double c2, double r1, double r2, coef_t k)
+@cython.locals(s2=double, c2=double, b1=double, b2=double)
 cdef (double, double) _accel(double phi2, double dphi1, double dphi2, double tau1, double tau2, coef_t k)
 
 @cython.locals(d11=double, d12=double, d22=double, c1=double, c2=double)

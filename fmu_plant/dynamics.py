@@ -31,7 +31,7 @@ from fmi_slave.parameters import (
     nonnegative,
     positive,
 )
-from fmu_controller.elementary import cos, hypot, sin, tanh
+from fmu_controller.elementary import cos, hypot, sin, sincos, tanh
 
 # T and rho, re-exported: the arm model is what a controller imports from fmu_plant
 from fmu_plant.paper_setting import STEP_SIZE as STEP_SIZE
@@ -112,12 +112,12 @@ class ArmParameters:
 
 def inertia_entries(phi2: float, p: ArmParameters) -> tuple[float, float, float]:
     """(d11, d12, d22) of the symmetric inertia matrix D(phi), eq. (46)."""
-    return _inertia(phi2, p.coefficients)
+    return _inertia(cos(phi2), p.coefficients)
 
 
 def coriolis_entries(phi2: float, dphi1: float, dphi2: float, p: ArmParameters) -> tuple[float, float, float]:
     """(h11, h12, h21) of H(phi, dphi), eq. (46); h22 = 0. H is the Christoffel form: dD/dt - 2H is skew."""
-    return _coriolis(phi2, dphi1, dphi2, p.coefficients)
+    return _coriolis(sin(phi2), dphi1, dphi2, p.coefficients)
 
 
 def friction_torque(dphi1: float, dphi2: float, p: ArmParameters) -> tuple[float, float]:
@@ -127,12 +127,12 @@ def friction_torque(dphi1: float, dphi2: float, p: ArmParameters) -> tuple[float
 
 def bias_torque(phi2: float, dphi1: float, dphi2: float, p: ArmParameters) -> tuple[float, float]:
     """H(phi, dphi) dphi + G(dphi): every torque term of eq. (1) that is not inertial."""
-    return _bias(phi2, dphi1, dphi2, p.coefficients)
+    return _bias(sin(phi2), dphi1, dphi2, p.coefficients)
 
 
 def solve_inertia(phi2: float, r1: float, r2: float, p: ArmParameters) -> tuple[float, float]:
     """D(phi)^-1 [r1, r2] by the closed-form 2x2 inverse."""
-    return _solve_inertia(phi2, r1, r2, p.coefficients)
+    return _solve_inertia(cos(phi2), r1, r2, p.coefficients)
 
 
 def forward_dynamics(
@@ -143,15 +143,15 @@ def forward_dynamics(
 
 
 # The formulas, on k = ArmParameters.coefficients = (p1, p2, p3, f1, f2, b1, b2): read once per step by
-# the integrator instead of once per term (dynamics.pxd types them when the cores are compiled).
+# the integrator instead of once per term (dynamics.pxd types them when the cores are compiled), and on
+# s2 = sin phi2, c2 = cos phi2, which ``_accel`` takes from one reduction of phi2 (``sincos``).
 
-def _inertia(phi2: float, k: Coefficients) -> tuple[float, float, float]:
-    c2 = cos(phi2)
+def _inertia(c2: float, k: Coefficients) -> tuple[float, float, float]:
     return k[0] + 2.0 * k[2] * c2, k[1] + k[2] * c2, k[1]  # eq. (46)
 
 
-def _coriolis(phi2: float, dphi1: float, dphi2: float, k: Coefficients) -> tuple[float, float, float]:
-    s = k[2] * sin(phi2)
+def _coriolis(s2: float, dphi1: float, dphi2: float, k: Coefficients) -> tuple[float, float, float]:
+    s = k[2] * s2
     return -s * dphi2, -s * (dphi1 + dphi2), s * dphi1  # eq. (46)
 
 
@@ -159,21 +159,22 @@ def _friction(dphi1: float, dphi2: float, k: Coefficients) -> tuple[float, float
     return k[3] * tanh(dphi1) + k[5] * dphi1, k[4] * tanh(dphi2) + k[6] * dphi2  # eq. (46)
 
 
-def _bias(phi2: float, dphi1: float, dphi2: float, k: Coefficients) -> tuple[float, float]:
-    h11, h12, h21 = _coriolis(phi2, dphi1, dphi2, k)
+def _bias(s2: float, dphi1: float, dphi2: float, k: Coefficients) -> tuple[float, float]:
+    h11, h12, h21 = _coriolis(s2, dphi1, dphi2, k)
     g1, g2 = _friction(dphi1, dphi2, k)
     return h11 * dphi1 + h12 * dphi2 + g1, h21 * dphi1 + g2
 
 
-def _solve_inertia(phi2: float, r1: float, r2: float, k: Coefficients) -> tuple[float, float]:
-    d11, d12, d22 = _inertia(phi2, k)
+def _solve_inertia(c2: float, r1: float, r2: float, k: Coefficients) -> tuple[float, float]:
+    d11, d12, d22 = _inertia(c2, k)
     det = d11 * d22 - d12 * d12
     return (d22 * r1 - d12 * r2) / det, (d11 * r2 - d12 * r1) / det
 
 
 def _accel(phi2: float, dphi1: float, dphi2: float, tau1: float, tau2: float, k: Coefficients) -> tuple[float, float]:
-    c1, c2 = _bias(phi2, dphi1, dphi2, k)
-    return _solve_inertia(phi2, tau1 - c1, tau2 - c2, k)
+    s2, c2 = sincos(phi2)
+    b1, b2 = _bias(s2, dphi1, dphi2, k)
+    return _solve_inertia(c2, tau1 - b1, tau2 - b2, k)
 
 
 def inverse_dynamics(

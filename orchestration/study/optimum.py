@@ -72,8 +72,8 @@ def casadi():
 @functools.lru_cache(maxsize=1)
 def symbolic_dynamics():
     """A second copy of ``fmu_plant.dynamics`` from its ``.py`` (also when the compiled core is the one
-    imported), whose cos, sin and tanh (``elementary``'s in the core) are CasADi's: its functions then accept
-    symbols as well as floats."""
+    imported), whose cos, sin, sincos and tanh (``elementary``'s in the core) are CasADi's: its functions then
+    accept symbols as well as floats."""
     ca = casadi()
     source = Path(dynamics.__file__).with_name("dynamics.py")
     spec = importlib.util.spec_from_file_location("_optimum_symbolic_dynamics", source)
@@ -81,6 +81,7 @@ def symbolic_dynamics():
     sys.modules[spec.name] = module  # dataclasses look their module up while the class is made
     spec.loader.exec_module(module)
     module.cos, module.sin, module.tanh = ca.cos, ca.sin, ca.tanh
+    module.sincos = lambda x: (ca.sin(x), ca.cos(x))
     return module
 
 
