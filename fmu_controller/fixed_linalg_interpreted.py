@@ -4,8 +4,9 @@ same operations in the same order, on Python lists.
 
 Why: compiled, ``fixed_linalg``'s loops are C over C arrays; run as Python, every ``A[i * n + j]`` of a
 float64 buffer computes an offset and makes a new float object, and the bisection counted the whole
-Sturm sequence at each of its fifty or so halvings. Here the matrix is a list of row lists (an entry
-is read without arithmetic or a new object; numpy was slower on blocks of 9 x 9 and less), the squares
+Sturm sequence at each of its fifty or so halvings. Here the block still to reduce is a list of row
+lists, one row and column shorter after each reflection (an entry is read without arithmetic or a new
+object, no row is sliced twice; numpy was slower on blocks of 9 x 9 and less), the squares
 e_i^2 of the Sturm recurrence are computed once (the products ``sturm_count`` forms at every count), and
 the count of a halving stops as soon as it reaches k: the bisection only asks whether at least k
 eigenvalues lie below the midpoint, and the later terms decide nothing. Only the interpreted
@@ -22,16 +23,17 @@ import numpy as np
 EPS = 2.220446049250313e-16  # fixed_linalg.EPS (this module must not import the compiled one's C constants)
 
 
-def _reflect_rows(A: list, n: int, k: int) -> float:
-    """``fixed_linalg._reflect`` on the row lists A: zero column k below its subdiagonal, return the new
-    subdiagonal entry."""
-    m0 = k + 1
-    col = [A[i][k] for i in range(m0, n)]
+def _reflect_block(B: list) -> tuple:
+    """``fixed_linalg._reflect`` on the trailing block B (rows and columns k .. n-1 as row lists): zero its
+    first column below the subdiagonal; return the new subdiagonal entry and the reflected block of rows and
+    columns k+1 .. n-1 (the next step's B)."""
+    A22 = [row[1:] for row in B[1:]]
+    col = [row[0] for row in B[1:]]
     scale = 0.0
     for x in col:
         scale += x * x
     if scale == 0.0:
-        return 0.0
+        return 0.0, A22
     x0 = col[0]
     alpha = -math.sqrt(scale) if x0 >= 0.0 else math.sqrt(scale)
     v = col
@@ -40,9 +42,9 @@ def _reflect_rows(A: list, n: int, k: int) -> float:
     for x in v:
         vv += x * x
     p = []
-    for i in range(m0, n):  # p = 2 A22 v / |v|^2
+    for row in A22:  # p = 2 A22 v / |v|^2
         acc = 0.0
-        for a, x in zip(A[i][m0:], v):
+        for a, x in zip(row, v):
             acc += a * x
         p.append(2.0 * acc / vv)
     kk = 0.0
@@ -50,22 +52,20 @@ def _reflect_rows(A: list, n: int, k: int) -> float:
         kk += x * y
     kk /= vv
     p = [y - kk * x for x, y in zip(v, p)]  # q = p - (v^T p / |v|^2) v
-    for i in range(m0, n):  # A22 -= v q^T + q v^T
-        row, vi, pi = A[i], v[i - m0], p[i - m0]
-        row[m0:] = [a - (vi * pj + pi * vj) for a, pj, vj in zip(row[m0:], p, v)]
-    return alpha
+    return alpha, [[a - (vi * pj + pi * vj) for a, pj, vj in zip(row, p, v)]  # A22 -= v q^T + q v^T
+                   for row, vi, pi in zip(A22, v, p)]
 
 
 def tridiagonalize(M: array, n: int, d: array, e: array) -> None:
     """``fixed_linalg.tridiagonalize``: M's tridiagonal form into d (n) and e (n - 1)."""
-    A = [list(M[i * n:(i + 1) * n]) for i in range(n)]
+    B = [list(M[i * n:(i + 1) * n]) for i in range(n)]
     for k in range(n - 2):
-        e[k] = _reflect_rows(A, n, k)
-        d[k] = A[k][k]
+        d[k] = B[0][0]
+        e[k], B = _reflect_block(B)
     if n >= 2:
-        d[n - 2] = A[n - 2][n - 2]
-        e[n - 2] = A[n - 1][n - 2]
-    d[n - 1] = A[n - 1][n - 1]
+        d[n - 2] = B[0][0]
+        e[n - 2] = B[1][0]
+    d[n - 1] = B[-1][-1]
 
 
 def count_reaches(d: list, e2: list, x: float, k: int) -> bool:
