@@ -196,7 +196,8 @@ def results_verdict() -> str:
     lines.append("On the paper's nominal `paper` loop (100 s, not in the tuning's training set; accel for every "
                  "controller, each at the best design of the first tuning seed), Table 1's metric ranks them: " + "; ".join(
                      f"{LABELS[fmu]} {mse(m, n)} (cost {cost(m, n)})" for fmu, m, n in tuned)
-                 + ". Judged on points the tuning never saw, across the tuning seeds, see the paired statistics below.")
+                 + ". How they compare on points the tuning never saw, across the tuning seeds: the paired "
+                 "statistics of docs/robustness.md ('Fair comparison').")
     return "\n".join(f"- {line}" for line in lines)
 
 
