@@ -62,16 +62,18 @@ cdef double _cos_kernel(double hi, double lo) noexcept
 @cython.locals(k=double, a=double, b=double, r=double, bv=double, err=double, tail=double, hi=double, q=double,
                n=double)
 cdef (double, double, double) _reduce(double x)
-@cython.locals(a=double, n=double, hi=double, lo=double, v=double)
+@cython.locals(n=double, hi=double, lo=double, s=double, c=double)
+cdef (double, double) _reduced(double x)
+@cython.locals(a=double)
 cpdef double sin(double x)
-@cython.locals(a=double, n=double, hi=double, lo=double, v=double)
+@cython.locals(a=double)
 cpdef double cos(double x)
-@cython.locals(a=double, n=double, hi=double, lo=double, s=double, c=double)
+@cython.locals(a=double)
 cpdef (double, double) sincos(double x)
 @cython.locals(b=double, s=double, bv=double, err=double)
 cdef double _two_sum_plus(double a_hi, double a_lo, double sign, double b_hi, double b_lo) noexcept
 @cython.locals(num=double, den=double, den_lo=double, c_hi=double, c_lo=double, r=double, p=double, pl=double,
-               rl=double, z=double, c="const double *", series=double)
+               rl=double, z=double, q="const double *", series=double)
 cdef (double, double) _atan_ratio(double n, double d, double extra) noexcept
 @cython.locals(neg_x=bint, t=double)
 cdef double _atan2_special(double y, double x) noexcept

@@ -264,7 +264,7 @@ def _exp_pair(a: float, sign: float) -> float:
 
 
 def sinh(x: float) -> float:
-    """sinh x: x + x^3 S(x^2) for |x| <= 2, else (e^|x| - e^-|x|) / 2 (``_exp_pair``); inf beyond 710.48."""
+    """sinh x: x + x^3 S(x^2) for |x| <= 1, else (e^|x| - e^-|x|) / 2 (``_exp_pair``); inf beyond 710.48."""
     a = abs(x)
     if not a > TINY or a == INF:
         return x
@@ -337,42 +337,37 @@ def _reduce(x: float) -> tuple:
     return n + 4.0 if n < 0.0 else n, hi, (r - hi) + tail
 
 
-def sin(x: float) -> float:
-    """sin x: x reduced by n pi/2, then +-sin or +-cos of the remainder by quadrant."""
-    a = abs(x)
-    if not a > TINY or a == INF:
-        return NAN if a == INF else x
-    if a <= QUARTER_PI_HI:
-        return _sin_kernel(x, 0.0)
-    n, hi, lo = _reduce(x)
-    v = _sin_kernel(hi, lo) if n == 0.0 or n == 2.0 else _cos_kernel(hi, lo)
-    return v if n < 2.0 else -v
-
-
-def cos(x: float) -> float:
-    """cos x: x reduced by n pi/2, then +-cos or +-sin of the remainder by quadrant."""
-    a = abs(x)
-    if a != a or a == INF:
-        return NAN if a == INF else x
-    if a < TINY:
-        return 1.0
-    if a <= QUARTER_PI_HI:
-        return _cos_kernel(a, 0.0)
-    n, hi, lo = _reduce(x)
-    v = _cos_kernel(hi, lo) if n == 0.0 or n == 2.0 else _sin_kernel(hi, lo)
-    return v if n == 0.0 or n == 3.0 else -v
-
-
-def sincos(x: float) -> tuple:
-    """(sin x, cos x), each the bits of ``sin``, ``cos``; beyond pi/4 the reduction is done once for both."""
-    a = abs(x)
-    if not a > QUARTER_PI_HI or a == INF:
-        return sin(x), cos(x)
+def _reduced(x: float) -> tuple:
+    """(sin x, cos x) for pi/4 < |x| < inf: x = n pi/2 + r reduced, then sin r and cos r by quadrant n."""
     n, hi, lo = _reduce(x)
     s, c = _sin_kernel(hi, lo), _cos_kernel(hi, lo)
     if n < 2.0:
         return (s, c) if n == 0.0 else (c, -s)
     return (-s, -c) if n == 2.0 else (-c, s)
+
+
+def sin(x: float) -> float:
+    """sin x: the kernel itself up to pi/4, else by quadrant (``_reduced``)."""
+    a = abs(x)
+    if not a > TINY or a == INF:
+        return NAN if a == INF else x
+    return _sin_kernel(x, 0.0) if a <= QUARTER_PI_HI else _reduced(x)[0]
+
+
+def cos(x: float) -> float:
+    """cos x: the kernel itself up to pi/4, else by quadrant (``_reduced``)."""
+    a = abs(x)
+    if a != a or a == INF:
+        return NAN if a == INF else x
+    if a < TINY:
+        return 1.0
+    return _cos_kernel(a, 0.0) if a <= QUARTER_PI_HI else _reduced(x)[1]
+
+
+def sincos(x: float) -> tuple:
+    """(sin x, cos x), each the bits of ``sin``, ``cos``; beyond pi/4 one reduction for both."""
+    a = abs(x)
+    return _reduced(x) if a > QUARTER_PI_HI and a != INF else (sin(x), cos(x))
 
 
 def _two_sum_plus(a_hi: float, a_lo: float, sign: float, b_hi: float, b_lo: float) -> float:
@@ -401,9 +396,9 @@ def _atan_ratio(n: float, d: float, extra: float) -> tuple:
     p, pl = _two_prod(r, den)
     rl = (((num - p) - pl) - r * den_lo) / den
     z = r * r
-    c = ATAN_POLY
-    series = (((((((((((((0.0 * z + c[12]) * z + c[11]) * z + c[10]) * z + c[9]) * z + c[8]) * z + c[7]) * z + c[6])
-             * z + c[5]) * z + c[4]) * z + c[3]) * z + c[2]) * z + c[1]) * z + c[0])
+    q = ATAN_POLY  # A(z) = q[0] + q[1] z + ...
+    series = (((((((((((((0.0 * z + q[12]) * z + q[11]) * z + q[10]) * z + q[9]) * z + q[8]) * z + q[7]) * z + q[6])
+             * z + q[5]) * z + q[4]) * z + q[3]) * z + q[2]) * z + q[1]) * z + q[0])
     return c_hi, c_lo + (r + (r * (z * series) + (rl / (1.0 + z) + extra)))
 
 
