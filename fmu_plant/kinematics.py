@@ -1,20 +1,22 @@
 """Planar two-link kinematics: forward (49), inverse (48), and the Jacobian used to map path
 velocities and accelerations to joint space analytically.
 
-Angles in rad, lengths in m. ``phi2`` is the relative (elbow) angle, as in the paper. cos, sin, acos and
-atan2 are ``fmu_controller.elementary``'s (the same bits on every machine; docs/paper-notes.md, 2.10b).
+Angles in rad, lengths in m. ``phi2`` is the relative (elbow) angle, as in the paper. sincos (the sine and
+cosine of one angle from one reduction), acos and atan2 are ``fmu_controller.elementary``'s (the same bits on
+every machine; docs/paper-notes.md, 2.10b).
 """
 from __future__ import annotations
 
-from fmu_controller.elementary import acos, atan2, cos, sin
+from fmu_controller.elementary import acos, atan2, sin, sincos
 
 
 def arm_points(phi1: float, phi2: float, l1: float, l2: float) -> tuple[float, float, float, float]:
     """The elbow (the end of link 1) and the end effector E = (X, Y) of eq. (49): (elbow x, elbow y, X, Y),
     cos and sin of phi1 once for both."""
-    a = phi1 + phi2
-    ex, ey = l1 * cos(phi1), l1 * sin(phi1)
-    return ex, ey, ex + l2 * cos(a), ey + l2 * sin(a)
+    s1, c1 = sincos(phi1)
+    sa, ca = sincos(phi1 + phi2)
+    ex, ey = l1 * c1, l1 * s1
+    return ex, ey, ex + l2 * ca, ey + l2 * sa
 
 
 def inverse_kinematics(x: float, y: float, l1: float, l2: float) -> tuple[float, float]:
@@ -29,14 +31,16 @@ def inverse_kinematics(x: float, y: float, l1: float, l2: float) -> tuple[float,
             f"point ({x:g}, {y:g}) is out of reach: its distance must lie in [{abs(l1 - l2):g}, {l1 + l2:g}] m"
         )
     phi2 = acos(c2)
-    phi1 = atan2(y, x) - atan2(l2 * sin(phi2), l1 + l2 * cos(phi2))
+    sin2, cos2 = sincos(phi2)
+    phi1 = atan2(y, x) - atan2(l2 * sin2, l1 + l2 * cos2)
     return phi1, phi2
 
 
 def jacobian(phi1: float, phi2: float, l1: float, l2: float) -> tuple[float, float, float, float]:
     """(j11, j12, j21, j22) of J = d(X, Y)/d(phi1, phi2)."""
-    a = phi1 + phi2
-    return jacobian_of(sin(phi1), cos(phi1), sin(a), cos(a), l1, l2)
+    s1, c1 = sincos(phi1)
+    sa, ca = sincos(phi1 + phi2)
+    return jacobian_of(s1, c1, sa, ca, l1, l2)
 
 
 def jacobian_of(s1: float, c1: float, sa: float, ca: float, l1: float, l2: float) -> tuple[float, float, float, float]:
@@ -53,8 +57,8 @@ def joint_rates(
 
     det J = l1 l2 sin(phi2); the motion must stay away from the straight-arm singularity.
     """
-    a = phi1 + phi2
-    s1, c1, sa, ca = sin(phi1), cos(phi1), sin(a), cos(a)  # once, for J and for dJ/dt
+    s1, c1 = sincos(phi1)  # once, for J and for dJ/dt
+    sa, ca = sincos(phi1 + phi2)
     j11, j12, j21, j22 = jacobian_of(s1, c1, sa, ca, l1, l2)
     det = j11 * j22 - j12 * j21
     if abs(det) < 1e-9:
