@@ -1,6 +1,7 @@
 # Declarations for the compiled cores (orchestration/fmu_build/compiled.py): C types for dynamics.py, which
 # stays the one source of the formulas and runs as it is wherever the cores are not compiled. ``math`` is
-# libc's here (sqrt, ceil, isfinite: exact or correctly rounded); cos, sin, tanh and hypot are elementary.pxd's.
+# libc's here (sqrt, ceil, isfinite: exact or correctly rounded); cos, sin, sincos, tanh and hypot are
+# elementary.pxd's.
 cimport cython
 from libc cimport math
 from fmu_controller.elementary cimport cos, hypot, sin, sincos, tanh

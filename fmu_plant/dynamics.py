@@ -13,7 +13,7 @@ external disturbance torque added to tau.
 
 Everything here is scalar float math on purpose: for 2x2 matrices, float arithmetic is about ten times
 faster than numpy on tiny arrays, and the plant FMU evaluates the right-hand side four times per RK4
-substep. cos, sin, tanh and hypot are ``fmu_controller.elementary``'s (the same bits on every machine,
+substep. cos, sin, sincos, tanh and hypot are ``fmu_controller.elementary``'s (the same bits on every machine,
 unlike libm's; docs/paper-notes.md, section 2.10b). Matrix-valued helpers (``inertia_matrix`` ...) wrap the same scalar
 formulas for the controllers and tests.
 """
