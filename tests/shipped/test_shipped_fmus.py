@@ -116,9 +116,9 @@ def _variant_build(shipped, tmp_path: Path) -> Path:
     shutil.copytree(shipped.src, src)
     kin = src / "fmu_plant" / "kinematics.py"
     text = kin.read_text()
-    old = "    return ex, ey, ex + l2 * cos(a), ey + l2 * sin(a)"
+    old = "    return ex, ey, ex + l2 * ca, ey + l2 * sa"
     assert old in text
-    kin.write_text(text.replace(old, "    return ex, ey, 1.0 + ex + l2 * cos(a), ey + l2 * sin(a)"))
+    kin.write_text(text.replace(old, "    return ex, ey, 1.0 + ex + l2 * ca, ey + l2 * sa"))
     out = tmp_path / "variant-fmus"
     env = shipped.env(PYTHONPATH=str(src))
     proc = subprocess.run([str(shipped.python), "-m", "orchestration.fmu_build.build", "--out", str(out), "ArmPlant"],
