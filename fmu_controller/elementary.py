@@ -14,8 +14,8 @@ fdlibm): an argument reduction with a constant split in parts whose products wit
 integer are exact, then a fixed polynomial on the reduced interval. The constants and polynomials
 are derived in exact rational arithmetic by ``docs/elementary_coefficients.py`` (Chebyshev
 economization of the Taylor series; a test checks that this module holds exactly its output). Each
-polynomial is Horner's rule written out: the operations of the loop from 0.0, in
-its order, without the loop's cost. Compiled, it divides as C (no zero test): no denominator can be 0.
+polynomial is Horner's rule written out: the operations of the loop from 0.0, in its order, without
+the loop's cost. Compiled, it divides as C (no zero test): no denominator can be 0.
 
 Accuracy: within 1 ulp of the exact value on the tested ranges (tests/unit/test_elementary.py,
 against an extended-precision reference). Special values follow C99 Annex F (nan in, nan out;
