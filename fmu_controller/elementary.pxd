@@ -62,13 +62,13 @@ cdef double _cos_kernel(double hi, double lo) noexcept
 @cython.locals(k=double, a=double, b=double, r=double, bv=double, err=double, tail=double, hi=double, q=double,
                n=double)
 cdef (double, double, double) _reduce(double x)
-@cython.locals(n=double, hi=double, lo=double, s=double, c=double)
-cdef (double, double) _reduced(double x)
-@cython.locals(a=double)
+@cython.locals(v=double)
+cdef double _quadrant(double m, double hi, double lo) noexcept
+@cython.locals(a=double, n=double, hi=double, lo=double)
 cpdef double sin(double x)
-@cython.locals(a=double)
+@cython.locals(a=double, n=double, hi=double, lo=double)
 cpdef double cos(double x)
-@cython.locals(a=double)
+@cython.locals(n=double, hi=double, lo=double)
 cpdef (double, double) sincos(double x)
 @cython.locals(b=double, s=double, bv=double, err=double)
 cdef double _two_sum_plus(double a_hi, double a_lo, double sign, double b_hi, double b_lo) noexcept

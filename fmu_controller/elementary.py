@@ -337,37 +337,42 @@ def _reduce(x: float) -> tuple:
     return n + 4.0 if n < 0.0 else n, hi, (r - hi) + tail
 
 
-def _reduced(x: float) -> tuple:
-    """(sin x, cos x) for pi/4 < |x| < inf: x = n pi/2 + r reduced, then sin r and cos r by quadrant n."""
-    n, hi, lo = _reduce(x)
-    s, c = _sin_kernel(hi, lo), _cos_kernel(hi, lo)
-    if n < 2.0:
-        return (s, c) if n == 0.0 else (c, -s)
-    return (-s, -c) if n == 2.0 else (-c, s)
+def _quadrant(m: float, hi: float, lo: float) -> float:
+    """sin(m pi/2 + hi + lo) for m = 0 ... 4: +-sin or +-cos of the remainder (cos x is quadrant n + 1)."""
+    v = _sin_kernel(hi, lo) if m == 0.0 or m == 2.0 or m == 4.0 else _cos_kernel(hi, lo)
+    return v if m < 2.0 or m == 4.0 else -v
 
 
 def sin(x: float) -> float:
-    """sin x: the kernel itself up to pi/4, else by quadrant (``_reduced``)."""
+    """sin x: the kernel itself up to pi/4, else x reduced by n pi/2 and the remainder by quadrant."""
     a = abs(x)
     if not a > TINY or a == INF:
         return NAN if a == INF else x
-    return _sin_kernel(x, 0.0) if a <= QUARTER_PI_HI else _reduced(x)[0]
+    if a <= QUARTER_PI_HI:
+        return _sin_kernel(x, 0.0)
+    n, hi, lo = _reduce(x)
+    return _quadrant(n, hi, lo)
 
 
 def cos(x: float) -> float:
-    """cos x: the kernel itself up to pi/4, else by quadrant (``_reduced``)."""
+    """cos x = sin(x + pi/2): the kernel itself up to pi/4, else by quadrant n + 1."""
     a = abs(x)
     if a != a or a == INF:
         return NAN if a == INF else x
     if a < TINY:
         return 1.0
-    return _cos_kernel(a, 0.0) if a <= QUARTER_PI_HI else _reduced(x)[1]
+    if a <= QUARTER_PI_HI:
+        return _cos_kernel(a, 0.0)
+    n, hi, lo = _reduce(x)
+    return _quadrant(n + 1.0, hi, lo)
 
 
 def sincos(x: float) -> tuple:
     """(sin x, cos x), each the bits of ``sin``, ``cos``; beyond pi/4 one reduction for both."""
-    a = abs(x)
-    return _reduced(x) if a > QUARTER_PI_HI and a != INF else (sin(x), cos(x))
+    if not abs(x) > QUARTER_PI_HI or abs(x) == INF:
+        return sin(x), cos(x)
+    n, hi, lo = _reduce(x)
+    return _quadrant(n, hi, lo), _quadrant(n + 1.0, hi, lo)
 
 
 def _two_sum_plus(a_hi: float, a_lo: float, sign: float, b_hi: float, b_lo: float) -> float:
