@@ -132,30 +132,38 @@ HANG_CHILD = textwrap.dedent("""
     from support.fmu_driver import DrivenFmu
     u = DrivenFmu(sys.argv[1], sys.argv[2])
     try:
-        u.initialize(sigma=1e-300, rho=2e-300)
+        u.initialize(sigma=float(sys.argv[3]), rho=float(sys.argv[4]))
     except FMICallException:
         print("refused:", u.logged())
         raise SystemExit(0)
     u.set(phi1=0.5, phi2=-0.5, phi1_d=1.0, phi2_d=0.3, dphi1_d=0.1, dphi2_d=0.1)
     try:
-        print("read:", u.get("tau1", "tau2"))
+        print("read:", repr([float(v) for v in u.get("tau1", "tau2")]))
     except FMICallException:
         print("read refused:", u.logged())
     u.free()
 """)
 
 
-def test_sotc_with_tiny_sigma_and_rho_works_or_is_refused_in_bounded_time(fmu_paths, tmp_path):
-    """sigma and rho tiny but inside their declared ranges: the first output read walked the bound (5)
-    projection down one ulp at a time. Run in a child process so a hang cannot stall the suite."""
+@pytest.mark.parametrize("sigma, rho, outcome", [(1e-6, 2e-6, "read:"), (1e-300, 2e-300, "refused:")])
+def test_sotc_with_tiny_sigma_and_rho_works_or_is_refused_in_bounded_time(fmu_paths, tmp_path, sigma, rho, outcome):
+    """sigma and rho tiny: the first output read walked the bound (5) projection down one ulp at a time.
+    At the bottom of their declared ranges the torques are read, within rho; below them (1e-300 was in range
+    then) the initialization is refused naming sigma. Run in a child process so a hang cannot stall the suite."""
     try:
         done = subprocess.run(
-            [sys.executable, "-c", HANG_CHILD, str(fmu_paths["SotcController"]), str(tmp_path / "sotc")],
-            capture_output=True, text=True, timeout=HANG_SECONDS, env=child_env())
+            [sys.executable, "-c", HANG_CHILD, str(fmu_paths["SotcController"]), str(tmp_path / "sotc"),
+             repr(sigma), repr(rho)], capture_output=True, text=True, timeout=HANG_SECONDS, env=child_env())
     except subprocess.TimeoutExpired:
         pytest.fail(f"no answer within {HANG_SECONDS} s")
     assert done.returncode == 0, done.stderr
-    assert "refused" in done.stdout and "'sigma'" in done.stdout or "read:" in done.stdout, done.stdout
+    said = [line for line in done.stdout.splitlines() if line.startswith(("refused:", "read:", "read refused:"))]
+    assert len(said) == 1 and said[0].startswith(outcome), done.stdout
+    if outcome == "refused:":
+        assert "'sigma'" in said[0], done.stdout
+    else:
+        tau = json.loads(said[0][len(outcome):])
+        assert all(map(math.isfinite, tau)) and math.hypot(*tau) <= rho, tau
 
 
 def test_a_failed_runs_summary_shows_no_metric_from_diverged_samples(fmu_dir, tmp_path, monkeypatch):

@@ -2,11 +2,11 @@
 compiled again when anything they were made from, or the cache itself, differs."""
 from __future__ import annotations
 
+import contextlib
 import os
 import stat
 import tempfile
 import threading
-import time
 from pathlib import Path
 
 import pytest
@@ -129,14 +129,25 @@ def test_a_failed_compile_stores_nothing(compiler, tmp_path, monkeypatch):
 
 def test_builds_at_once_compile_a_bundle_once(compiler, tmp_path, monkeypatch):
     """Two builds of the same bundle at the same moment (two test workers, two users' commands): the second
-    waits for the first's compile and copies it."""
-    slow = FakeCompiler()
+    waits for the first's compile and copies it. The compile goes on only once both builds have come to the
+    cache's lock, so the second is waiting while the first compiles."""
+    slow, arrived, both = FakeCompiler(), [], threading.Event()
+    one_compiler = compiled._one_compiler
 
-    def compile_slowly(*args):
-        time.sleep(0.3)  # long enough for the other build to arrive while this one compiles
+    @contextlib.contextmanager
+    def counted(folder):
+        arrived.append(folder)  # list.append is atomic
+        if len(arrived) == 2:
+            both.set()
+        with one_compiler(folder):
+            yield
+
+    def compile_when_both_arrived(*args):
+        assert both.wait(timeout=60), "the second build never came to the cache's lock"
         slow(*args)
 
-    monkeypatch.setattr(compiled, "_compile", compile_slowly)
+    monkeypatch.setattr(compiled, "_one_compiler", counted)
+    monkeypatch.setattr(compiled, "_compile", compile_when_both_arrived)
     bundles = [bundle(tmp_path / name) for name in ("a", "b")]
     threads = [threading.Thread(target=compiled.compile_bundle, args=(b, LIB, PXD)) for b in bundles]
     for thread in threads:
