@@ -47,8 +47,11 @@ def limit_handling_spec(default: int, what: str) -> ParameterSpec:
 
 # shrink_into_disc: candidate factors k_i = 1 - 2^(i - 53), i = 0 .. 53 (k_53 = 0 always fits)
 SHRINK_STEPS = 54
-# in_disc: below this fraction of the bound no rounded norm can exceed it (they err by a few ulps)
+# in_disc: below this fraction of the bound no rounded norm can exceed it (they err by a few ulps), for a
+# bound of at least NORMAL_BOUND: below it, the fraction can round to the bound itself and a subnormal norm
+# errs by more than 2^-40 of it, so tinier bounds always take the exact test
 CLEARLY_INSIDE = 1.0 - 2.0**-40
+NORMAL_BOUND = 2.0**-960
 # accel_projection: bisection steps on the multiplier (halves the bracket each time; 200 >> 2 * 53)
 PROJECTION_BISECTIONS = 200
 
@@ -65,7 +68,7 @@ def in_disc(v1: float, v2: float, bound: float, h: float | None = None) -> bool:
 
 def _in_disc(v1: float, v2: float, bound: float, h: float) -> bool:
     """``in_disc`` with h = hypot(v1, v2) given (C types when compiled: the common case builds no object)."""
-    if h <= bound * CLEARLY_INSIDE:  # every rounded norm is within a few ulps of the exact one
+    if h <= bound * CLEARLY_INSIDE and bound >= NORMAL_BOUND:  # each rounded norm is a few ulps from the exact one
         return True
     if not (h <= bound and math.sqrt(v1 * v1 + v2 * v2) <= bound):
         return False

@@ -1,10 +1,12 @@
 """The torque-limit module shared by every controller: each handling, bounded loops, tiny bounds."""
 import math
+from fractions import Fraction
 
 import numpy as np
 import pytest
 
 from fmi_slave.parameters import ParameterError
+from fmu_controller import elementary as el
 from fmu_controller.computed_torque import CtCore
 from fmu_controller.lqr import LqrCore
 from fmu_controller.otc import OtcCore
@@ -66,13 +68,30 @@ def test_the_handlings_differ_where_the_paper_is_silent():
     assert abs(accel[1]) > abs(joint[1]) > abs(radial[1])
 
 
+def _first_fit(v1: float, v2: float, bound: float) -> tuple[float, float]:
+    """``shrink_into_disc`` by its docstring: v if it lies in the disc, else k v for the first k = 1 - 2^(i - 53),
+    i = 0 .. SHRINK_STEPS - 1, that does; in the disc: exactly (fractions) and by both rounded norms."""
+    def fits(a: float, b: float) -> bool:
+        exact = Fraction(a) ** 2 + Fraction(b) ** 2 <= Fraction(bound) ** 2
+        return exact and el.hypot(a, b) <= bound and math.sqrt(a * a + b * b) <= bound
+
+    if fits(v1, v2):
+        return v1, v2
+    for i in range(SHRINK_STEPS):
+        k = 1.0 - math.ldexp(1.0, i - 53)
+        if fits(v1 * k, v2 * k):
+            return v1 * k, v2 * k
+    raise AssertionError(f"no candidate fits: SHRINK_STEPS = {SHRINK_STEPS} must reach k = 0")
+
+
 @pytest.mark.parametrize("v", [(3e-310, 4e-310), (1e-320, -1e-320), (5e-324, 5e-324), (3.0, 4.0), (1e300, 1e300)])
 @pytest.mark.parametrize("bound", [0.0, 5e-324, 1e-310, 2.5, 4.999999999999999])
 def test_shrink_into_disc_ends_within_its_step_bound_for_subnormal_vectors(v, bound):
-    """The one-ulp walk this replaced could not move a subnormal product and never returned;
-    the candidates are 1 - 2^(i - 53), i < SHRINK_STEPS, and the last one is 0."""
-    assert SHRINK_STEPS == 54 and 1.0 - math.ldexp(1.0, SHRINK_STEPS - 1 - 53) == 0.0
+    """The one-ulp walk this replaced could not move a subnormal product and never returned; the result is
+    the documented one: k v for the first candidate k = 1 - 2^(i - 53), i < SHRINK_STEPS, whose k v is in
+    the disc (the last candidate is 0)."""
     s1, s2 = shrink_into_disc(*v, bound)
+    assert (s1, s2) == _first_fit(*v, bound)
     assert math.hypot(s1, s2) <= bound or (s1, s2) == (0.0, 0.0)
     n1, n2, _, _ = saturate_norm(*v, bound)
     assert math.hypot(n1, n2) <= bound
