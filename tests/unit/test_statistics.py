@@ -2,7 +2,10 @@
 import math
 
 import numpy as np
+import pytest
+from scipy.stats import bootstrap
 
+from orchestration.study import statistics
 from orchestration.study.statistics import geometric_interval, paired
 
 
@@ -78,3 +81,61 @@ def test_a_verdict_across_seeds_holds_only_where_every_seed_gives_it_and_names_t
     assert split.startswith("mse depends on the tuning seed (") and "seed 1: not distinguishable" in split
     firm = _across({0: verdict(0.7, 0.9, "better"), 1: verdict(0.8, 0.95, "better")}, "mse")
     assert firm.startswith("mse better for every tuning seed (")
+
+
+# --- against scipy.stats.bootstrap called here, on the values the definition keeps --------------------------------
+
+HOSTILE = [0.0, -0.0, -1e-3, -5.0, math.nan, math.inf, -math.inf, None]
+
+
+def _kept(values) -> list[float]:
+    """The runs with a figure: a finite positive number (a failed run has None, nan, inf; zero or less is none)."""
+    return [float(v) for v in values if v is not None and math.isfinite(float(v)) and float(v) > 0.0]
+
+
+def _scipy_bca(sample, confidence: float) -> tuple[float, float]:
+    """BCa interval of the mean of one sample (the paired ratio's: the mean of the log differences)."""
+    res = bootstrap((sample,), np.mean, method="BCa", confidence_level=confidence,
+                    n_resamples=statistics.RESAMPLES, rng=np.random.default_rng(statistics.BOOTSTRAP_SEED))
+    return res.confidence_interval.low, res.confidence_interval.high
+
+
+@pytest.mark.parametrize("family", [1, 12])
+@pytest.mark.parametrize("seed", [4, 5])
+def test_the_geometric_interval_is_scipys_bca_on_the_runs_with_a_figure(seed, family):
+    g = np.random.default_rng(seed)
+    good = list(10 ** g.normal(-2, 0.5, 14))
+    values = good[:5] + HOSTILE + good[5:]
+    i = geometric_interval(values, family)
+    logs = np.log10(_kept(values))
+    assert (i.n, i.failed) == (len(good), len(HOSTILE))
+    low, high = _scipy_bca(logs, 1.0 - 0.05 / family)
+    assert (i.value, i.low, i.high) == pytest.approx((10 ** np.mean(logs), 10 ** low, 10 ** high), rel=1e-12)
+
+
+@pytest.mark.parametrize("seed", [6, 7])
+def test_the_paired_ratio_is_scipys_paired_bca_on_the_points_where_both_ran(seed):
+    g = np.random.default_rng(seed)
+    b = list(10 ** g.uniform(-3, 0, 14))
+    a = [v * 0.9 * 10 ** g.normal(0, 0.1) for v in b]
+    a_all, b_all = a[:3] + HOSTILE + a[3:] + [1.0] * 4, b[:3] + [1.0] * 8 + b[3:] + HOSTILE[:4]
+    v = paired(a_all, b_all)
+    both = [k for k in range(len(a_all)) if _kept([a_all[k]]) and _kept([b_all[k]])]
+    la, lb = (np.log10([float(x[k]) for k in both]) for x in (a_all, b_all))
+    assert (v.ratio.n, v.failed_a, v.failed_b) == (len(b), len(HOSTILE), 4)
+    assert v.worse_on == int(np.sum(la > lb))
+    low, high = _scipy_bca(la - lb, 0.95)
+    assert (v.ratio.value, v.ratio.low, v.ratio.high) == pytest.approx(
+        (10 ** np.mean(la - lb), 10 ** low, 10 ** high), rel=1e-12)
+    assert v.verdict == ("better" if 10 ** high < 1 else "worse" if 10 ** low > 1 else "not distinguishable")
+
+
+@pytest.mark.parametrize("values, n", [([2.0] * 5 + HOSTILE, 5), ([3.0] + HOSTILE, 1), (HOSTILE, 0)])
+def test_alike_single_or_no_usable_values(values, n):
+    """Nothing to resample: all alike or one value gives the value itself as its interval, none gives nan."""
+    i = geometric_interval(values)
+    assert (i.n, i.failed) == (n, len(HOSTILE))
+    if n:
+        assert i.value == i.low == i.high == pytest.approx(values[0], rel=1e-15)
+    else:
+        assert math.isnan(i.value) and math.isnan(i.low) and math.isnan(i.high)

@@ -1,0 +1,149 @@
+"""The SOTC's closed forms against their definitions, computed apart from ``fmu_controller.sotc_math``: the
+saturated cost (17) against the integral (13) by mpmath's quadrature (40 digits), its pieces x tanh x - ln cosh x
+and ln cosh x against mpmath, and the tanh law (28) against its definition with grad zeta from sympy's
+derivative of the paper's basis (section 4) and D^-1 of eq. (46) inverted exactly."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+mp = pytest.importorskip("mpmath")
+sp = pytest.importorskip("sympy")
+
+from fmu_controller import sotc_math as sm  # noqa: E402
+from fmu_controller.sotc import SotcCore  # noqa: E402
+from fmu_plant.dynamics import ArmParameters  # noqa: E402
+
+mp.mp.dps = 40
+EPS = 2.0**-52
+
+
+def omega13(mu: float, s: float, r: float):
+    """Eq. (13) for one component: 2 s r int_0^mu atanh(u / s) du, by quadrature (split where atanh is steep)."""
+    nodes = [0, mu / 2, mu * 0.99, mu] if abs(mu) > 0.5 * s else [0, mu]
+    return 2 * mp.mpf(s) * r * mp.quad(lambda u: mp.atanh(u / s), nodes)
+
+
+Q = [0.0, 1e-9, -3e-5, 0.1, -0.5, 0.9, -0.999, 0.999999, 0.7310585786300049]
+S_AND_R = [(0.6, (1.0, 0.5, 2.0, 3.0)), (4.0, (1.0, 1.0, 1.0, 1.0)), (1e-3, (7.0, 0.2, 1.0, 40.0)),
+           (50.0, (0.01, 1.0, 2.5, 1.0))]
+
+
+@pytest.mark.parametrize("s, r", S_AND_R)
+def test_the_saturated_cost_17_is_the_integral_13(s, r):
+    for k in range(0, len(Q), 2):
+        q = (Q[k % len(Q)], Q[(k + 3) % len(Q)], Q[(k + 5) % len(Q)], Q[(k + 7) % len(Q)])
+        mu = [qi * s for qi in q]
+        exact = sum(omega13(m, s, ri) for m, ri in zip(mu, r))
+        # omega_of_mu (the optimum's cost) cancels two large terms near the barrier: looser than the x form
+        assert sm.omega_of_mu(mu, s, r) == pytest.approx(float(exact), rel=1e-10, abs=1e-300)
+        # the same cost written in the argument x of mu = -s tanh x (28): x exact, then rounded
+        x = [float(-mp.atanh(mp.mpf(qi))) for qi in q]
+        exact_x = sum(omega13(float(-s * mp.tanh(xi)), s, ri) for xi, ri in zip(x, r))
+        terms = [sm.omega_term_of_arg(xi, s, ri) for xi, ri in zip(x, r)]
+        assert math.fsum(terms) == pytest.approx(float(exact_x), rel=1e-13, abs=1e-300)
+        assert sm.omega_of_arg(x, s, r) == pytest.approx(float(exact_x), rel=1e-13, abs=1e-300)
+    assert sm.omega_of_mu([s, 0.0, 0.0, 0.0], s, r) == math.inf  # the barrier of (13) at |mu| = s
+    assert sm.omega_of_mu([0.0, -s * 1.0000001, 0.0, 0.0], s, r) == math.inf
+
+
+def x_grid() -> list[float]:
+    """0, tiny to huge magnitudes (every decade), and both sides of the branch at |x| = 1, with their negatives."""
+    mags = [10.0 ** e for e in range(-300, 4, 7)] + [0.5, 0.999999, 1.0, 1.000001, 2.0, 3.7, 9.0, 17.0, 19.5, 30.0]
+    near = [math.nextafter(1.0, 0.0), math.nextafter(1.0, 2.0)]
+    return [0.0] + [v for m in mags + near for v in (m, -m)]
+
+
+@pytest.mark.parametrize("x", x_grid())
+def test_x_tanh_x_minus_ln_cosh_x_and_ln_cosh_x_against_mpmath(x):
+    with mp.workdps(700):  # cosh x = 1 + x^2/2 + ... keeps x^2 down to x = 1e-300
+        X = mp.mpf(x)
+        log_cosh = mp.log(mp.cosh(X))
+        exact = X * mp.tanh(X) - log_cosh
+    got = sm._x_tanh_minus_log_cosh(x, float(mp.tanh(X)))
+    assert abs(got - float(exact)) <= 8 * EPS * float(exact) + 1e-320, (x, got, float(exact))
+    assert abs(sm.log_cosh(x) - float(log_cosh)) <= 4 * EPS * float(log_cosh) + 1e-320, (x, float(log_cosh))
+    s, r = 0.6, 2.5
+    assert sm.omega_term_of_arg(x, s, r) == pytest.approx(float(2 * s * s * r * exact), rel=1e-14, abs=1e-320)
+
+
+def test_each_omega_component_has_its_own_weight():
+    """omega4: R = diag(r1..r4), each component weighed by its own r_i (x and t of the same component)."""
+    x, s = (0.3, -1.7, 0.01, 5.0), 0.6
+    t = tuple(float(mp.tanh(v)) for v in x)
+    for k in range(4):
+        r = [0.0] * 4
+        r[k] = 1.0
+        exact = float(2 * s * s * (mp.mpf(x[k]) * mp.tanh(x[k]) - mp.log(mp.cosh(x[k]))))
+        assert sm.omega4(*x, *t, s, *r) == pytest.approx(exact, rel=1e-14)
+
+
+# --- the tanh law (28) -------------------------------------------------------------------------------------------
+
+Z = sp.symbols("z1:5", real=True)
+W_SYM = sp.symbols("w1:11", real=True)
+# zeta(z) of section 4, as the paper lists it
+ZETA = [Z[0] ** 2, Z[0] * Z[1], Z[0] * Z[2], Z[0] * Z[3], Z[1] ** 2, Z[1] * Z[2], Z[1] * Z[3], Z[2] ** 2,
+        Z[2] * Z[3], Z[3] ** 2]
+J = sum(w * zeta for w, zeta in zip(W_SYM, ZETA))
+GRAD = sp.lambdify((Z, W_SYM), [J.diff(zi) for zi in Z], "mpmath")
+HESSIAN = sp.lambdify((Z, W_SYM), sp.hessian(J, Z).tolist(), "mpmath")
+ZETA_NUM = sp.lambdify((Z,), ZETA, "mpmath")
+
+
+def inverse_inertia(phi2: float, p: ArmParameters) -> mp.matrix:
+    """D(phi)^-1 of eq. (46), inverted in 40 digits (mpmath's cos)."""
+    c = mp.cos(phi2)
+    D = mp.matrix([[p.p1 + 2 * p.p3 * c, p.p2 + p.p3 * c], [p.p2 + p.p3 * c, p.p2]])
+    return D ** -1
+
+
+def tanh_law(z, W, s, r, dinv) -> list:
+    """mu = -s tanh(x), x = R^-1 g^T grad(zeta)^T W / (2 s), g = diag(I, D^-1): eq. (28) as printed."""
+    grad = GRAD(z, W)
+    gt = [grad[0], grad[1], dinv[0, 0] * grad[2] + dinv[1, 0] * grad[3], dinv[0, 1] * grad[2] + dinv[1, 1] * grad[3]]
+    return [g / (2 * mp.mpf(s) * ri) for g, ri in zip(gt, r)]
+
+
+def draws(seed: int, n: int):
+    rng = np.random.default_rng(seed)
+    for _ in range(n):
+        yield rng.normal(size=4).tolist(), rng.normal(size=10).tolist(), float(rng.uniform(-3.0, 3.0))
+
+
+@pytest.mark.parametrize("z, W, phi2", list(draws(28, 12)))
+def test_the_critic_basis_its_derivatives_and_the_policy_arguments(z, W, phi2):
+    p = ArmParameters()
+    assert sm.basis(z) == pytest.approx([float(v) for v in ZETA_NUM(z)], rel=1e-15)
+    grad = [float(v) for v in GRAD(z, W)]
+    assert sm.value_gradient(z, W) == pytest.approx(grad, rel=1e-13, abs=1e-13)
+    hess = [[float(v) for v in row] for row in HESSIAN(z, W)]
+    assert [list(row) for row in sm.value_hessian(W)] == hess
+    assert sm.hessian_phi_times(sm.weights_buffer(W), *z) == pytest.approx(np.array(hess)[:2] @ z, rel=1e-13)
+    v = [0.3, -1.1, 2.0, 0.7]
+    directional = [float(sum(sp.diff(zeta, zi).subs(dict(zip(Z, z))) * vi for zi, vi in zip(Z, v))) for zeta in ZETA]
+    assert sm.basis_directional(z, v) == pytest.approx(directional, rel=1e-13, abs=1e-13)
+    dinv = inverse_inertia(phi2, p)
+    s, r = 0.6, (1.0, 2.0, 0.5, 3.0)
+    K = sm.CriticConstants(s, r, (1.0,) * 4, (1.0, 1.0), (1.0, 1.0), True, True)
+    got = sm.policy_arguments(K, *z, sm.weights_buffer(W), float(dinv[0, 0]), float(dinv[0, 1]), float(dinv[1, 1]))
+    assert got == pytest.approx([float(x) for x in tanh_law(z, W, s, r, dinv)], rel=1e-12, abs=1e-12)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_the_controllers_saturated_inputs_are_the_tanh_law_28(seed):
+    """The SOTC's own outputs mu_hat = (chi_vd*, tau*) at its z, W and measured phi2, against (28) computed here."""
+    rng = np.random.default_rng(seed)
+    weights = {f"W0_{k}": float(w) for k, w in enumerate(rng.normal(size=10), start=1)}
+    ctrl = SotcCore(**weights)
+    y = [0.3 + rng.normal(), 1.2 + rng.normal(), rng.normal(), rng.normal()]
+    ref = [0.3, 1.2, *rng.normal(size=4).tolist()]
+    ctrl.evaluate(1.0, y, ref)  # t past the probing window
+    names = ctrl.output_names()
+    z = [ctrl.outputs[names.index(f"z{k}")] for k in range(1, 5)]
+    mu = [ctrl.outputs[names.index(n)] for n in ("chi_vd_star1", "chi_vd_star2", "tau_star1", "tau_star2")]
+    x = tanh_law(z, ctrl.W, ctrl.s, ctrl.r, inverse_inertia(y[1], ArmParameters()))
+    expected = [float(-ctrl.s * mp.tanh(v)) for v in x]
+    assert mu == pytest.approx(expected, rel=1e-12, abs=1e-15)
