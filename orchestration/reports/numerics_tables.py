@@ -81,15 +81,16 @@ def learned_w_table() -> str:
     the digits its perturbed runs share."""
     from fmu_controller.sotc import SotcCore
     from fmu_controller.sotc_math import weights_to_matrix
+    from orchestration.study import ordered
     from orchestration.study.sotc_study import PAPER_W, lqr_weights
 
     ref = lqr_weights(1.39, SotcCore())
-    norm = float(np.linalg.norm(ref))
+    norm = ordered.norm(ref)
 
     def figures(W: Any) -> dict[str, Any]:
-        d = float(np.linalg.norm(np.asarray(W) - ref))
+        d = ordered.norm(np.asarray(W) - ref)
         return {"W": list(W), "d": d, "percent": 100 * d / norm,
-                "eig": list(np.linalg.eigvalsh(weights_to_matrix(np.asarray(W))))}
+                "eig": list(ordered.eigvalsh(weights_to_matrix(np.asarray(W))))}
 
     def row(label: str, W: Any, Ws: list[Any], min_eig: str) -> list[str]:
         f, fs = figures(W), [figures(w) for w in Ws]

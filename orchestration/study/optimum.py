@@ -49,6 +49,7 @@ from fmu_plant.paper_setting import SUBSTEPS
 from fmu_plant.trajectory import CircleTrajectory
 from orchestration.exit_codes import UsageError
 from orchestration.run.metrics import _trapezoid
+from orchestration.study.ordered import weighted_squares
 from orchestration.study.pure_loop import LoopResult, simulate
 from orchestration.study.value_function import shared_z
 
@@ -160,7 +161,7 @@ def trajectory_cost(problem: Problem, run: LoopResult, until: float | None = Non
     cost for objective B; over [0, ``until``] only if given. inf where Omega is not defined
     (|tau_i - tau_d,i| >= its level)."""
     k = problem.steps if until is None else min(problem.steps, round(until / STEP_SIZE))
-    cost = float(_trapezoid((shared_z(run) ** 2 @ theta())[:k + 1], run.t[:k + 1]))
+    cost = float(_trapezoid(weighted_squares(shared_z(run), theta())[:k + 1], run.t[:k + 1]))
     if problem.objective == "B":
         mu = run.tau[:k] - problem.baseline()[:k]
         cost += STEP_SIZE * sum(omega_of_mu(m, INPUT_LEVEL, INPUT_WEIGHTS) for m in mu)

@@ -22,14 +22,15 @@ import argparse
 import time
 
 import numpy as np
-import scipy.linalg
 
 from fmu_controller.sotc import SotcCore
 from fmu_controller.sotc_math import N_BASIS, matrix_to_weights, weights_to_matrix
-from fmu_plant.dynamics import STEP_SIZE, TORQUE_LIMIT, ArmParameters, inertia_matrix
+from fmu_controller.riccati import solve_care
+from fmu_plant.dynamics import STEP_SIZE, TORQUE_LIMIT, ArmParameters, inertia_entries, solve_inertia
 from fmu_plant.paper_setting import INITIAL_STATE
 from orchestration.run.metrics import weight_total_variation
 from orchestration.run.scenario import available_scenarios, load_scenario
+from orchestration.study import ordered
 from orchestration.study.comparison import PAPER_TABLE1, TABLE1_MARGIN
 from orchestration.study.pure_loop import LoopResult, metrics, simulate
 
@@ -76,25 +77,31 @@ def weight_variation(res: LoopResult, t0: float, t1: float) -> float:
 def lqr_weights(phi2: float, ctrl: SotcCore, arm: ArmParameters | None = None) -> np.ndarray:
     """W of the LQR value z^T S z of the error dynamics (6)/(7) linearised at z = 0 with the
     configuration frozen at phi2 (g_v = D^-1(phi2)). Near mu = 0, Omega(mu) = sum r_i mu_i^2 + O(mu^4),
-    so the cost (12) becomes z^T Theta z + mu^T R mu."""
+    so the cost (12) becomes z^T Theta z + mu^T R mu. S comes from the fixed-order Newton-Kleinman solver
+    (``fmu_controller.riccati``), started from the gain that makes A - B K_0 = -I, and D^-1 from
+    ``solve_inertia``: no LAPACK, so the value study prints the same bits under every BLAS kernel."""
     arm = arm or ctrl.model
-    l1, l2 = np.diag(ctrl.lam1), np.diag(ctrl.lam2)
+    (l1, l2), (m1, m2) = ctrl.lam1, ctrl.lam2
     A = np.zeros((4, 4))
     if ctrl.backstepping:
-        A[:2, :2] = -l1
+        A[:2, :2] = -np.diag([l1, l2])
         A[:2, 2:] = np.eye(2)
     else:
-        A[:2, 2:] = np.eye(2) + l1
+        A[:2, 2:] = np.diag([1.0 + l1, 1.0 + l2])
     A[2:, :2] = -np.eye(2)
-    A[2:, 2:] = -l2
-    if ctrl.fv_drift:  # d/dz_v of -D(z_phi)^-1 G(z_v) at z = 0
-        A[2:, 2:] -= np.linalg.solve(inertia_matrix(0.0, arm), np.diag([arm.f1 + arm.b1, arm.f2 + arm.b2]))
+    A[2:, 2:] = -np.diag([m1, m2])
+    if ctrl.fv_drift:  # d/dz_v of -D(z_phi)^-1 G(z_v) at z = 0: the columns D(0)^-1 (f_i + b_i) e_i
+        A[2:, 2] -= solve_inertia(0.0, arm.f1 + arm.b1, 0.0, arm)
+        A[2:, 3] -= solve_inertia(0.0, 0.0, arm.f2 + arm.b2, arm)
     B = np.zeros((4, 4))
     B[:2, :2] = np.eye(2)
-    B[2:, 2:] = np.linalg.inv(inertia_matrix(phi2, arm))
-    Q, R = np.diag(ctrl.theta), np.diag(ctrl.r)
-    S = scipy.linalg.solve_continuous_are(A, B, Q, R)
-    return matrix_to_weights(S)
+    B[2:, 2] = solve_inertia(phi2, 1.0, 0.0, arm)
+    B[2:, 3] = solve_inertia(phi2, 0.0, 1.0, arm)
+    stabilising = np.eye(4) + A  # K_0 = B^-1 (A + I), B^-1 = diag(I, D(phi2))
+    d11, d12, d22 = inertia_entries(phi2, arm)
+    stabilising[2:] = [[d11 * a + d12 * b for a, b in zip(*stabilising[2:])],
+                       [d12 * a + d22 * b for a, b in zip(*stabilising[2:])]]
+    return matrix_to_weights(solve_care(A, B, np.diag(ctrl.theta), np.diag(ctrl.r), stabilising))
 
 
 def fmt(m: dict[str, float]) -> str:
@@ -110,7 +117,7 @@ def cmd_settings(_: argparse.Namespace) -> None:
         print(f"{'':14s} weight TV [0,0.4]={weight_variation(res, 0, 0.4):.3g}"
               f"  [40,80]={weight_variation(res, 40, 80):.3g}"
               f"  [80,100]={weight_variation(res, 80, 100):.3g}   ||W(80)-W(40)||="
-              f"{np.linalg.norm(weights(res)[8000] - weights(res)[4000]):.3g}")
+              f"{ordered.norm(weights(res)[8000] - weights(res)[4000]):.3g}")
         print(f"{'':14s} stack: size={ctrl.stack.count} lambda_min={stack_min_eig(ctrl):.3g}  tau_a bounded "
               f"{res.out('tau_a_bounded').mean():.2%} of samples, tau limited {res.out('tau_limited').mean():.2%},"
               f" law (31) {np.mean(res.out('tuning_law') == 31):.2%}")
@@ -159,15 +166,15 @@ def cmd_stack(args: argparse.Namespace) -> None:
         ctrl, res = run(args.setting, stop_time=args.stop, **ov)
         st = ctrl.stack
         E = np.array(st.rows["eta"]).reshape(st.P, -1)[:st.count]
-        sv = np.linalg.svd(E, compute_uv=False)
+        sv = ordered.singular_values(E)
         st.terms(list(ctrl.W))
         M = np.array(st.M).reshape(len(ctrl.W), -1)
-        Xi = E / (1.0 + np.einsum("ij,ij->i", E, E))[:, None] ** 2
-        print(f"{label} at t={args.stop:g}s: P={st.count}, rank(eta_1..eta_P)={np.linalg.matrix_rank(E)}"
-              f" (numpy default tol), singular values {np.array2string(sv, precision=2)}")
-        print(f"   eig of sum xi_i eta_i^T (recorded)  {np.array2string(np.linalg.eigvalsh(Xi.T @ E), precision=2)}")
-        print(f"   eig of sum xi_i eta_i^T (replayed)  {np.array2string(np.linalg.eigvalsh(M), precision=2)}")
-        print(f"   ||z_i|| {np.array2string(np.linalg.norm(np.array(st.rows['z']).reshape(st.P, 4)[:st.count], axis=1), precision=2)}")
+        Xi = E / (1.0 + np.array([ordered.norm(row) ** 2 for row in E]))[:, None] ** 2
+        print(f"{label} at t={args.stop:g}s: P={st.count}, rank(eta_1..eta_P)={ordered.rank(E)}"
+              f" (Gram matrix, max(shape) eps tolerance), singular values {np.array2string(sv, precision=2)}")
+        print(f"   eig of sum xi_i eta_i^T (recorded)  {np.array2string(ordered.eigvalsh(ordered.product(Xi.T, E)), precision=2)}")
+        print(f"   eig of sum xi_i eta_i^T (replayed)  {np.array2string(ordered.eigvalsh(M), precision=2)}")
+        print(f"   ||z_i|| {np.array2string(np.array([ordered.norm(z) for z in np.array(st.rows['z']).reshape(st.P, 4)[:st.count]]), precision=2)}")
 
 
 def cmd_lqr(args: argparse.Namespace) -> None:
@@ -178,17 +185,17 @@ def cmd_lqr(args: argparse.Namespace) -> None:
     for k, w in refs.items():
         print(f"  phi2={k}: {np.round(w, 4).tolist()}")
     mid = lqr_weights(float(np.mean(phi2s)), ctrl0)
-    print(f"paper's W: eig S(W) = {np.round(np.linalg.eigvalsh(weights_to_matrix(PAPER_W)), 4).tolist()}"
-          f"  ||W_paper - W_lqr(mid)|| = {np.linalg.norm(PAPER_W - mid):.3g} (||W_lqr|| = {np.linalg.norm(mid):.3g})")
+    print(f"paper's W: eig S(W) = {np.round(ordered.eigvalsh(weights_to_matrix(PAPER_W)), 4).tolist()}"
+          f"  ||W_paper - W_lqr(mid)|| = {ordered.norm(PAPER_W - mid):.3g} (||W_lqr|| = {ordered.norm(mid):.3g})")
     for setting in sotc_settings():
         for label, ov in [("", {}), ("stored replay", {"cl_replay": 1})]:
             ctrl, res = run(setting, **ov)
             W = np.array(ctrl.W)
-            d = [np.linalg.norm(W - w) for w in refs.values()]
+            d = [ordered.norm(W - w) for w in refs.values()]
             print(f"{setting:14s} {label:14s} W(100)={np.round(W, 4).tolist()}")
-            eig = np.round(np.linalg.eigvalsh(weights_to_matrix(W)), 4).tolist()
-            print(f"{'':29s} ||W-W_lqr|| over phi2 = {np.round(d, 3).tolist()} (rel. to mid {d[2] / np.linalg.norm(mid):.2f});"
-                  f" ||W-W_paper||={np.linalg.norm(W - PAPER_W):.3g}; eig S(W)={eig};"
+            eig = np.round(ordered.eigvalsh(weights_to_matrix(W)), 4).tolist()
+            print(f"{'':29s} ||W-W_lqr|| over phi2 = {np.round(d, 3).tolist()} (rel. to mid {d[2] / ordered.norm(mid):.2f});"
+                  f" ||W-W_paper||={ordered.norm(W - PAPER_W):.3g}; eig S(W)={eig};"
                   f" lambda_min(stack)={stack_min_eig(ctrl):.2g}")
 
 
@@ -210,14 +217,14 @@ def cmd_euler(args: argparse.Namespace) -> None:
                 pend = ctrl._pending
                 M = np.array(ctrl.stack.M).reshape(N_BASIS, N_BASIS) if pend["cl"] else 0.0  # the CL sum's M W + b
                 G = np.outer(pend["xi"], pend["eta"]) + M
-                lam = STEP_SIZE * ctrl.alpha1 * np.linalg.eigvalsh(0.5 * (G + G.T))[-1]
+                lam = STEP_SIZE * ctrl.alpha1 * ordered.eigvalsh(0.5 * (G + G.T))[-1]
                 if lam > worst:
                     worst, t_worst = lam, t
                 state = rk4_step(state, ctrl.outputs[0], ctrl.outputs[1], STEP_SIZE, 4, arm)
                 ctrl.advance(t, STEP_SIZE)
             e = np.array(state[:2]) - np.array(traj.sample(args.stop)[:2])
             print(f"{label:30s} {'implicit' if integ == 0 else 'Euler':8s} max T alpha1 lambda_max(Gamma) = {worst:.3g}"
-                  f" at t = {t_worst:.2f} s; ||W({args.stop:g})|| = {np.linalg.norm(ctrl.W):.3g}, |e({args.stop:g})| = "
+                  f" at t = {t_worst:.2f} s; ||W({args.stop:g})|| = {ordered.norm(ctrl.W):.3g}, |e({args.stop:g})| = "
                   f"{np.array2string(np.abs(e), precision=2)}")
 
 
@@ -279,7 +286,7 @@ def cmd_replay(_: argparse.Namespace) -> None:
         for ov in ({}, {"weight_integrator": 1}, {"pe_amplitude": 0.25}):
             for replay in (0, 1):
                 ctrl, res = run(setting, cl_replay=replay, **ov)
-                d = np.linalg.norm(np.array(ctrl.W) - lqr_weights(1.39, ctrl))
+                d = ordered.norm(np.array(ctrl.W) - lqr_weights(1.39, ctrl))
                 print(f"{setting:14s} {str(ov):26s} replay={'current ' if replay == 0 else 'recorded'}"
                       f" TV[40,80]={weight_variation(res, 40, 80):.3f}  ||W-W_lqr||={d:.3f}  {fmt(metrics(res))}")
 

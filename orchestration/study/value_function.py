@@ -31,7 +31,8 @@ import numpy as np
 from fmu_controller.sotc import SotcCore
 from fmu_plant.trajectory import CircleTrajectory
 from orchestration.markdown import stable, table
-from orchestration.run.metrics import _trapezoid
+from orchestration.run.metrics import _trapezoid, ordered_sum
+from orchestration.study.ordered import weighted_squares
 from orchestration.study.pure_loop import LoopResult, simulate
 
 PHI2_GRID = (0.6, 1.4, 2.2)  # rad, across the circle's range of phi2_d [0.59, 2.19]
@@ -92,7 +93,7 @@ def hjb_residuals(W: np.ndarray, states=None, points=None, **params: float) -> n
 
 def rms(values: np.ndarray) -> float:
     """Root mean square; NaN for no values (a run shorter than ``SETTLED`` visits none after it)."""
-    return float(np.sqrt(np.mean(values ** 2))) if values.size else math.nan
+    return math.sqrt(float(ordered_sum(values * values)) / values.size) if values.size else math.nan
 
 
 def initial_states() -> list[tuple[tuple[float, float], tuple[float, float]]]:
@@ -157,7 +158,7 @@ def value_rows(learned: np.ndarray, learning_run: LoopResult, horizon: float = H
     rows = []
     for (label, w), rs in zip(named, runs):
         residuals = tuple(rms(hjb_residuals(w, **m)) / b for m, b in zip(measures, base))
-        state = [float(_trapezoid(shared_z(r) ** 2 @ theta, r.t)) for r in rs]
+        state = [float(_trapezoid(weighted_squares(shared_z(r), theta), r.t)) for r in rs]
         omega = [float(_trapezoid(r.out("Omega"), r.t)) for r in rs]
         rows.append(ValueRow(label, residuals, np.array(state), np.array(omega), np.array([own_cost(r) for r in rs])))
     return rows
@@ -172,7 +173,7 @@ def residual_cells(rows: list[ValueRow], others: Sequence[list[ValueRow]]) -> li
 
 def _relative(rows: list[ValueRow], i: int, cost: Callable[[ValueRow], np.ndarray]) -> float:
     """The summed cost of row i relative to LQR's (the last row)."""
-    return float(cost(rows[i]).sum() / cost(rows[-1]).sum())
+    return float(ordered_sum(cost(rows[i])) / ordered_sum(cost(rows[-1])))
 
 
 def cost_cells(rows: list[ValueRow], others: Sequence[list[ValueRow]]) -> list[list[str]]:
@@ -191,7 +192,7 @@ def cost_cells(rows: list[ValueRow], others: Sequence[list[ValueRow]]) -> list[l
 
 
 def _ranking(rows: list[ValueRow], others: Sequence[list[ValueRow]], cost: Callable[[ValueRow], np.ndarray]) -> str:
-    order = sorted(range(len(rows)), key=lambda i: cost(rows[i]).sum())
+    order = sorted(range(len(rows)), key=lambda i: float(ordered_sum(cost(rows[i]))))
     return " < ".join(f"{rows[i].label} ({stable(_relative(rows, i, cost), [_relative(o, i, cost) for o in others], '.4g')})"
                       for i in order)
 
@@ -201,7 +202,7 @@ def value_report(rows: list[ValueRow], others: Sequence[list[ValueRow]] = ()) ->
     to the digits it shares with ``others`` (the rows of the learning run under each perturbation of its
     initial state, ``orchestration.study.comparison.PERTURBATIONS``)."""
     learned, zero = rows[0], rows[1]
-    lowest = ", the lowest" if min(rows, key=lambda r: r.cost_earlier.sum()) is zero else ""
+    lowest = ", the lowest" if min(rows, key=lambda r: float(ordered_sum(r.cost_earlier))) is zero else ""
 
     def residual(j: int) -> str:
         return stable(learned.residuals[j], [o[0].residuals[j] for o in others], ".3g")

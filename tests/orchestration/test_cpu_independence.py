@@ -9,7 +9,8 @@ dispatches to beyond it); glibc's CPU-specific variants (its libm's exp, sin ...
 off with ``GLIBC_TUNABLES=glibc.cpu.hwcaps=...`` (the cores call no libm function but sqrt, which IEEE 754
 rounds correctly: ``fmu_controller/elementary.py``). The compiled build is the installed package (its pure loop) and the default
 FMU build; the Python build is the source tree's ``.py`` on PYTHONPATH and the FMUs built with
-``SOTC_COSIM_COMPILE=0``."""
+``SOTC_COSIM_COMPILE=0``. The generated docs blocks that print linear algebra, and every quick block,
+are rendered under other kernels too (``test_generated_docs_are_the_same_under_every_kernel``)."""
 from __future__ import annotations
 
 import json
@@ -84,3 +85,33 @@ def test_a_changed_bit_is_reported():
     doctored = {**REFERENCE, case: {**REFERENCE[case], key: math.nextafter(value, math.inf).hex()}}
     assert first_difference(doctored, REFERENCE).startswith(f"{case} / {key}")
     assert first_difference(REFERENCE, REFERENCE) is None
+
+
+# The docs' own numbers: the blocks that take linear algebra of printed figures (the value study's LQR row
+# and norms, the learned W's eigenvalues) and every quick block, rendered under two other OpenBLAS kernels
+# than this environment's (which tests/docs/test_docgen.py renders), a child each, by the installed
+# package (compiled where the build compiles) from this checkout's docs.
+DOC_KERNELS = ("Haswell", "SkylakeX")
+DOC_BLOCKS = ("value", "learned-w")
+DOCGEN_CHECK = """import sys
+from pathlib import Path
+from orchestration.reports import docgen
+docgen.ROOT = Path(sys.argv[1])
+sys.exit(docgen.main(["check", *sys.argv[2:]]))"""
+
+
+@pytest.mark.slow
+def test_generated_docs_are_the_same_under_every_kernel():
+    from orchestration.reports import docgen
+
+    names = [*DOC_BLOCKS, *(n for n, b in docgen.BLOCKS.items() if not b.slow)]
+    env = {k: v for k, v in os.environ.items() if k not in ("OPENBLAS_CORETYPE", "PYTHONPATH")}
+
+    def check(kernel: str) -> subprocess.CompletedProcess:
+        return subprocess.run([sys.executable, "-c", DOCGEN_CHECK, str(REPO), *names],
+                              env=env | {"OPENBLAS_CORETYPE": kernel}, capture_output=True, text=True,
+                              timeout=1800, cwd=REPO.parent)
+
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        for kernel, proc in zip(DOC_KERNELS, pool.map(check, DOC_KERNELS)):
+            assert proc.returncode == 0, f"OPENBLAS_CORETYPE={kernel}: {(proc.stdout + proc.stderr)[-1500:]}"
