@@ -128,3 +128,14 @@ def read_toml(path: Path, label: str, error: type[UsageError] = UsageError) -> d
         except OSError as exc:
             raise error(f"{label}: cannot be read ({exc.strerror or exc})") from None
         return _parse(data, label, error)
+
+
+def unknown_file(name_or_path: str, what: str, known: list[str], error: type[UsageError] = UsageError) -> UsageError:
+    """The error for a ``what`` (scenario, sweep) that is neither a shipped one nor a ``.toml`` file: a file or
+    folder of that name is said to be one (``sweep /etc/passwd`` said "no sweep" of a file that exists)."""
+    path, choose = Path(name_or_path), f"give a .toml path or one of {', '.join(known)}"
+    if path.is_dir():
+        return error(f"{what} '{name_or_path}': is a folder, not a TOML {what} file; {choose}")
+    if path.exists():
+        return error(f"{what} '{name_or_path}': not a TOML {what} file (a {what} file's name ends in .toml); {choose}")
+    return error(f"no {what} '{name_or_path}': {choose}")

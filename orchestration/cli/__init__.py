@@ -27,16 +27,38 @@ def _command_groups() -> tuple:
 
 
 class _Parser(argparse.ArgumentParser):
-    """argparse with its usage errors on one line (the usage itself is one ``-h`` away)."""
+    """argparse with its usage errors on one line (the usage itself is one ``-h`` away). The command is
+    checked after the other arguments: ``sotc-cosim --bogus`` names ``--bogus`` (argparse checked the
+    missing command first and said only that)."""
 
     def error(self, message: str):
         self.exit(exit_codes.USAGE, f"{self.prog}: error: {message} (see {self.prog} -h)\n")
 
+    def parse_known_args(self, args=None, namespace=None):
+        self.given = list(sys.argv[1:] if args is None else args)  # what ``_VersionAlone`` looks at
+        return super().parse_known_args(args, namespace)
+
+    def parse_args(self, args=None, namespace=None):
+        parsed = super().parse_args(args, namespace)  # an unknown argument is refused here, by name
+        if getattr(parsed, "command", "") is None:
+            self.error("the following arguments are required: command")
+        return parsed
+
+
+class _VersionAlone(argparse._VersionAction):
+    """``--version`` prints the version only when it is the only argument (``--version extra`` exited 0)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        others = [a for a in getattr(parser, "given", []) if a != option_string]
+        if others:
+            parser.error(f"{option_string} takes no other arguments (got {' '.join(others)})")
+        super().__call__(parser, namespace, values, option_string)
+
 
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="sotc-cosim", description=__doc__.split("\n")[0])
-    parser.add_argument("--version", action="version", version=f"%(prog)s {VERSION}")
-    sub = parser.add_subparsers(dest="command", required=True)
+    parser.add_argument("--version", action=_VersionAlone, version=f"%(prog)s {VERSION}")
+    sub = parser.add_subparsers(dest="command")  # required, checked by _Parser.parse_args after the rest
     for group in _command_groups():
         group.add_commands(sub)
     return parser

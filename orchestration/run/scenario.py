@@ -30,7 +30,7 @@ from typing import Any, Callable
 
 from fmu_plant.paper_setting import STEP_SIZE, TORQUE_LIMIT
 from orchestration.exit_codes import UsageError
-from orchestration.toml_files import parse_toml, read_toml
+from orchestration.toml_files import parse_toml, read_toml, unknown_file
 
 # a run holds every sample of every output in memory: 10^6 steps (10,000 s at T = 0.01 s, 100 paper
 # runs) of ~60 outputs is ~0.5 GB per instance; more is refused before anything is allocated
@@ -185,9 +185,7 @@ def _read_raw(name_or_path: str, seen: tuple[str, ...] = ()) -> dict[str, Any]:
     elif resource.is_file():
         label, read = name_or_path, lambda where: parse_toml(resource.read_bytes(), where, ScenarioError)
     else:
-        raise ScenarioError(
-            f"no scenario '{name_or_path}': give a .toml path or one of {', '.join(available_scenarios())}"
-        )
+        raise unknown_file(name_or_path, "scenario", available_scenarios(), ScenarioError)
     if label in seen:
         raise ScenarioError(f"scenario '{label}' extends itself through {' -> '.join(seen)}")
     raw = read(f"scenario '{label}'")

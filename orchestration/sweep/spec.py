@@ -68,7 +68,7 @@ from fmu_controller.base import RENAMED_PARAMETERS
 from fmu_controller.catalog import CORES
 from orchestration.run.scenario import Instance, Scenario, ScenarioError, load_scenario
 from orchestration.sweep.schema import DISTRIBUTIONS, MAX_POINTS, check_sweep_schema
-from orchestration.toml_files import parse_toml, read_toml
+from orchestration.toml_files import parse_toml, read_toml, unknown_file
 
 SETTINGS = ("controller", "step_size", "stop_time")  # axes that are not FMU parameters
 DEFAULT_TIME_LIMIT = 600.0
@@ -245,7 +245,7 @@ def load_sweep(name_or_path: str) -> Sweep:
     else:
         resource = resources.files("orchestration.sweep.presets") / f"{name_or_path}.toml"
         if not resource.is_file():
-            raise SweepError(f"no sweep '{name_or_path}': give a .toml path or one of {', '.join(available_sweeps())}")
+            raise unknown_file(name_or_path, "sweep", available_sweeps(), SweepError)
         label, folder = name_or_path, None
         raw = parse_toml(resource.read_bytes(), f"sweep '{label}'", SweepError)
     return parse_sweep(raw, label, folder, default_name=path.stem)
