@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import IO, Iterator
 
 from orchestration.exit_codes import UsageError
-from orchestration.paths import lock_path
+from orchestration.paths import lock_path, temporary_path
 
 class OutputError(Exception):
     """An output that could not be written: ``path`` and the ``errno`` of the failure."""
@@ -37,11 +37,6 @@ class OutputError(Exception):
     @classmethod
     def of(cls, path: Path | str, exc: OSError) -> "OutputError":
         return cls(path, exc.errno or errno.EIO, "" if exc.errno else str(exc))
-
-
-def temporary_path(path: Path, pid: int | None = None) -> Path:
-    """A hidden file beside ``path`` that only this process (or process ``pid``) writes."""
-    return path.with_name(f".{path.name}.{os.getpid() if pid is None else pid}.part")
 
 
 @contextmanager

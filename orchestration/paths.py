@@ -1,12 +1,26 @@
 """Output paths checked before anything runs: a command that cannot write its result refuses at
-once, naming the argument, instead of failing (with a traceback) after the work is done."""
+once, naming the argument, instead of failing (with a traceback) after the work is done.
+
+A file output must be in an existing folder (a mistyped folder was created without a word), unless it
+goes under ``recordings/``, the default place of every output, which is made as needed. A name too long for the file
+system (with the temporary and lock files made beside it) is refused at once (it failed after the run,
+exit 1). An existing file is replaced only if it is of the output's own kind (``OutputKind``: an SSP
+archive, a ``.rrd``, a summary JSON ...), else only with ``--force`` (``export-ssp --out`` turned any file
+into a zip)."""
 from __future__ import annotations
 
+import json
 import os
 import tempfile
+import zipfile
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Callable
 
 from orchestration.exit_codes import UsageError
+
+OUTPUTS = Path("recordings")  # the default place of every output, under the working folder (made as needed)
+PID_MAX = 2**22  # the largest process id Linux gives (/proc/sys/kernel/pid_max at most): in temporary names
 
 
 class OutputPathError(UsageError):
@@ -22,6 +36,11 @@ def _probe_folder(folder: Path) -> str | None:
     os.close(fd)
     os.unlink(name)
     return None
+
+
+def temporary_path(path: Path, pid: int | None = None) -> Path:
+    """A hidden file beside ``path`` that only this process (or process ``pid``) writes."""
+    return path.with_name(f".{path.name}.{os.getpid() if pid is None else pid}.part")
 
 
 def lock_path(path: Path, folder: bool = False) -> Path:
@@ -48,20 +67,96 @@ def _check_lock(path: Path, argument: str, folder: bool) -> None:
         raise OutputPathError(f"{argument} {path}: its lock file {lock} is not a regular file; remove it")
 
 
-def check_output_file(path: Path, argument: str, locked: bool = False) -> Path:
-    """``path`` can be created or overwritten as a regular file (missing parent folders may be
-    created later: the nearest existing one must be a folder we can write in), and so can its lock
-    file (``locked``). Nothing is left behind."""
+@dataclass(frozen=True)
+class OutputKind:
+    """What an output file holds, to tell a file sotc-cosim would write there (replaced) from any other
+    (kept, unless ``--force``): ``name`` says what it is ("an SSP archive"), ``holds`` looks at a file."""
+    name: str
+    holds: Callable[[Path], bool]
+
+
+def _readable(holds: Callable[[Path], bool]) -> Callable[[Path], bool]:
+    def guarded(path: Path) -> bool:
+        try:
+            return holds(path)
+        except (OSError, ValueError, zipfile.BadZipFile):
+            return False
+    return guarded
+
+
+def json_kind(name: str, keys: tuple[str, ...]) -> OutputKind:
+    """A JSON object with these keys."""
+    def holds(path: Path) -> bool:
+        data = json.loads(path.read_bytes())
+        return isinstance(data, dict) and all(k in data for k in keys)
+    return OutputKind(name, _readable(holds))
+
+
+def zip_kind(name: str, member: str) -> OutputKind:
+    """A zip archive holding ``member``."""
+    def holds(path: Path) -> bool:
+        with zipfile.ZipFile(path) as z:
+            return member in z.namelist()
+    return OutputKind(name, _readable(holds))
+
+
+def magic_kind(name: str, magic: bytes) -> OutputKind:
+    """A file that starts with ``magic``."""
+    def holds(path: Path) -> bool:
+        with open(path, "rb") as f:
+            return f.read(len(magic)) == magic
+    return OutputKind(name, _readable(holds))
+
+
+def check_output_file(path: Path, argument: str, locked: bool = False, kind: OutputKind | None = None,
+                      force: bool = False) -> Path:
+    """``path`` can be created or overwritten as a regular file, and so can its lock file (``locked``).
+    Its folder must exist, unless it is under ``OUTPUTS`` (made as needed: the nearest existing folder
+    must be one we can write in); its name, with the temporary and lock names made from
+    it, must fit the file system; an existing file that is not empty must be of its ``kind``, unless
+    ``force``. Nothing is left behind."""
     path = Path(path)
+    _check_name(path, argument)  # first: a name too long fails every look at the path with ENAMETOOLONG
     _check_entry(path, argument, path)
     if path.is_dir():
         raise OutputPathError(f"{argument} {path}: is a folder; give a file path")
     if path.exists() and not path.is_file():
         raise OutputPathError(f"{argument} {path}: exists and is not a regular file")
+    if not _under_outputs(path) and not path.parent.is_dir() and not path.parent.is_symlink():
+        raise OutputPathError(f"{argument} {path}: the folder {path.parent} does not exist; create it first "
+                              "(a file output's folder is not made for it)")
     _check_folder(path.parent, argument, path)
+    if kind is not None and not force and path.is_file() and path.stat().st_size and not kind.holds(path):
+        raise OutputPathError(f"{argument} {path}: exists and is not {kind.name}; give another path, or --force "
+                              "to replace it")
     if locked:
         _check_lock(path, argument, folder=False)
     return path
+
+
+def _under_outputs(path: Path) -> bool:
+    return Path(os.path.abspath(path)).is_relative_to(os.path.abspath(OUTPUTS))
+
+
+def _check_name(path: Path, argument: str) -> None:
+    """The names of ``path``, of the folders still to be made for it and of the temporary and lock files
+    beside it fit the file system of its nearest existing folder."""
+    existing = path.parent.absolute()
+    while not os.path.exists(existing):  # False for a name too long, as for a missing one
+        existing = existing.parent
+    extra = max(len(temporary_path(path, PID_MAX).name), len(lock_path(path).name)) - len(path.name)
+    name_max = os.pathconf(existing, "PC_NAME_MAX")
+    for part in path.absolute().relative_to(existing).parts[:-1]:  # folders still to be made
+        if len(part) > name_max:
+            raise OutputPathError(f"{argument} {path}: a folder name of {len(part)} characters is too long "
+                                  f"(at most {name_max} here)")
+    if len(path.name) + extra > name_max:
+        raise OutputPathError(f"{argument} {path}: a file name of {len(path.name)} characters is too long (at most "
+                              f"{name_max - extra} here: its temporary file's name adds {extra})")
+    path_max = os.pathconf(existing, "PC_PATH_MAX")
+    if len(str(path.absolute())) + extra >= path_max:
+        raise OutputPathError(f"{argument} {path}: a path of {len(str(path.absolute()))} characters is too long "
+                              f"(at most {path_max - 1 - extra} here)")
 
 
 def check_output_folder(path: Path, argument: str, locked: bool = False) -> Path:
@@ -76,7 +171,7 @@ def check_output_folder(path: Path, argument: str, locked: bool = False) -> Path
     return path
 
 
-def _check_folder(folder: Path, argument: str, path: Path) -> Path:
+def _check_folder(folder: Path, argument: str, path: Path) -> None:
     existing = folder.absolute()
     while not existing.exists():
         if existing.is_symlink():  # a folder to be created through a link to nowhere
@@ -87,7 +182,6 @@ def _check_folder(folder: Path, argument: str, path: Path) -> Path:
     why = _probe_folder(existing)
     if why:
         raise OutputPathError(f"{argument} {path}: cannot write in {existing} ({why})")
-    return path
 
 
 DEFAULT_FMU_DIR = Path("build") / "fmus"  # where the FMUs are built and found, under the working folder

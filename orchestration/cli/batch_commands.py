@@ -9,7 +9,7 @@ from orchestration import exit_codes
 from orchestration.cli.options import (add_cluster, add_fmi, add_fmu_dir, add_stop_time, fmu_dir_of, positive_int,
                                        stop_times)
 from orchestration.outputs import PathLock
-from orchestration.paths import check_output_file, check_output_folder
+from orchestration.paths import OUTPUTS, check_output_file, check_output_folder
 from orchestration.run import interrupt
 from orchestration.run.scenario import ScenarioError
 
@@ -46,7 +46,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     sweep = grid_from_assignments(args.sweep, args.set) if args.set else load_sweep(args.sweep)
     if args.stop_time is not None:
         sweep = dataclasses.replace(sweep, base=sweep.base.with_stop_time(args.stop_time))
-    out = check_output_folder(args.out or Path("recordings") / sweep.name, "--out", locked=True)
+    out = check_output_folder(args.out or OUTPUTS / sweep.name, "--out", locked=True)
     if args.doc:
         check_output_file(args.doc, "--doc")
     created = [f for f in (out, *out.parents) if not f.exists()]  # the folders this sweep makes

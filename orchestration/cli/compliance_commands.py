@@ -5,7 +5,8 @@ import argparse
 from pathlib import Path
 
 from orchestration import exit_codes
-from orchestration.cli.options import DEFAULT_SCENARIO, add_fmi, add_fmu_dir, add_stop_time, fmu_dir_of, seconds
+from orchestration.cli.options import (DEFAULT_SCENARIO, add_fmi, add_fmu_dir, add_force, add_stop_time, fmu_dir_of,
+                                       seconds)
 from orchestration.exit_codes import UsageError
 from orchestration.paths import check_output_file, check_output_folder
 from orchestration.run import interrupt
@@ -55,12 +56,12 @@ def _cmd_cross_check(args: argparse.Namespace) -> int:
 
 
 def _cmd_export_ssp(args: argparse.Namespace) -> int:
-    from orchestration.compliance.ssp import export_ssp
+    from orchestration.compliance.ssp import ARCHIVE, export_ssp
     from orchestration.fmu_build.build import ensure_built
 
     if args.fmi == 3:
         raise UsageError(NO_SSP2)
-    check_output_file(args.out, "--out")
+    check_output_file(args.out, "--out", kind=ARCHIVE, force=args.force)
     scenario = load_scenario(args.scenario)
     if args.stop_time is not None:
         scenario = scenario.with_stop_time(args.stop_time)
@@ -91,6 +92,7 @@ def add_commands(sub) -> None:
     p.add_argument("scenario", nargs="?", default=DEFAULT_SCENARIO, metavar="SCENARIO",
                    help=f"scenario name or .toml path (default {DEFAULT_SCENARIO})")
     p.add_argument("--out", type=Path, required=True, help="the .ssp file to write")
+    add_force(p, "an SSP archive")
     add_stop_time(p, "override the scenario's stop time, s")
     add_fmu_dir(p)
     add_fmi(p, "export (FMI 3: refused, SSP 2.0 cannot be checked here; see docs/interop.md)")

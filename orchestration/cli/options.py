@@ -68,6 +68,11 @@ def fmu_dir_of(args: argparse.Namespace) -> Path:
     return fmu_folder(args.fmu_dir, getattr(args, "fmi", 2), given=args.fmu_dir is not DEFAULT_FMU_DIR)
 
 
+def add_force(p: argparse.ArgumentParser, kinds: str) -> None:
+    p.add_argument("--force", action="store_true",
+                   help=f"replace an existing output file that is not {kinds} (refused without it)")
+
+
 def add_stop_time(p: argparse.ArgumentParser, help: str) -> None:
     p.add_argument("--stop-time", type=seconds, help=help)
 

@@ -6,8 +6,10 @@ import sys
 from pathlib import Path
 
 from orchestration import exit_codes
-from orchestration.cli.options import DEFAULT_SCENARIO, add_fmi, add_fmu_dir, add_stop_time, fmu_dir_of, positive_int
-from orchestration.paths import DEFAULT_FMU_DIR, check_output_file, check_output_folder, fmu_folder
+from orchestration.cli.options import (DEFAULT_SCENARIO, add_fmi, add_fmu_dir, add_force, add_stop_time, fmu_dir_of,
+                                       positive_int)
+from orchestration.paths import DEFAULT_FMU_DIR, OUTPUTS, check_output_file, check_output_folder, fmu_folder
+from orchestration.recording import RRD
 from orchestration.run import interrupt
 from orchestration.run.scenario import ScenarioError, available_scenarios, load_scenario
 
@@ -118,16 +120,17 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 def _run_and_report(args: argparse.Namespace, writer) -> int:
     from orchestration.recording import default_recording_path
-    from orchestration.run.summary import format_table, write_summary
+    from orchestration.run.summary import SUMMARY, format_table, write_summary
 
     def check(scenarios) -> None:
         if args.summary:
-            check_output_file(args.summary, "--summary")
+            check_output_file(args.summary, "--summary", kind=SUMMARY, force=args.force)
         if args.recording:
-            check_output_file(args.recording, "--recording", locked=True)
+            check_output_file(args.recording, "--recording", locked=True, kind=RRD, force=args.force)
         elif not args.no_recording:
             for scenario in scenarios:
-                check_output_file(default_recording_path(scenario.name), "recording", locked=True)
+                check_output_file(default_recording_path(scenario.name), "recording", locked=True, kind=RRD,
+                                  force=args.force)
 
     scenarios, paths = prepare(args.scenarios or [DEFAULT_SCENARIO], args.stop_time, fmu_dir_of(args), check, args.fmi)
     written: list[Path] = []
@@ -151,13 +154,17 @@ def _run_and_report(args: argparse.Namespace, writer) -> int:
     return exit_code(summaries)
 
 
+def _check_recording(args: argparse.Namespace) -> None:
+    """``--recording`` of compare and reproduce: a Rerun recording, or any file with ``--force``."""
+    check_output_file(args.recording, "--recording", locked=True, kind=RRD, force=args.force)
+
+
 def _cmd_compare(args: argparse.Namespace) -> int:
     from orchestration.recording.overlays import record_comparison
     from orchestration.run.summary import format_table
 
     results, summaries = zip(*run_each(*prepare(args.scenarios, args.stop_time, fmu_dir_of(args),
-                                                  lambda _: check_output_file(args.recording, "--recording",
-                                                                                locked=True), args.fmi),
+                                                  lambda _: _check_recording(args), args.fmi),
                                            progress_label="compare"))  # a line per run: it was silent for 66 s
     print(format_table(summaries))
     print(f"recording: {record_comparison(results, args.recording)}")
@@ -170,7 +177,7 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
 
     def check(_) -> None:
         check_output_folder(args.out, "--out")
-        check_output_file(args.recording, "--recording", locked=True)
+        _check_recording(args)
 
     results, summaries = zip(*run_each(*prepare(reproduce_scenarios(), args.stop_time, fmu_dir_of(args), check, args.fmi),
                                         progress_label="reproduce"))
@@ -204,22 +211,25 @@ def add_commands(sub) -> None:
     rec.add_argument("--no-recording", action="store_true", help="do not write a Rerun recording")
     p.add_argument("--record-every", type=positive_int, default=1, metavar="N",
                    help="record every N-th sample only (long runs: a 10,000 s run is about 960 MB at N = 1)")
+    add_force(p, f"{RRD.name} or a run summary")
     add_fmi(p)
     p.set_defaults(func=_cmd_run)
 
     p = sub.add_parser("compare", help="run scenarios and overlay them in one Rerun recording (paper Figs 10-12)")
     p.add_argument("scenarios", nargs="+", metavar="SCENARIO", help="scenario names or .toml paths")
-    p.add_argument("--recording", type=Path, metavar="PATH", default=Path("recordings") / "compare.rrd",
+    p.add_argument("--recording", type=Path, metavar="PATH", default=OUTPUTS / "compare.rrd",
                    help="where to write the recording (default recordings/compare.rrd)")
+    add_force(p, RRD.name)
     add_stop_time(p, "override every scenario's stop time, s")
     add_fmu_dir(p)
     add_fmi(p)
     p.set_defaults(func=_cmd_compare)
 
     p = sub.add_parser("reproduce", help="run the paper's section 4 experiment and write Table 1 extended")
-    p.add_argument("--out", type=Path, default=Path("recordings"), help="where table1.md/.csv go (default recordings/)")
-    p.add_argument("--recording", type=Path, metavar="PATH", default=Path("recordings") / "reproduce.rrd",
+    p.add_argument("--out", type=Path, default=OUTPUTS, help="where table1.md/.csv go (default recordings/)")
+    p.add_argument("--recording", type=Path, metavar="PATH", default=OUTPUTS / "reproduce.rrd",
                    help="the comparison recording of all runs (default recordings/reproduce.rrd)")
+    add_force(p, RRD.name)
     add_stop_time(p, "override every scenario's stop time, s (default: the paper's 100 s)")
     add_fmu_dir(p)
     add_fmi(p)

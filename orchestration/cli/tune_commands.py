@@ -6,13 +6,13 @@ import argparse
 from pathlib import Path
 
 from orchestration import exit_codes
-from orchestration.cli.options import add_cluster, non_negative_int, positive_int
+from orchestration.cli.options import add_cluster, add_force, non_negative_int, positive_int
 from orchestration.outputs import PathLock
-from orchestration.paths import check_output_file
+from orchestration.paths import OUTPUTS, check_output_file
 from orchestration.run import interrupt
 from orchestration.run.scenario import ScenarioError
 
-DEFAULT_OUT = Path("recordings") / "tuning" / "tuned.json"
+DEFAULT_OUT = OUTPUTS / "tuning" / "tuned.json"
 MAX_SEED = 2**31 - 1
 
 
@@ -111,6 +111,7 @@ def _cmd_tune(args: argparse.Namespace) -> int:
     """Tune at ``--budget`` and ``--polish``; with ``--until-converged CAP``, double the phase the rule judges
     (the CMA-ES phase; the budget when ``--polish 0``) of every search alike while any search still improves
     by ``CONVERGED`` or more over its last half, up to CAP trials."""
+    from orchestration.study.polish import STORE
     from orchestration.study.protocol import SEEDS
     from orchestration.study.tuning import HANDLINGS, unconverged
     from orchestration.sweep.tuning_jobs import journal_of
@@ -118,7 +119,7 @@ def _cmd_tune(args: argparse.Namespace) -> int:
     controllers = _controllers(args.controllers)
     seeds = list(dict.fromkeys(args.seeds or SEEDS))
     handlings = list(dict.fromkeys(args.handlings or HANDLINGS))
-    out = check_output_file(args.out, "--out")
+    out = check_output_file(args.out, "--out", kind=STORE, force=args.force)
     journal = journal_of(out)
     budget, polish = args.budget, args.polish
     with PathLock(out, "--out"), PathLock(journal, "--out's journal"):  # repair() may then remove Optuna's lock
@@ -174,4 +175,5 @@ def add_commands(sub) -> None:
     p.add_argument("--out", type=Path, default=DEFAULT_OUT,
                    help=f"the store (default {DEFAULT_OUT}); the Optuna journal beside it (its name + .journal) makes a "
                         "rerun resume")
+    add_force(p, "a tune store or an Optuna journal")
     p.set_defaults(func=_cmd_tune)

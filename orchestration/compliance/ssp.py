@@ -38,8 +38,11 @@ from pathlib import Path
 from xml.etree import ElementTree as ET
 
 from orchestration.outputs import atomic_file
+from orchestration.paths import zip_kind
 from orchestration.run.scenario import Connection, Scenario, ScenarioError
 
+SSD = "SystemStructure.ssd"  # the archive's system structure, at its root
+ARCHIVE = zip_kind("an SSP archive", SSD)  # what export-ssp --out replaces without --force
 NS = {
     "ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
     "ssc": "http://ssp-standard.org/SSP1/SystemStructureCommon",
@@ -172,7 +175,7 @@ def export_ssp(scenario: Scenario, fmu_paths: dict[str, Path], out: Path) -> Pat
     links = resolve_links(scenario, mds)
     out = Path(out)
     with atomic_file(out, "wb") as f, zipfile.ZipFile(f, "w", zipfile.ZIP_DEFLATED) as z:
-        z.writestr("SystemStructure.ssd", _ssd(scenario, mds, links))
+        z.writestr(SSD, _ssd(scenario, mds, links))
         for model in sorted({i.fmu for i in scenario.instances.values() if not i.parameters}):
             z.write(fmu_paths[model], f"resources/{model}.fmu")
         for inst in scenario.instances.values():

@@ -5,12 +5,17 @@ as one ``OutputError`` instead, so that log line is off unless the user sets ``R
 import os
 from pathlib import Path
 
+from orchestration.paths import OUTPUTS, magic_kind
+
 os.environ.setdefault("RUST_LOG", "warn,re_log_encoding::rrd::file_sink=off,re_sdk::recording_stream=off")
 
 # Samples per block handed over by the master (and flushed to the file): chosen by
 # ``sotc-cosim bench recording``, see README "Recordings".
 BLOCK_SIZE = 1000
+# Rerun's files start with "RRF" and the version of their encoding (RRF2 for Rerun 0.41): what a
+# --recording replaces without --force
+RRD = magic_kind("a Rerun recording (.rrd)", b"RRF")
 
 
 def default_recording_path(scenario_name: str) -> Path:
-    return Path("recordings") / f"{scenario_name.replace('/', '_')}.rrd"
+    return OUTPUTS / f"{scenario_name.replace('/', '_')}.rrd"

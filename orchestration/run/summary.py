@@ -10,6 +10,7 @@ import numpy as np
 from fmu_controller.catalog import CORES
 from fmu_controller.saturation import LIMIT_HANDLINGS
 from orchestration.outputs import atomic_write
+from orchestration.paths import json_kind
 from orchestration.markdown import number
 from orchestration.run.master import RunResult
 from orchestration.run.metrics import LIMIT_FLAG_OUTPUTS, TrackingMetrics, limit_active
@@ -102,6 +103,9 @@ def summarize(result: RunResult) -> dict[str, Any]:
     obs.start(result.scenario, {inst: list(outs) for inst, outs in result.outputs.items()})
     obs.add(result.time, lambda key: result.outputs[obs.where[key][0]][key.split(".", 1)[1]])
     return obs.summarize(result)
+
+
+SUMMARY = json_kind("a run summary (JSON with scenario and status)", ("scenario", "status"))  # what --summary replaces
 
 
 def write_summary(summary: dict[str, Any], path: Path) -> None:

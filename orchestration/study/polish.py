@@ -37,6 +37,7 @@ import optuna
 from optuna.trial import TrialState
 
 from fmu_controller.saturation import LIMIT_HANDLINGS
+from orchestration.paths import json_kind
 from orchestration.study import optimize, tuning
 
 COUNTED = (TrialState.COMPLETE,)  # the CMA-ES phase's trials (added complete, never pruned)
@@ -173,6 +174,9 @@ def record(journal, fmu: str, handling: int, seed: int, budget: int, polish: int
                                                         for t in trials), 1)
     r["finished"] = max([r["finished"]] + [t.datetime_complete.isoformat(timespec="seconds") for t in trials])
     return r
+
+
+STORE = json_kind("a tune store (JSON with budget and controllers)", ("budget", "controllers"))  # what --out replaces
 
 
 def store(path: Path, controllers, handlings, seeds, budget: int, polish: int) -> dict[str, Any]:

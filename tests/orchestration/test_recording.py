@@ -243,6 +243,7 @@ def test_cli_writes_a_recording_per_run_unless_told_otherwise(fmu_dir, tmp_path,
     common = ["--stop-time", "0.5", "--fmu-dir", str(fmu_dir)]
     assert main(["run", "paper-ct", *common]) == 0
     assert len(read_entities(tmp_path / "recordings" / "paper-ct.rrd")["/fmu/plant"]["step"]) == 51
+    (tmp_path / "here").mkdir()  # a folder outside recordings/ is not made for a file (test_cli_refusals.py)
     assert main(["run", "paper-ct", "--recording", "here/x.rrd", *common]) == 0
     assert (tmp_path / "here" / "x.rrd").is_file()
     (tmp_path / "recordings" / "paper-ct.rrd").unlink()
