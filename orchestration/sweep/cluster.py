@@ -130,26 +130,38 @@ class IgnoreSigint(WorkerPlugin):
 
 
 def shutdown(cluster: Cluster | None, futures: list, interrupted: bool) -> None:
-    """Stop promptly and remove the scratch folder: cancel what is pending and, after Ctrl-C (or an
-    error), end the local workers' processes (a task in the middle of a long run would otherwise
-    finish first). On an existing cluster a task already running finishes there unseen."""
+    """Stop promptly, quietly, and remove the scratch folder: cancel what is pending and, after Ctrl-C (or an
+    error), end the local workers' processes (a task in the middle of a long run would otherwise finish
+    first). On an existing cluster a task already running finishes there unseen.
+
+    Closing is quiet: connections closing while the cluster stops are expected, and distributed logged
+    some of them with a ``CommClosedError`` traceback on the user's terminal (1 small sweep in 5), from this
+    process (client, scheduler, nannies) and from the workers, which are told first (``quiet``)."""
     if cluster is None:
         return
-    log = logging.getLogger("distributed")
-    level = log.level
+    disabled = logging.root.manager.disable
     try:
         if interrupted:
             cluster.client.cancel(futures, force=True)
-            # the workers are killed on purpose: their connections closing mid-send is expected, and
-            # distributed would log each one with a traceback on the user's terminal
-            log.setLevel(logging.CRITICAL)
+            logging.disable(logging.CRITICAL)
             _kill_local_workers(cluster.local)
+        elif cluster.local is not None:
+            try:
+                cluster.client.run(quiet)  # the workers this command started, before they are told to close
+            except Exception:  # a worker that cannot be reached is closed all the same
+                pass
+        logging.disable(logging.CRITICAL)
         cluster.client.close(timeout=10)
         if cluster.local is not None:
             cluster.local.close(timeout=10)
     finally:
-        log.setLevel(level)
+        logging.disable(disabled)
         shutil.rmtree(private_folder("scratch") / cluster.scratch, ignore_errors=True)
+
+
+def quiet() -> None:
+    """No more log records in this process (a worker about to be closed)."""
+    logging.disable(logging.CRITICAL)
 
 
 def _kill_local_workers(local) -> None:

@@ -3,6 +3,7 @@ no dashboard warning, scratch folders the stale cleanup knows, honest progress f
 from __future__ import annotations
 
 import errno
+import logging
 import socket
 import subprocess
 import sys
@@ -129,3 +130,53 @@ def test_an_unreachable_scheduler_is_named_and_leaves_no_scratch():
     with pytest.raises(ValueError, match="--scheduler tcp://127.0.0.1:1: cannot reach a Dask scheduler"):
         cluster.open_client("tcp://127.0.0.1:1", None)
     assert own() <= before
+
+
+class _Heard(logging.Handler):
+    def __init__(self):
+        super().__init__(logging.DEBUG)
+        self.records: list[logging.LogRecord] = []
+
+    def emit(self, record: logging.LogRecord) -> None:
+        self.records.append(record)
+
+
+def test_closing_the_cluster_we_own_prints_no_comm_closed_tracebacks():
+    """1 small sweep in 5 ended with distributed's CommClosedError tracebacks on the terminal: the
+    connections closing while the cluster stops, logged by the client, the scheduler and the workers.
+    Here the closing logs them, as it did then; none reaches a handler, and the workers are told first."""
+    from distributed.comm.core import CommClosedError
+
+    logs = [logging.getLogger(name) for name in ("distributed.client", "distributed.core", "asyncio")]
+    heard, sent = _Heard(), []
+
+    def comm_closed(log: logging.Logger) -> None:
+        try:
+            raise CommClosedError("in <TCP (closed) ConnectionPool.heartbeat_worker>: Stream is closed")
+        except CommClosedError:
+            log.exception("Exception while handling op")
+
+    class Client:
+        def run(self, function):
+            sent.append(function)
+
+        def close(self, timeout):
+            comm_closed(logs[0])
+            comm_closed(logs[2])
+
+    class Local:
+        workers: dict = {}
+
+        def close(self, timeout):
+            comm_closed(logs[1])
+
+    for log in logs:
+        log.addHandler(heard)
+    try:
+        cluster.shutdown(cluster.Cluster(Client(), Local(), cluster.scratch_folder()), [], interrupted=False)
+        assert heard.records == [] and sent == [cluster.quiet]
+        comm_closed(logs[1])  # and after the shutdown, logging is as it was
+        assert len(heard.records) == 1
+    finally:
+        for log in logs:
+            log.removeHandler(heard)
