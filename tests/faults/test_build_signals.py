@@ -67,24 +67,21 @@ class _Lines:
 
 def _build_then_signal(args: list[str], cwd: Path, signum: int, group: bool, marker: str = f"[2/{len(MODELS)}]"):
     """Start ``args``; once the build shows ``marker`` (the second FMU's build started), wait a random moment
-    and send ``signum`` to the process group or the PID; return (exit code, stdout, stderr lines, seconds
-    the command took to end)."""
+    and send ``signum`` to the process group or the PID; return (exit code, stdout, stderr lines)."""
     proc = subprocess.Popen(_script_cmd(args), cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             env=env_for(cwd), start_new_session=True)
     lines = _Lines(proc)
     lines.wait_for(marker)
     time.sleep(PICKS.uniform(0.0, 1.5))
-    sent = time.monotonic()
     if group:
         os.killpg(proc.pid, signum)
     else:
         proc.send_signal(signum)
     code = proc.wait(timeout=120)
-    took = time.monotonic() - sent
     lines.thread.join(timeout=10)
     out = proc.stdout.read()
     proc.stdout.close()
-    return code, out, [line.rstrip("\n") for line in lines.lines], took
+    return code, out, [line.rstrip("\n") for line in lines.lines]
 
 
 def _script_cmd(args: list[str]) -> list[str]:
@@ -94,12 +91,13 @@ def _script_cmd(args: list[str]) -> list[str]:
 @pytest.mark.parametrize("signum, group", [(signal.SIGTERM, True), (signal.SIGTERM, False), (signal.SIGHUP, False)],
                          ids=["SIGTERM-group", "SIGTERM-pid", "SIGHUP-pid"])
 def test_a_signal_during_build_stops_it_and_leaves_nothing(signum, group, tmp_path):
-    code, _, err, took = _build_then_signal(["build", "--out", str(tmp_path / "fmus"), *MODELS], tmp_path, signum,
-                                            group)
+    code, _, err = _build_then_signal(["build", "--out", str(tmp_path / "fmus"), *MODELS], tmp_path, signum,
+                                      group)
     assert code == 128 + signum, err
     assert err[-1] == f"sotc-cosim: interrupted ({signal.Signals(signum).name}): {STOPPED}", err
     assert not any("Traceback" in line for line in err), err
-    assert took < 5.0, f"the build went on for {took:.1f} s after the signal"  # was 46 s: every FMU built
+    finished = [line for line in err if line.startswith(f"[{len(MODELS)}/{len(MODELS)}] {MODELS[-1]}: ")]
+    assert finished == [], f"the build went on after the signal: {finished}"  # it was: every FMU built
     assert _settled(tmp_path / "tmp") == []
     assert leftovers(tmp_path, folders=True) == []  # no sotc_stage_*, no sotc_cython_*
     assert not (tmp_path / "fmus" / "ReferenceTrajectory.fmu").exists()  # nothing half-built or later
@@ -107,8 +105,8 @@ def test_a_signal_during_build_stops_it_and_leaves_nothing(signum, group, tmp_pa
 
 def test_sigterm_during_the_first_run_stops_its_build_and_runs_nothing(tmp_path):
     """paper-ct needs three FMUs: the signal falls into the build of the second, to the process group."""
-    code, out, err, _ = _build_then_signal(["run", "paper-ct", "--stop-time", "1", "--fmu-dir", str(tmp_path / "fmus")],
-                                           tmp_path, signal.SIGTERM, group=True, marker="[2/3]")
+    code, out, err = _build_then_signal(["run", "paper-ct", "--stop-time", "1", "--fmu-dir", str(tmp_path / "fmus")],
+                                        tmp_path, signal.SIGTERM, group=True, marker="[2/3]")
     assert code == 143, err
     assert err[-1] == f"sotc-cosim: interrupted (SIGTERM): {STOPPED}"
     assert out == "" and not (tmp_path / "recordings").exists()  # no run started, no recording
