@@ -3,6 +3,7 @@ Optuna, on Dask, resumable."""
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from orchestration import exit_codes
@@ -61,6 +62,8 @@ class _Listener:
         from orchestration.progress import Progress
         from orchestration.sweep.cluster import where, worker_count
 
+        if outcome.salvaged is not None:  # one line, before the searches resume without the damaged ones
+            print(f"tune: {outcome.salvaged}", file=sys.stderr, flush=True)
         compiled = fmu_controller.sotc.__file__.endswith(tuple(importlib.machinery.EXTENSION_SUFFIXES))
         cores = ("compiled" if compiled else "Python (an editable install, or SOTC_COSIM_COMPILE=0 at install: "
                  "slower, docs/performance.md)")
@@ -111,6 +114,7 @@ def _cmd_tune(args: argparse.Namespace) -> int:
     """Tune at ``--budget`` and ``--polish``; with ``--until-converged CAP``, double the phase the rule judges
     (the CMA-ES phase; the budget when ``--polish 0``) of every search alike while any search still improves
     by ``CONVERGED`` or more over its last half, up to CAP trials."""
+    from orchestration.study.journal import JOURNAL
     from orchestration.study.polish import STORE
     from orchestration.study.protocol import SEEDS
     from orchestration.study.tuning import HANDLINGS, unconverged
@@ -120,7 +124,7 @@ def _cmd_tune(args: argparse.Namespace) -> int:
     seeds = list(dict.fromkeys(args.seeds or SEEDS))
     handlings = list(dict.fromkeys(args.handlings or HANDLINGS))
     out = check_output_file(args.out, "--out", kind=STORE, force=args.force)
-    journal = journal_of(out)
+    journal = check_output_file(journal_of(out), "--out's journal", kind=JOURNAL, force=args.force)
     budget, polish = args.budget, args.polish
     with PathLock(out, "--out"), PathLock(journal, "--out's journal"):  # repair() may then remove Optuna's lock
         while True:

@@ -12,6 +12,7 @@ from pathlib import Path
 
 from orchestration.outputs import atomic_write
 from orchestration.study import optimize, polish as local
+from orchestration.study.journal import Salvage, salvage
 from orchestration.sweep.cluster import follow, open_client, shutdown
 
 POLL_S = 1.0  # how often the client reads the journal for progress and looks for Ctrl-C
@@ -23,6 +24,7 @@ class TuneOutcome:
     trials_before: int  # trials the journal held already
     interrupted: bool = False
     store: dict | None = None
+    salvaged: Salvage | None = None  # the journal's damaged lines, set aside before the searches started
 
 
 def journal_of(out: Path) -> Path:
@@ -79,10 +81,11 @@ def tune(out: Path, controllers, handlings, seeds, budget: int, polish: int, wor
     first; write the store to ``out`` (also after Ctrl-C, with the trials finished)."""
     journal = journal_of(out)
     repair(journal)
+    salvaged = salvage(journal) if journal.is_file() else None
     jobs = [(fmu, h, s) for fmu in controllers for h in handlings for s in seeds]
     reader = _Reader(journal)
     before = reader.counts(jobs, budget, polish)
-    outcome = TuneOutcome(len(jobs), sum(before.values()))
+    outcome = TuneOutcome(len(jobs), sum(before.values()), salvaged=salvaged)
     if listener is not None:
         listener.started(outcome, (budget + polish) * len(jobs))
     todo = [job for job in jobs if before[job] < budget + polish]

@@ -123,3 +123,16 @@ def test_an_output_of_its_own_kind_or_forced_is_replaced(option, tmp_path, fmu_d
         assert main(argv) == 0, capsys.readouterr().err
         assert target.read_bytes()[:4] != FOREIGN[:4]  # written
 
+
+def test_tune_keeps_a_foreign_store_or_journal(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    tune = ["tune", "CT", "--budget", "1", "--polish", "0", "--seeds", "0", "--handlings", "accel", "--workers", "1"]
+    (tmp_path / "s.json").write_bytes(FOREIGN)
+    line = _refused([*tune, "--out", "s.json"], capsys)
+    assert "--out s.json: exists and is not a tune store" in line and "--force" in line, line
+    (tmp_path / "t.json.journal").write_bytes(FOREIGN)
+    line = _refused([*tune, "--out", "t.json"], capsys)
+    assert "--out's journal t.json.journal: exists and is not an Optuna journal" in line, line
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.json", "t.json.journal"]
+    assert (tmp_path / "t.json.journal").read_bytes() == FOREIGN
+
