@@ -11,14 +11,14 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from fmu_controller import elementary as el
+from support.interpreted import interpreted
 
-if not el.__file__.endswith(".py"):
-    pytest.skip("the array paths are the interpreted cores' (compiled, elementary's constants and sotc_math's "
-                "functions are C: the compiled build never imports them)", allow_module_level=True)
-
-from fmu_controller import elementary_array as ea, fixed_linalg as fl, sotc_math, sotc_replay, sotc_stack  # noqa: E402
-from fmu_controller.sotc_math import CriticConstants  # noqa: E402
+# the interpreted build's modules, from their .py files in either build (CI's installed package is compiled:
+# there elementary's constants and sotc_math's functions are C, and the compiled build never imports these paths)
+el, ea, fl, sotc_math, sotc_replay, sotc_stack = interpreted(
+    "fmu_controller.elementary", "fmu_controller.elementary_array", "fmu_controller.fixed_linalg",
+    "fmu_controller.sotc_math", "fmu_controller.sotc_replay", "fmu_controller.sotc_stack")
+CriticConstants = sotc_math.CriticConstants
 
 
 def around(v: float) -> list:
