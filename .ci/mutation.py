@@ -25,8 +25,8 @@ UNIT = "tests/unit/"
 MODULES = {
     "fmu_controller/saturation.py": ["test_saturation.py", "test_saturation_exact.py"],
     "fmu_plant/dynamics.py": ["test_arm_dynamics.py", "test_arm_lagrangian.py"],
-    "fmu_plant/kinematics.py": ["test_trajectory.py"],
-    "fmu_plant/trajectory.py": ["test_trajectory.py"],
+    "fmu_plant/kinematics.py": ["test_kinematics_exact.py", "test_trajectory.py", "test_arm_dynamics.py"],
+    "fmu_plant/trajectory.py": ["test_kinematics_exact.py", "test_trajectory.py"],
     "fmu_controller/sotc_math.py": ["test_sotc_exact.py", "test_sotc_core.py", "test_interpreted_paths.py"],
     "orchestration/study/statistics.py": ["test_statistics.py"],
     "orchestration/run/metrics.py": ["test_metrics.py"],
