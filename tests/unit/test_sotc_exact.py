@@ -91,6 +91,8 @@ J = sum(w * zeta for w, zeta in zip(W_SYM, ZETA))
 GRAD = sp.lambdify((Z, W_SYM), [J.diff(zi) for zi in Z], "mpmath")
 HESSIAN = sp.lambdify((Z, W_SYM), sp.hessian(J, Z).tolist(), "mpmath")
 ZETA_NUM = sp.lambdify((Z,), ZETA, "mpmath")
+V = sp.symbols("v1:5", real=True)
+DIRECTIONAL = sp.lambdify((Z, V), [sum(sp.diff(zeta, zi) * vi for zi, vi in zip(Z, V)) for zeta in ZETA], "mpmath")
 
 
 def inverse_inertia(phi2: float, p: ArmParameters) -> mp.matrix:
@@ -123,7 +125,7 @@ def test_the_critic_basis_its_derivatives_and_the_policy_arguments(z, W, phi2):
     assert [list(row) for row in sm.value_hessian(W)] == hess
     assert sm.hessian_phi_times(sm.weights_buffer(W), *z) == pytest.approx(np.array(hess)[:2] @ z, rel=1e-13)
     v = [0.3, -1.1, 2.0, 0.7]
-    directional = [float(sum(sp.diff(zeta, zi).subs(dict(zip(Z, z))) * vi for zi, vi in zip(Z, v))) for zeta in ZETA]
+    directional = [float(e) for e in DIRECTIONAL(z, v)]
     assert sm.basis_directional(z, v) == pytest.approx(directional, rel=1e-13, abs=1e-13)
     dinv = inverse_inertia(phi2, p)
     s, r = 0.6, (1.0, 2.0, 0.5, 3.0)
@@ -147,3 +149,77 @@ def test_the_controllers_saturated_inputs_are_the_tanh_law_28(seed):
     x = tanh_law(z, ctrl.W, ctrl.s, ctrl.r, inverse_inertia(y[1], ArmParameters()))
     expected = [float(-ctrl.s * mp.tanh(v)) for v in x]
     assert mu == pytest.approx(expected, rel=1e-12, abs=1e-15)
+
+
+# --- the error dynamics (6)/(7), the critic's sample, the weight step's system, the probing signal ------------------
+
+
+def zdot_of_6(z, mu, fe, dinv, lam1, lam2, backstepping: bool) -> list[float]:
+    """Eq. (6) with F_bar_phi of the chosen reading of chi_vd^a: -Lambda1 z_phi (backstepping) or Lambda1 z_v
+    (as printed in (4)); F_bar_v = F_v - Lambda2 z_v; g = diag(I, D^-1)."""
+    zp, zv = z[:2], z[2:]
+    f_phi = [-lam1[i] * zp[i] for i in range(2)] if backstepping else [lam1[i] * zv[i] for i in range(2)]
+    tau = [dinv[0][0] * mu[2] + dinv[0][1] * mu[3], dinv[1][0] * mu[2] + dinv[1][1] * mu[3]]
+    return [f_phi[0] + mu[0] + zv[0], f_phi[1] + mu[1] + zv[1],
+            fe[0] - lam2[0] * zv[0] + tau[0] - zp[0], fe[1] - lam2[1] * zv[1] + tau[1] - zp[1]]
+
+
+@pytest.mark.parametrize("backstepping", [True, False])
+@pytest.mark.parametrize("coupled", [True, False])
+def test_the_critics_sample_is_eta_of_zdot_and_the_reward_of_12(backstepping, coupled):
+    rng = np.random.default_rng(30 + 2 * backstepping + coupled)
+    s, r, theta = 0.6, (1.0, 2.0, 0.5, 3.0), (1.0, 0.5, 2.0, 4.0)
+    lam1, lam2 = (1.5, 0.7), (2.0, 0.3)
+    K = sm.CriticConstants(s, r, theta, lam1, lam2, backstepping, coupled)
+    for _ in range(5):
+        z, x, fe = rng.normal(size=4).tolist(), rng.normal(size=4).tolist(), rng.normal(size=2).tolist()
+        t = [math.tanh(v) for v in x]
+        mu = [-s * v for v in t]
+        dinv = inverse_inertia(float(rng.uniform(-3, 3)), ArmParameters())
+        d = [[float(dinv[0, 0]), float(dinv[0, 1])], [float(dinv[1, 0]), float(dinv[1, 1])]]
+        zdot = zdot_of_6(z, mu, fe, d, lam1, lam2, backstepping)
+        # eta = grad(zeta) zdot; without the coupling (F_bar of (7) as printed): zdot less +z_v and -z_phi
+        v = zdot if coupled else [zdot[0] - z[2], zdot[1] - z[3], zdot[2] + z[0], zdot[3] + z[1]]
+        eta = [float(e) for e in DIRECTIONAL(z, v)]
+        omega = sum(float(2 * s * s * ri * (mp.mpf(xi) * mp.tanh(xi) - mp.log(mp.cosh(xi)))) for xi, ri in zip(x, r))
+        reward = sum(th * zi * zi for th, zi in zip(theta, z)) + omega
+        out = sm.buffer(sm.N_BASIS + 3)
+        got = sm.critic_row(K, *z, *x, *t, *mu, *fe, d[0][0], d[0][1], d[1][1], out, 3)
+        assert got == pytest.approx([*zdot, reward, omega], rel=1e-12, abs=1e-14)
+        assert out.tolist()[3:] == pytest.approx(eta, rel=1e-12, abs=1e-14)
+        assert sm.error_rate(K, *z, *mu, *fe, d[0][0], d[0][1], d[1][1]) == pytest.approx(zdot, rel=1e-13, abs=1e-14)
+
+
+def test_the_weight_steps_linear_system():
+    """(I + c Gamma) W+ = W + dt dW/dt + c Gamma W, Gamma = xi eta^T (+ M) with its lower triangle mirrored."""
+    rng = np.random.default_rng(31)
+    W, wdot, xi, eta = (rng.normal(size=10) for _ in range(4))
+    M = rng.normal(size=(10, 10))
+    dt, c = 0.01, 0.5
+    for with_cl in (True, False):
+        g = np.outer(xi, eta) + (M if with_cl else 0.0)
+        gamma = np.tril(g) + np.tril(g, -1).T
+        G, rhs = sm.buffer(100), sm.buffer(10)
+        sm.implicit_system(*(sm.as_buffer(a.ravel().tolist()) for a in (W, wdot, xi, eta, M)), with_cl, dt, c, G, rhs)
+        assert np.array(G).reshape(10, 10) == pytest.approx(np.eye(10) + c * gamma, rel=1e-14, abs=1e-15)
+        assert np.array(rhs) == pytest.approx(W + dt * wdot + c * gamma @ W, rel=1e-12, abs=1e-13)
+
+
+def test_weights_and_the_matrix_of_the_same_quadratic_form():
+    rng = np.random.default_rng(32)
+    W, z = rng.normal(size=10), rng.normal(size=4)
+    S = sm.weights_to_matrix(W)
+    assert (S == S.T).all()
+    assert z @ S @ z == pytest.approx(float(sum(w * zeta.subs(dict(zip(Z, z))) for w, zeta in zip(W, ZETA))), rel=1e-13)
+    assert sm.matrix_to_weights(S) == pytest.approx(W, rel=1e-15)
+    assert sm.matrix_to_weights(S + np.triu(S, 1) - np.tril(S, -1)) == pytest.approx(W, rel=1e-15)  # symmetrised
+    assert sm.normalisation(3.0) == 16.0 and sm.normalisation(0.0) == 1.0
+
+
+@pytest.mark.parametrize("time", [0.0, 0.1, 0.37, 1.0, 2.5, 17.3, 80.0])
+def test_the_probing_signal_of_section_4(time):
+    T_ = mp.mpf(time)
+    pe = (mp.sin(T_) ** 2 * mp.cos(T_) + mp.sin(2 * T_) ** 2 * mp.cos(T_ / 10) + mp.sin(1.2 * T_) ** 2 * mp.cos(T_ / 2)
+          + mp.sin(T_) ** 5 + mp.sin(1.12 * T_) ** 2 + mp.cos(2.4 * T_) * mp.sin(2.4 * T_) ** 3)
+    assert sm.probing_signal(time) == pytest.approx(float(0.5 * pe), rel=1e-13, abs=1e-15)
+    assert sm.probing_signal(time, 2.0) == pytest.approx(float(2 * pe), rel=1e-13, abs=1e-15)
