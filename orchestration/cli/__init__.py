@@ -1,7 +1,7 @@
 """``sotc-cosim``: build the FMUs, run scenarios, and report.
 
 One module per group of subcommands (``run_commands``, ``batch_commands``, ``compliance_commands``,
-``optimum_commands``, ``tune_commands``), each adding its parsers; ``options`` holds the argument types
+``optimum_commands``, ``tune_commands``, ``cache_commands``), each adding its parsers; ``options`` holds the argument types
 and the options they share.
 
 This module imports only the standard library and light modules at its top: ``main`` defers SIGINT,
@@ -21,9 +21,10 @@ from orchestration.threads import one_blas_thread
 
 
 def _command_groups() -> tuple:
-    from orchestration.cli import batch_commands, compliance_commands, optimum_commands, run_commands, tune_commands
+    from orchestration.cli import (batch_commands, cache_commands, compliance_commands, optimum_commands, run_commands,
+                                   tune_commands)
 
-    return run_commands, batch_commands, compliance_commands, optimum_commands, tune_commands
+    return run_commands, batch_commands, compliance_commands, optimum_commands, tune_commands, cache_commands
 
 
 class _Parser(argparse.ArgumentParser):
@@ -67,6 +68,7 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     stopped = "stopped between two steps; finished results were kept"
     with interrupt.signals_deferred():  # first: a signal during the imports below is noted, not fatal
+        from orchestration.verified import limit
         from orchestration.fmu_build.child import BuildError, BuildInterrupted
         from orchestration.outputs import OutputError
         from orchestration.paths import check_output_folder
@@ -74,6 +76,7 @@ def main(argv: list[str] | None = None) -> int:
         args = build_parser().parse_args(argv)
         try:
             interrupt.check_before_work()  # a signal during the imports above: nothing starts
+            limit()  # SOTC_COSIM_CACHE_LIMIT read before anything is built or run
             fmu_dir = getattr(args, "fmu_dir", None)
             if fmu_dir is not None and not fmu_dir.is_dir():  # an existing folder may be read-only: prebuilt
                 check_output_folder(fmu_dir, "--fmu-dir")

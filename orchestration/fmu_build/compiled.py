@@ -19,7 +19,8 @@ pure-Python outputs bit for bit (same test; ``-ffp-contract=off``; the elementar
 ``fmu_controller/elementary.py``'s own, libm's only sqrt, which IEEE 754 rounds correctly everywhere).
 
 A bundle's extensions are compiled once per content: they are kept in the user's private cache
-(``private_folder(*CACHE)/<key>``, with a manifest of their SHA-256: ``orchestration.verified``),
+(``private_folder(*verified.CORES)/<key>``, with a manifest of their SHA-256: ``orchestration.verified``,
+bounded with the other caches),
 keyed by the SHA-256 of the modules and ``.pxd`` files compiled (the bundle's placeholder name in them),
 the compile script and flags, Python's build configuration, Cython's and setuptools' versions, the C
 compiler's path and ``--version``, and the environment variables setuptools reads. A later build of the
@@ -50,7 +51,6 @@ HOT = ("fmu_controller/elementary.py", "fmu_controller/sotc.py", "fmu_controller
 # names stay plain bytes (renamed); no fused multiply-add, so the compiled cores round as the .py does
 CFLAGS = "-O2 -g0 -fvisibility=hidden -DCYTHON_COMPRESS_STRINGS=0 -ffp-contract=off"
 TIME_LIMIT = 900.0  # s for compiling one bundle
-CACHE = ("cores", "compiled")  # the cache folder under the private root (outputs.private_folder)
 LOCK_FILE = ".compile.lock"  # in the cache folder: one compile at a time across processes (a build compiles one
 # bundle after the other anyway)
 # Cython's directives for every build of the cores (setup.py's too); each module adds its own on its first line
@@ -157,10 +157,14 @@ def compile_bundle(resources: Path, lib: str, pxd: dict[str, str]) -> list[str]:
     if cache is None:
         _compile(resources, lib, present, pxd)
         return present
+    from orchestration import verified
+
     with _one_compiler(cache.parent):  # a concurrent build of the same bundle finds it compiled
-        if not _reuse(cache, resources / lib, present):
+        if not (verified.hold(cache) and _reuse(cache, resources / lib, present)):
             _compile(resources, lib, present, pxd)
             _keep(cache, resources / lib, present)
+            verified.hold(cache)  # not trimmed away by the trim it may call for
+            verified.trim()
     return present
 
 
@@ -239,6 +243,7 @@ def cached(resources: Path, lib: str, present: list[str], pxd: dict[str, str]) -
     are then compiled every time)."""
     from importlib import metadata
 
+    from orchestration.verified import CORES
     from orchestration.outputs import OutputError, private_folder
 
     try:
@@ -253,7 +258,7 @@ def cached(resources: Path, lib: str, present: list[str], pxd: dict[str, str]) -
     for rel, text in sorted(pxd.items()):
         h.update(rel.encode() + b"\0" + text.encode() + b"\0")
     try:
-        return private_folder(*CACHE) / h.hexdigest()
+        return private_folder(*CORES) / h.hexdigest()
     except OutputError:
         return None
 

@@ -11,7 +11,9 @@ content instead:
   writes nothing there when it imports them;
 - at every load, before any of its code runs, every file is checked against the manifest (the same
   files, the same digests); a folder that differs (damaged, truncated, a file planted or missing) is
-  removed and unpacked again.
+  removed and unpacked again;
+- the folder is held (``orchestration.verified``) while this process lives: the cache's bound never
+  removes it under a running FMU; a new folder may make the cache remove its least recently used ones.
 """
 from __future__ import annotations
 
@@ -26,9 +28,15 @@ from orchestration.outputs import private_folder
 def unpacked(fmu_file: Path | str) -> str:
     """The folder holding ``fmu_file`` unpacked, checked against its manifest (made first if needed)."""
     fmu_file = Path(fmu_file)
-    target = private_folder("fmus", "unpacked") / verified.sha256(fmu_file)
-    if target.is_dir() and verified.intact(target):
-        return str(target)
-    verified.discard(target)
-    verified.place(target, lambda staging: extract(str(fmu_file), unzipdir=str(staging)))
+    target = private_folder(*verified.UNPACKED) / verified.sha256(fmu_file)
+    made = False
+    for _ in range(verified.ATTEMPTS):
+        if verified.hold(target) and verified.intact(target):
+            break
+        verified.release(target)
+        verified.discard(target)
+        verified.place(target, lambda staging: extract(str(fmu_file), unzipdir=str(staging)))
+        made = True
+    if made:
+        verified.trim()
     return str(target)

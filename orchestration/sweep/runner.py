@@ -34,6 +34,7 @@ from typing import Any
 
 import numpy as np
 
+from orchestration import verified
 from orchestration.fmu_build.build import ensure_built
 from orchestration.outputs import atomic_write, private_folder
 from orchestration.run.parameter_check import check_scenarios
@@ -121,15 +122,22 @@ class PointGuard:
 
 def _fmu_cache(blobs: dict[str, tuple[str, bytes]]) -> dict[str, Path]:
     """Each FMU once per worker machine, in this user's private folder under its SHA-256 digest; a
-    file already there is run only if its content still has that digest (else it is written again)."""
-    root = private_folder("fmus")
-    paths = {}
+    file already there is run only if its content still has that digest (else it is written again).
+    Each folder is held while this worker lives (``orchestration.verified``): the caches' bound never
+    removes it under a point."""
+    root = private_folder(*verified.SENT)
+    paths, made = {}, False
     for model, (digest, data) in blobs.items():
         target = root / digest / f"{model}.fmu"
-        if not (target.is_file() and _sha256(target) == digest):
+        for _ in range(verified.ATTEMPTS):
+            if verified.hold(target.parent) and target.is_file() and _sha256(target) == digest:
+                break
             target.parent.mkdir(mode=0o700, exist_ok=True)
             atomic_write(target, data)
+            made = True
         paths[model] = target
+    if made:
+        verified.trim()
     return paths
 
 
@@ -229,7 +237,7 @@ def execute(
                            ran=0, failed=0)
     cluster = None
     if todo:
-        private_folder("fmus")  # a cache folder others could write in is refused here, before any point
+        private_folder(*verified.SENT)  # a cache folder others could write in is refused here, before any point
         cluster = open_client(scheduler, workers)  # unreachable: refused before the first line
     if listener is not None:
         listener.started(outcome)

@@ -24,13 +24,14 @@ def leftovers(cwd: Path, folders: bool = False) -> list[str]:
     """What is in the command's TMPDIR now but its private caches, kept on purpose: the unpacked FMUs (all
     of that cache) and the compiled cores (each whole folder, checked against its manifest: a half-made one
     is a leftover); ``folders``: empty folders count too."""
-    from orchestration.fmu_build.compiled import CACHE, LOCK_FILE
+    from orchestration.verified import CORES
+    from orchestration.fmu_build.compiled import LOCK_FILE
     from orchestration.outputs import private_root
     from orchestration.verified import intact
 
     tmp = cwd / "tmp"
     root = private_root(tmp)
-    cores = root.joinpath(*CACHE)
+    cores = root.joinpath(*CORES)
     skeleton = {root, cores.parent, cores, cores / LOCK_FILE}
     whole = [f for f in cores.glob("*") if intact(f)]
 
@@ -44,15 +45,15 @@ def warm_core_cache(cwd: Path) -> None:
     """Give the command's TMPDIR (``env_for``) this process's compiled cores, as a user's cache holds them
     after a first build: a test about what a build does, not about compiling, then copies them (each still
     checked against its manifest) instead of compiling them for a minute."""
-    from orchestration.fmu_build.compiled import CACHE
+    from orchestration.verified import CORES
     from orchestration.outputs import private_folder, private_root
     from orchestration.verified import intact
 
     root = private_root(cwd / "tmp")
-    target = root.joinpath(*CACHE)
+    target = root.joinpath(*CORES)
     for folder in (cwd / "tmp", root, target.parent, target):  # each private, as private_folder makes them
         folder.mkdir(mode=0o700, exist_ok=True)
-    for folder in private_folder(*CACHE).iterdir():
+    for folder in private_folder(*CORES).iterdir():
         if not folder.name.startswith(".") and intact(folder):  # whole ones only: other workers build too
             shutil.copytree(folder, target / folder.name)
 
