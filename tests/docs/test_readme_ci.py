@@ -35,3 +35,13 @@ def test_every_doc_the_readme_links_exists():
     text = (ROOT / "README.md").read_text()
     links = re.findall(r"\]\(([^)#]+)(?:#[^)]*)?\)", text)
     assert links and all((ROOT / link).is_file() for link in links), [l for l in links if not (ROOT / l).is_file()]
+
+
+def test_a_passing_run_leaves_no_temporary_folders():
+    """CI left 1.5 GB in TMPDIR: pytest kept the folders of the last three runs (the FMUs, the installed
+    wheel), and four FMUs a child process unpacked stayed in tmpXXXXXXXX/ (the tests that ran those children
+    now see their TMPDIR empty: tests/fmu/test_bytecode.py, tests/shipped/test_shipped_fmus.py)."""
+    import tomllib
+
+    ini = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["pytest"]["ini_options"]
+    assert ini["tmp_path_retention_policy"] == "failed" and int(ini["tmp_path_retention_count"]) <= 1

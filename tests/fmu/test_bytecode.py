@@ -4,6 +4,7 @@ sources, and a host loading the FMU in a fresh process compiles none of the FMU'
 from __future__ import annotations
 
 import importlib.util
+import os
 import subprocess
 import sys
 import zipfile
@@ -12,7 +13,7 @@ MAGIC = importlib.util.MAGIC_NUMBER
 CHECKED_HASH = 0b11  # PEP 552 flags: hash-based, check_source
 
 COUNT_COMPILES = r"""
-import importlib.machinery, sys, tempfile
+import importlib.machinery, shutil, sys, tempfile
 from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
 folder = tempfile.mkdtemp()
@@ -29,6 +30,7 @@ fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(sys.argv[1], unzipdir=folde
 fmu.instantiate()
 fmu.terminate()
 fmu.freeInstance()
+shutil.rmtree(folder)
 print(len(compiled), *compiled)
 """
 
@@ -47,8 +49,9 @@ def test_every_bundled_module_has_a_checked_hash_pyc_of_its_source(fmu_paths):
             assert data[8:16] == importlib.util.source_hash(z.read(source)), pyc
 
 
-def test_loading_an_fmu_compiles_none_of_its_modules(fmu_paths):
+def test_loading_an_fmu_compiles_none_of_its_modules(fmu_paths, tmp_path):
     for model in ("SotcController", "ArmPlant"):
-        out = subprocess.run([sys.executable, "-c", COUNT_COMPILES, str(fmu_paths[model])],
-                             capture_output=True, text=True, timeout=120, check=True).stdout.split()
+        out = subprocess.run([sys.executable, "-c", COUNT_COMPILES, str(fmu_paths[model])], capture_output=True,
+                             text=True, timeout=120, check=True, env={**os.environ, "TMPDIR": str(tmp_path)}).stdout.split()
         assert out[0] == "0", (model, out)
+    assert not any(tmp_path.iterdir())  # the FMUs it unpacked are gone (each run left a tmpXXXXXXXX in TMPDIR)

@@ -23,19 +23,24 @@ from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
 
 def run_fmu(path, steps=5, keep=False, name="instance"):
-    '''instantiate, initialise, step, read every Real output; free and delete the folder (unless keep)'''
+    '''instantiate, initialise, step, read every Real output; free and delete the folder (unless keep;
+    a failure deletes it too)'''
     md = read_model_description(path)
     folder = extract(path, unzipdir=tempfile.mkdtemp())
-    fmu = FMU2Slave(guid=md.guid, unzipDirectory=folder, modelIdentifier=md.coSimulation.modelIdentifier,
-                    instanceName=name)
-    fmu.instantiate(loggingOn=True)
-    fmu.setupExperiment(startTime=0.0)
-    fmu.enterInitializationMode()
-    fmu.exitInitializationMode()
-    outs = [v for v in md.modelVariables if v.causality == "output" and v.type == "Real"]
-    for k in range(steps):
-        fmu.doStep(currentCommunicationPoint=k * 0.01, communicationStepSize=0.01)
-    values = dict(zip([v.name for v in outs], fmu.getReal([v.valueReference for v in outs])))
+    try:
+        fmu = FMU2Slave(guid=md.guid, unzipDirectory=folder, modelIdentifier=md.coSimulation.modelIdentifier,
+                        instanceName=name)
+        fmu.instantiate(loggingOn=True)
+        fmu.setupExperiment(startTime=0.0)
+        fmu.enterInitializationMode()
+        fmu.exitInitializationMode()
+        outs = [v for v in md.modelVariables if v.causality == "output" and v.type == "Real"]
+        for k in range(steps):
+            fmu.doStep(currentCommunicationPoint=k * 0.01, communicationStepSize=0.01)
+        values = dict(zip([v.name for v in outs], fmu.getReal([v.valueReference for v in outs])))
+    except BaseException:
+        shutil.rmtree(folder, ignore_errors=True)
+        raise
     if keep:
         return values, (fmu, folder)
     close((fmu, folder))
@@ -180,11 +185,14 @@ def _with_requirement(fmu: Path, dest: Path, requirement: str) -> Path:
 ])
 def test_a_host_without_a_required_package_is_told_which(shipped, shipped_fmu_dir, tmp_path, requirement, said):
     fmu = _with_requirement(shipped_fmu_dir / "ArmPlant.fmu", tmp_path / "ArmPlant.fmu", requirement)
+    tmp = tmp_path / "tmp"
+    tmp.mkdir()
     proc = shipped.python_code(DRIVER + "run_fmu(sys.argv[1])", str(fmu), cwd=shipped.workdir("deps"),
-                               block_project=True)
+                               block_project=True, env={"TMPDIR": str(tmp)})
     assert proc.returncode != 0
     assert said in proc.stdout + proc.stderr, proc.stdout + proc.stderr
     assert "pip install" in proc.stdout + proc.stderr
+    assert not any(tmp.iterdir())  # the FMU it could not run is not left unpacked (a tmpXXXXXXXX per run was)
 
 
 def test_each_fmu_says_what_its_host_needs(shipped_fmu_dir):

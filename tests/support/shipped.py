@@ -68,11 +68,12 @@ class Shipped:
                               text=True, timeout=timeout)
 
     def python_code(self, code: str, *args: str, cwd: Path, timeout: float = 600,
-                    block_project: bool = False) -> subprocess.CompletedProcess:
-        """Run ``code`` in a fresh interpreter of the installed project (``-I``: no cwd, no user site)."""
+                    block_project: bool = False, env: dict[str, str] | None = None) -> subprocess.CompletedProcess:
+        """Run ``code`` in a fresh interpreter of the installed project (``-I``: no cwd, no user site), with
+        ``env`` added to its environment."""
         prefix = BLOCK_PROJECT if block_project else ""
-        return subprocess.run([str(self.python), "-I", "-c", prefix + code, *args], cwd=cwd, env=self.env(),
-                              capture_output=True, text=True, timeout=timeout)
+        return subprocess.run([str(self.python), "-I", "-c", prefix + code, *args], cwd=cwd,
+                              env=self.env(**(env or {})), capture_output=True, text=True, timeout=timeout)
 
     def interrupt(self, args: list[str], cwd: Path, ready, timeout: float = 300) -> subprocess.CompletedProcess:
         """Start the CLI, wait until ``ready()`` is true (polled), send SIGINT, and wait for it."""
