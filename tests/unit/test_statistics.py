@@ -1,5 +1,6 @@
 """Intervals and paired verdicts of the fair comparison (orchestration.study.statistics)."""
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -139,3 +140,27 @@ def test_alike_single_or_no_usable_values(values, n):
         assert i.value == i.low == i.high == pytest.approx(values[0], rel=1e-15)
     else:
         assert math.isnan(i.value) and math.isnan(i.low) and math.isnan(i.high)
+
+
+def test_two_values_are_resampled_and_the_default_family_is_one():
+    i, logs = geometric_interval([1.0, 10.0]), np.log10([1.0, 10.0])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # BCa on two points warns of a degenerate resample
+        low, high = _scipy_bca(logs, 0.95)
+    assert (i.low, i.high) == pytest.approx((10 ** low, 10 ** high), rel=1e-12, nan_ok=True)
+    assert (statistics.level(), statistics.level(10)) == (0.95, 0.995)
+
+
+def test_no_usable_value_gives_nan_without_a_warning():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        i, v = geometric_interval(HOSTILE), paired(HOSTILE, [1.0] * len(HOSTILE))
+    assert math.isnan(i.value) and math.isnan(i.low) and (i.n, i.failed) == (0, len(HOSTILE))
+    assert v.verdict == "not distinguishable" and (v.ratio.n, v.ratio.failed) == (0, 0) and v.said == v.verdict
+
+
+@pytest.mark.parametrize("a, verdict", [(0.5, "better"), (2.0, "worse"), (1.0, "not distinguishable")])
+def test_a_single_pair_is_its_own_interval(a, verdict):
+    v = paired([a, None], [1.0, 1.0])
+    assert (v.ratio.n, v.ratio.failed, v.failed_a, v.verdict) == (1, 0, 1, verdict)
+    assert v.ratio.value == v.ratio.low == v.ratio.high == pytest.approx(a, rel=1e-15)
