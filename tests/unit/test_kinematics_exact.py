@@ -66,7 +66,7 @@ def test_inverse_kinematics_reaches_the_whole_annulus_and_no_further(l1, l2):
         phi1, phi2 = kin.inverse_kinematics(x, y, l1, l2)
         assert kin.arm_points(phi1, phi2, l1, l2)[2:] == pytest.approx((x, y), abs=1e-6)
     for r in (l1 + l2 + 1e-9, abs(l1 - l2) * (1 - 1e-6)) if l1 != l2 else (l1 + l2 + 1e-9,):
-        with pytest.raises(ValueError, match="out of reach"):
+        with pytest.raises(ValueError, match=rf"out of reach: its distance must lie in \[{abs(l1 - l2):g}, {l1 + l2:g}\] m"):
             kin.inverse_kinematics(r * 0.6, r * 0.8, l1, l2)
 
 
@@ -86,6 +86,7 @@ def test_joint_rates_refuse_the_straight_arm():
     with pytest.raises(ValueError, match="singularity"):
         kin.joint_rates(0.4, 0.0, 0.1, 0.1, 0.0, 0.0, 1.0, 1.0)
     assert all(map(math.isfinite, kin.joint_rates(0.4, 1e-6, 0.1, 0.1, 0.0, 0.0, 1.0, 1.0)))  # det 1e-6: solved
+    assert all(map(math.isfinite, kin.joint_rates(0.0, 1e-9, 0.1, 0.1, 0.0, 0.0, 1.0, 1.0)))  # det 1e-9 exactly
 
 
 CIRCLES = [dict(center_x=1.0, center_y=1.0, radius=0.5, rate=0.5, phase=math.pi / 2, l1=1.0, l2=1.0),
@@ -101,6 +102,7 @@ def test_the_reference_is_eq_47_and_its_image_through_48(circle, time):
     path = sp.Matrix([cx + r * sp.sin(w * T + ph), cy + r * sp.cos(w * T + ph)])  # eq. (47)
     exact = [float(v.subs(T, time).evalf(30)) for v in (*path, *path.diff(T), *path.diff(T, 2))]
     assert circle_path(time, cx, cy, r, w, ph) == pytest.approx(exact, rel=1e-12, abs=1e-13)
+    assert CircleTrajectory(**circle).path(time) == circle_path(time, cx, cy, r, w, ph)
     sample = CircleTrajectory(**circle).sample(time)
     phi1, phi2 = kin.inverse_kinematics(*exact[:2], circle["l1"], circle["l2"])
     rates = kin.joint_rates(phi1, phi2, *exact[2:], circle["l1"], circle["l2"])
@@ -115,5 +117,9 @@ def test_a_circle_strictly_inside_the_annulus_is_accepted(change):
 @pytest.mark.parametrize("change", [dict(radius=2.0 - math.hypot(1.0, 1.0)), dict(center_x=0.3, center_y=0.0, radius=0.3),
                                     dict(l1=1.5, l2=0.5, center_x=1.2, center_y=0.0, radius=0.2)])
 def test_a_circle_touching_the_annulus_is_refused(change):
-    with pytest.raises(ParameterError, match="radius"):
-        CircleTrajectory(**{**CIRCLES[0], **change})
+    c = {**CIRCLES[0], **change}
+    d, l1, l2 = math.hypot(c["center_x"], c["center_y"]), c["l1"], c["l2"]
+    said = (rf"parameter 'radius': the circle spans distances \[{d - c['radius']:g}, {d + c['radius']:g}\] m from the "
+            rf"base; it must lie strictly inside \({abs(l1 - l2):g}, {l1 + l2:g}\) m")
+    with pytest.raises(ParameterError, match=said):
+        CircleTrajectory(**c)
