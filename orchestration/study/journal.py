@@ -32,7 +32,7 @@ from typing import Any
 
 from optuna.storages import JournalStorage
 from optuna.storages.journal import BaseJournalBackend, JournalFileBackend, JournalFileOpenLock
-from optuna.storages.journal._storage import JournalOperation
+from optuna.storages.journal._storage import JournalOperation  # the journal format's operation codes (not exported)
 from optuna.trial import FrozenTrial, TrialState
 
 from orchestration.outputs import OutputError
