@@ -24,7 +24,7 @@ UNIT = "tests/unit/"
 # module -> the unit tests that exercise it (each mutant runs those of them that call the mutated function)
 MODULES = {
     "fmu_controller/saturation.py": ["test_saturation.py", "test_saturation_exact.py"],
-    "fmu_plant/dynamics.py": ["test_arm_dynamics.py", "test_arm_lagrangian.py"],
+    "fmu_plant/dynamics.py": ["test_arm_dynamics.py", "test_arm_lagrangian.py", "test_arm_integration.py"],
     "fmu_plant/kinematics.py": ["test_kinematics_exact.py", "test_trajectory.py", "test_arm_dynamics.py"],
     "fmu_plant/trajectory.py": ["test_kinematics_exact.py", "test_trajectory.py"],
     "fmu_controller/sotc_math.py": ["test_sotc_exact.py", "test_sotc_core.py", "test_interpreted_paths.py"],
