@@ -1,11 +1,12 @@
 """The binary of an FMI 3.0 FMU where a C compiler is found: ``fmi3_shim.c`` in front of pythonfmu3's.
 
-pythonfmu3 0.3.4's binary cannot answer a get or set of the wrong size with fmi3Error
-(docs/reliability.md): it never hands nValues of a get to Python, and it turns every Python exception
-into fmi3Fatal. So the FMU's ``binaries/<platform>/<model>.so`` is the shim, which checks nValues of
-every get and set against ``resources/fmi3_sizes.txt`` (``sizes_table``: each value reference's
-number of elements and name, from the modelDescription) and forwards every call to pythonfmu3's
-binary beside it, ``<model>_pythonfmu3.so``. The shim is compiled with the C compiler and the flags of
+pythonfmu3 0.3.4's binary cannot answer a get or set of the wrong size or type with fmi3Error
+(docs/reliability.md): it never hands nValues of a get to Python, turns every Python exception
+into fmi3Fatal, and aborts the host on a type it does not implement (Float32, Binary, ...). So the
+FMU's ``binaries/<platform>/<model>.so`` is the shim, which checks nValues and the type of every get
+and set against ``resources/fmi3_sizes.txt`` (``sizes_table``: each value reference's number of
+elements, type and name, from the modelDescription) and forwards every call to pythonfmu3's binary
+beside it, ``<model>_pythonfmu3.so``. The shim is compiled with the C compiler and the flags of
 the compiled cores (``compiled``) against the FMI 3.0 headers that pythonfmu3's package carries, once
 per build process (``binary``). Where there is no C compiler, no headers, or the platform is not Linux,
 the FMU carries pythonfmu3's binary alone (``unavailable`` says why; the build says it in one line).
@@ -24,7 +25,9 @@ from orchestration.fmu_build import compiled
 
 SOURCE = Path(__file__).with_name("fmi3_shim.c")
 INNER_SUFFIX = "_pythonfmu3"  # pythonfmu3's binary beside the shim: <model>_pythonfmu3.so
-SIZES_FILE = "fmi3_sizes.txt"  # under resources/: "valueReference size name" per variable
+SIZES_FILE = "fmi3_sizes.txt"  # under resources/: "valueReference size type name" per variable
+# the type of the get and set functions of a variable, where it is not the variable's element name
+ACCESS_TYPES = {"Enumeration": "Int64"}
 FLAGS = (*compiled.CFLAGS.split(), "-std=c99", "-shared", "-fPIC",
          f'-DSHIM_INNER_SUFFIX="{INNER_SUFFIX}.so"', f'-DSHIM_SIZES_FILE="{SIZES_FILE}"')
 TIME_LIMIT = 120.0  # s for compiling the shim
@@ -78,11 +81,12 @@ def binary(exporter: Path, workdir: Path) -> bytes:
 
 def sizes_table(xml: Element) -> str:
     """``resources/fmi3_sizes.txt`` of an FMI 3.0 modelDescription: per variable its value reference,
-    number of elements (the product of its fixed dimensions) and name."""
+    number of elements (the product of its fixed dimensions), type (of its get and set functions) and name."""
     lines = []
     for variable in xml.find("ModelVariables"):
         size = 1
         for dimension in variable.iter("Dimension"):
             size *= int(dimension.get("start"))
-        lines.append(f"{variable.get('valueReference')} {size} {variable.get('name')}\n")
+        kind = ACCESS_TYPES.get(variable.tag, variable.tag)
+        lines.append(f"{variable.get('valueReference')} {size} {kind} {variable.get('name')}\n")
     return "".join(lines)

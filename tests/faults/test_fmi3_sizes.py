@@ -27,12 +27,8 @@ INPUT, OUTPUT, SCALAR_IN, SCALAR_OUT = ("tau", 2), ("phi", 2), ("d1", 1), ("ee_x
 
 
 @pytest.fixture
-def arm(fmi3_paths):
-    path = fmi3_paths[MODEL]
-    with zipfile.ZipFile(path) as z:
-        if f"resources/{shim.SIZES_FILE}" not in z.namelist():
-            pytest.skip(f"the FMI 3 FMUs were built without the size-checking binary here "
-                        f"(no C compiler, or not Linux): {MODEL} carries pythonfmu3's binary alone")
+def arm(shimmed_arm3):
+    path = shimmed_arm3
     md = read_model_description(str(path))
     folder = Path(tempfile.mkdtemp(prefix="sotc_test_"))
     fmu = FMU3Slave(guid=md.guid, unzipDirectory=extract(str(path), unzipdir=str(folder)),
@@ -116,11 +112,8 @@ def test_without_a_c_compiler_the_build_says_so_and_ships_pythonfmu3s_binary_alo
 
 
 @pytest.mark.parametrize("damage", ["no pythonfmu3 binary", "no size table", "a torn size table"])
-def test_an_fmu_missing_a_part_of_the_shim_fails_instantiation_naming_it(fmi3_paths, tmp_path, damage):
-    path = fmi3_paths[MODEL]
-    with zipfile.ZipFile(path) as z:
-        if f"resources/{shim.SIZES_FILE}" not in z.namelist():
-            pytest.skip(f"the FMI 3 FMUs were built without the size-checking binary here: {MODEL} has no shim")
+def test_an_fmu_missing_a_part_of_the_shim_fails_instantiation_naming_it(shimmed_arm3, tmp_path, damage):
+    path = shimmed_arm3
     md = read_model_description(str(path))
     folder = Path(extract(str(path), unzipdir=str(tmp_path / "fmu")))
     inner = folder / "binaries" / shim.platform_folder() / f"{MODEL}{shim.INNER_SUFFIX}.so"
