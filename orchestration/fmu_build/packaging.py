@@ -201,18 +201,23 @@ def host_requirements(third_party: set[str]) -> list[str]:
     return sorted(set(lines))
 
 
-def _insert_after_future(text: str, header: str) -> str:
-    """``header`` after the docstring and ``from __future__`` imports, which must stay first."""
+def _insert_header(text: str, header: str) -> str:
+    """``header`` after the docstring and ``from __future__`` imports, which must stay first; into the body
+    of a ``try`` that follows them (the FMI 3 script's import guard, ``fmi3.script_text``), so that the
+    guard covers the header too."""
     tree = ast.parse(text)
-    line = 0
+    line, indent = 0, ""
     for i, node in enumerate(tree.body):
         is_doc = i == 0 and isinstance(node, ast.Expr) and isinstance(getattr(node, "value", None), ast.Constant)
         if is_doc or (isinstance(node, ast.ImportFrom) and node.module == "__future__"):
             line = node.end_lineno
-        else:
-            break
+            continue
+        if isinstance(node, ast.Try):
+            line, indent = node.body[0].lineno - 1, " " * node.body[0].col_offset
+        break
     lines = text.splitlines(keepends=True)
-    return "".join(lines[:line]) + header + "".join(lines[line:])
+    indented = "".join(indent + h for h in header.splitlines(keepends=True))
+    return "".join(lines[:line]) + indented + "".join(lines[line:])
 
 
 def stage(model: str, script: Path, packages: dict[str, Path], stem: str, dest: Path, fmi: int = 2) -> list[str]:
@@ -246,7 +251,7 @@ def stage(model: str, script: Path, packages: dict[str, Path], stem: str, dest: 
               f"from os.path import dirname as _sotc_dirname\n"
               f"from {lib}.fmi_slave.compiled_check import verify_compiled_cores\n"
               f"verify_compiled_cores({model!r}, _sotc_dirname(__file__))\n")
-    (dest / f"{stem}.py").write_text(_insert_after_future(script_text, header))
+    (dest / f"{stem}.py").write_text(_insert_header(script_text, header))
     (dest / "requirements.txt").write_text("".join(r + "\n" for r in requirements))
     (dest / "slavemodule.txt").write_text(stem)
     return requirements

@@ -38,7 +38,8 @@ def _broken(fmu: Path, how: str, dest: Path) -> Path:
     return dest
 
 
-# pythonfmu3's binary crashes the host (SIGSEGV) when the FMU's Python fails at import: not a case here
+# FMI 3, "script fails": its first line raises before the script's import guard, and pythonfmu3's binary
+# crashes the host (SIGSEGV): not a case here (test_import_failures.py has the failures the guard covers)
 @pytest.mark.parametrize("fmi, how", [(2, "no binary"), (2, "script fails"), (3, "no binary")])
 def test_an_fmu_that_cannot_be_instantiated_leaves_no_folder(how, fmi, request, tmp_path):
     paths = request.getfixturevalue("fmu_paths" if fmi == 2 else "fmi3_paths")
