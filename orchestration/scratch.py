@@ -10,8 +10,11 @@ from __future__ import annotations
 import os
 import shutil
 import socket
+import tempfile
 import time
+from contextlib import contextmanager
 from pathlib import Path
+from typing import Iterator
 
 
 def _host() -> str:
@@ -61,3 +64,19 @@ def remove_stale(folder: Path, prefix: str = "") -> list[Path]:
             shutil.rmtree(entry, ignore_errors=True)
             removed.append(entry)
     return removed
+
+
+@contextmanager
+def owned_tempdir(prefix: str) -> Iterator[Path]:
+    """A folder ``$TMPDIR/<prefix><host>-<pid>-...`` that is ``tempfile``'s default folder while active, so
+    that every temporary file of the code inside, and of the libraries it calls, goes there; removed after.
+    First the folders of that prefix whose owner process is gone (a SIGKILL) are removed."""
+    root = Path(tempfile.gettempdir())
+    remove_stale(root, prefix)
+    folder = Path(tempfile.mkdtemp(prefix=owner_prefix(prefix), dir=root))
+    previous, tempfile.tempdir = tempfile.tempdir, str(folder)
+    try:
+        yield folder
+    finally:
+        tempfile.tempdir = previous
+        shutil.rmtree(folder, ignore_errors=True)

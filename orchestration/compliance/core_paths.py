@@ -3,18 +3,15 @@ bit, when its ``.py`` run instead (what any host whose Python or platform cannot
 runs).
 
 Both runs drive the FMU through the same input experiment for ``STEPS`` communication steps, each in a
-fresh interpreter (the two share module names, so they cannot share a process): once as built, once
-from a copy without its extension files. Run as ``python -m orchestration.compliance.core_paths FMU``,
-this module is that child: it prints the outputs of every step as JSON.
+fresh interpreter (the two share module names, so they cannot share a process: ``children``): once as
+built, once from a copy without its extension files. Run as ``python -m
+orchestration.compliance.core_paths FMU``, this module is that child: it prints the outputs of every
+step as JSON.
 """
 from __future__ import annotations
 
 import json
 import math
-import os
-import signal
-import struct
-import subprocess
 import sys
 import tempfile
 import zipfile
@@ -22,10 +19,10 @@ from pathlib import Path
 
 from fmi_slave.compiled_check import DIGESTS, problems as compiled_problems
 from fmu_plant.dynamics import STEP_SIZE  # the paper's sampling period T
+from orchestration.compliance import children
 from orchestration.fmu_build import compiled
 
 STEPS = 500  # 5 s at T: the probing phase, the CL stack filling and replayed
-TIME_LIMIT = 600.0  # s for one child run
 
 
 def drive(start: float, index: int, t: float) -> float:
@@ -44,9 +41,7 @@ def python_copy(path: Path, dest: Path) -> Path:
 
 def outputs_of(path: Path, steps: int = STEPS) -> tuple[list[str], list[list[float]]]:
     """(output names, their values at every step) of the FMU driven by ``drive``."""
-    from orchestration.run.fmi3_direct import open_instance
-
-    instance = open_instance(path, "cores")
+    instance = children.open_instance(path, "cores")
     md = instance.md  # FMI 3: in FMI 2 terms (fmi3_direct)
     inputs = [v for v in md.modelVariables if v.causality == "input" and v.type == "Real"]
     outputs = [u.variable for u in md.outputs if u.variable.type == "Real"]
@@ -67,50 +62,13 @@ def outputs_of(path: Path, steps: int = STEPS) -> tuple[list[str], list[list[flo
     return [v.name for v in outputs], rows
 
 
-def _cut_short(path: Path) -> list[str]:
-    """The shared libraries in the FMU (its binaries, its compiled cores) that end before their own ELF
-    header says they do: truncated files, which the loader maps and then crashes on (SIGBUS)."""
-    found = []
-    with zipfile.ZipFile(path) as z:
-        for info in z.infolist():
-            with z.open(info) as f:
-                head = f.read(64)
-            if head[:4] != b"\x7fELF":
-                continue
-            wide = head[4:5] == b"\x02"
-            order = "<" if head[5:6] == b"\x01" else ">"
-            if len(head) < (64 if wide else 52):
-                found.append(f"{info.filename} ({info.file_size} bytes, shorter than its ELF header)")
-                continue
-            offset = struct.unpack(order + ("Q" if wide else "I"), head[0x28:0x30] if wide else head[0x20:0x24])[0]
-            size, count = struct.unpack(order + "HH", head[0x3A:0x3E] if wide else head[0x2E:0x32])
-            if offset + size * count > info.file_size:
-                found.append(f"{info.filename} ({info.file_size:,} bytes; its ELF header says at least "
-                             f"{offset + size * count:,}: truncated)")
-    return found
-
-
-def crash_finding(path: Path, returncode: int) -> str:
-    """What a child process that died of a signal while it loaded and ran the FMU at ``path`` found."""
-    name = signal.Signals(-returncode).name if -returncode in signal.valid_signals() else f"signal {-returncode}"
-    cut = _cut_short(path)
-    if cut:
-        return f"{'; '.join(cut)}: the loader crashed with {name}"
-    return f"the FMU crashed the process that loaded and ran it with {name}"
-
-
-def _child(path: Path, workdir: Path) -> tuple[list[str], list[list[float]]] | str:
-    cmd = [sys.executable, "-I", "-m", "orchestration.compliance.core_paths", str(path)]
+def _child(path: Path) -> tuple[list[str], list[list[float]]] | str:
+    """``outputs_of`` the FMU at ``path`` from a child process (``children``), or why there are none."""
     try:
-        proc = subprocess.run(cmd, cwd=workdir, capture_output=True, text=True, timeout=TIME_LIMIT,
-                              env={**os.environ, "TMPDIR": str(workdir)})  # a crashed child's folders go with it
-    except subprocess.TimeoutExpired:
-        return f"took over {TIME_LIMIT:g} s"
-    if proc.returncode < 0:
-        return crash_finding(path, proc.returncode)
-    if proc.returncode != 0:
-        return next((ln.strip() for ln in reversed(proc.stderr.splitlines()) if ln.strip()), f"exit {proc.returncode}")
-    names, rows = json.loads(proc.stdout)
+        lines = children.run("orchestration.compliance.core_paths", path)
+    except children.ChildFailed as exc:
+        return str(exc)
+    names, rows = json.loads(lines[-1])
     return names, rows
 
 
@@ -137,9 +95,9 @@ def problems(path: Path) -> list[str]:
     damaged = digest_problems(path)
     if damaged:
         return damaged
+    fast = _child(path)
     with tempfile.TemporaryDirectory(prefix="sotc_cores_") as tmp:
-        fast = _child(Path(path).resolve(), Path(tmp))
-        pure = _child(python_copy(path, Path(tmp) / Path(path).name), Path(tmp))
+        pure = _child(python_copy(path, Path(tmp) / Path(path).name))
     for label, got in (("compiled", fast), ("Python", pure)):
         if isinstance(got, str):
             return [f"the run with the {label} cores failed: {got}"]

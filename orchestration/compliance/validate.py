@@ -2,8 +2,9 @@
 
 Per FMU:
 
-- ``archive``: no entry of the zip may leave its folder when extracted (an absolute path, a drive or
-  a ``..`` component); an FMU that fails this is not loaded for the other checks;
+- ``archive``: the file is a zip archive, and no entry may leave its folder when extracted (an absolute
+  path, a drive or a ``..`` component); a file that fails this is not read further: every other check
+  is "not run" (``-`` in the table, and one line saying so), never "ok";
 - ``fmpy``: ``fmpy.validation.validate_fmu`` (schema, units, model structure);
 - ``fmutool``: the checkers ``fmutool -input X.fmu -check`` runs (XSD schema and FMI 2.0 semantic
   rules, fmu-manipulation-toolbox), called through its Python API; an ERROR record is a problem;
@@ -18,15 +19,12 @@ Per FMU:
   in ``FREE_PARAMETERS`` (initial conditions and positions, which any real value may take), and its
   start value lies within them;
 - ``state``: canGetAndSetFMUstate and canSerializeFMUstate are declared;
-- ``dependencies``: checked by experiment on an initialized instance, right after initialization and
-  after one step: perturbing an input and reading the outputs at the same instant must leave every
-  output that does not declare that input exactly unchanged, restoring the input must restore the
-  outputs, and each output that declares dependencies must change for some perturbation of them
-  (unless it stays at rounding level, |y| <= ROUNDING_LEVEL, in every probe: a solver residual such as
-  the SOTC's ``zv_residual`` may then be exactly 0 whatever the inputs). The experiment (and the
-  ``starts`` check, on its fresh instance) runs in a child process (``python -m
-  orchestration.compliance.validate FMU`` is that child): an FMU that crashes the process loading it
-  (a truncated binary or compiled core: SIGBUS) is a finding naming the file, not the end of validate.
+- ``dependencies``: checked by experiment on an initialized instance (``dependencies``), in a child
+  process (``children``), as the ``starts`` check's fresh instance is: an FMU that crashes the process
+  loading it (a truncated binary or compiled core: SIGBUS) is a finding naming the file, one whose
+  instantiation hangs a finding after ``children.INSTANTIATE_LIMIT``, not the end of validate. An FMU
+  whose script is missing (``slavemodule.txt`` names no ``resources/<module>.py``) is not instantiated
+  at all: pythonfmu3's binary hangs on it, pythonfmu's crashes;
 
 - ``standalone``: every pythonfmu FMU in a process shares one interpreter and one ``sys.modules``,
   so the FMU's Python lives under names of its own: the script ``resources/<stem>.py`` named in
@@ -44,21 +42,16 @@ bundled copies, and a source-tree copy already in ``sys.modules`` would be used 
 from __future__ import annotations
 
 import fnmatch
-import json
 import logging
 import math
-import os
 import re
-import subprocess
-import sys
-import tempfile
 import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from fmu_plant.dynamics import STEP_SIZE  # the paper's sampling period T
-from orchestration.compliance import core_paths
-from orchestration.compliance.core_paths import drive, same
+from orchestration import scratch
+from orchestration.compliance import children, core_paths, dependencies
 
 # parameters that may take any real value (no physical bound): name pattern -> why
 FREE_PARAMETERS: dict[str, str] = {
@@ -66,27 +59,30 @@ FREE_PARAMETERS: dict[str, str] = {
     "init_phi*": "an elbow angle: any real number",
     "phase": "phase of the path parameter: any angle",
 }
-# dependency experiment: inputs are at their start values at t = 0, then follow a smooth signal
-# around them; at each probe instant (after that many steps) every input is perturbed in turn by each
-# of PERTURBATIONS
-PROBE_STEPS = (0, 1, 10, 40)
-PERTURBATIONS = (0.05, -0.7, 3.0, -30.0)
-ROUNDING_LEVEL = 1e-12  # an output never above this in the dependency probes cannot show its dependencies
 MAX_EXPANDED_BYTES = 256 * 1024 * 1024  # an FMU of ours expands to about 3 MB
 MAX_ENTRIES = 10_000
 CHECKS = ("archive", "fmpy", "fmutool", "units", "starts", "descriptions", "step", "ranges", "state", "standalone",
           "dependencies", "cores")
+SCRATCH = "sotc_validate_"  # $TMPDIR/sotc_validate_<host>-<pid>-...: everything validate extracts or runs in
 
 
 @dataclass
 class FmuReport:
     path: Path
-    model: str = "?"
+    model: str = ""  # the modelIdentifier (the file's name until the modelDescription is read)
     problems: dict[str, list[str]] = field(default_factory=lambda: {c: [] for c in CHECKS})
+    not_run: dict[str, str] = field(default_factory=dict)  # check -> why it was not run (or not whole)
+
+    def __post_init__(self) -> None:
+        self.model = self.model or self.path.name
 
     @property
     def ok(self) -> bool:
-        return not any(self.problems.values())
+        return not any(self.problems.values()) and not self.not_run
+
+    def skip(self, checks, why: str) -> None:
+        """The checks of ``checks`` that found nothing were not run, or not whole, because ``why``."""
+        self.not_run |= {c: why for c in checks if not self.problems[c]}
 
 
 @dataclass
@@ -115,7 +111,7 @@ def archive_problems(path: Path) -> list[str]:
         with zipfile.ZipFile(path) as archive:
             infos = archive.infolist()
     except (OSError, zipfile.BadZipFile, ValueError) as exc:
-        return [f"not a readable zip archive: {exc}"]
+        return [f"not an FMU: not a readable zip archive: {exc}"]
     names = [i.filename for i in infos]
     expanded = sum(i.file_size for i in infos)
     if expanded > MAX_EXPANDED_BYTES or len(infos) > MAX_ENTRIES:
@@ -269,6 +265,16 @@ def _bytecode_problems(files: dict[str, bytes]) -> list[str]:
     return out
 
 
+def _script_problems(path: Path, stem: str) -> list[str]:
+    """The script ``slavemodule.txt`` names must be there: pythonfmu3's binary hangs for ever without it
+    (pythonfmu's crashes), so such an FMU is never instantiated (``validate_fmu_file``)."""
+    with zipfile.ZipFile(path) as z:
+        if f"resources/{stem}.py" in z.namelist():
+            return []
+    return [f"resources/slavemodule.txt names the module '{stem}', but resources/{stem}.py is missing: the FMU's "
+            "code cannot be imported (pythonfmu3's binary hangs on it, pythonfmu's crashes)"]
+
+
 def _standalone_problems(path: Path) -> list[str]:
     import ast
     import sys
@@ -279,7 +285,7 @@ def _standalone_problems(path: Path) -> list[str]:
     stem = _slave_module(path)
     if not stem:
         return ["resources/slavemodule.txt is missing: not a pythonfmu FMU"]
-    problems = _digest_problems(path, stem)
+    problems = _digest_problems(path, stem) + _script_problems(path, stem)
     lib = f"{stem}_lib"
     with zipfile.ZipFile(path) as z:
         try:
@@ -300,139 +306,61 @@ def _standalone_problems(path: Path) -> list[str]:
     return problems
 
 
-# --- the dependency experiment ------------------------------------------------------------------
-
-def _start_problems(fmu, md) -> list[str]:
-    """The start values in the XML must be exactly what a fresh instance holds (bitwise): an importer
-    that applies XML starts (libcosim does) must not end up with a different model."""
-    problems = []
-    for v in md.modelVariables:
-        if v.start is None or v.causality not in ("parameter", "input") or v.type not in ("Real", "Integer"):
-            continue
-        if v.type == "Real":
-            actual, declared = fmu.getReal([v.valueReference])[0], float(v.start)
-        else:
-            actual, declared = fmu.getInteger([v.valueReference])[0], int(v.start)
-        if not same(float(actual), float(declared)):
-            problems.append(f"'{v.name}': start {v.start!r} in the XML, {actual!r} in a fresh instance")
-    return problems
-
-
-def _dependency_problems(path: Path, start_problems: list[str]) -> list[str]:
-    """FMI 3.0 FMUs are driven element by element, in FMI 2 terms (``fmi3_direct``)."""
-    from fmpy.fmi1 import FMICallException
-
-    from orchestration.run.fmi3_direct import open_instance
-
-    try:
-        instance = open_instance(path, "validate")
-    except Exception as exc:
-        return [f"the experiment could not instantiate the FMU: {exc}"]
-    fmu, md = instance.fmu, instance.md
-    inputs = [v for v in md.modelVariables if v.causality == "input" and v.type == "Real"]
-    outputs = [u for u in md.outputs if u.variable.type == "Real"]
-    problems: list[str] = []
-    changed_by_declared = {u.variable.name: False for u in outputs}
-    largest = {u.variable.name: 0.0 for u in outputs}
-    out_vr = [u.variable.valueReference for u in outputs]
-    try:
-        start_problems += _start_problems(fmu, md)
-        step = float(md.defaultExperiment.stepSize) if md.defaultExperiment else STEP_SIZE
-        instance.initialize()
-        start = [float(v.start if v.start is not None else 0.0) for v in inputs]
-        k = 0
-        for probe in PROBE_STEPS:
-            while True:
-                base = {v.name: drive(s, i, k * step) if k else s for i, (v, s) in enumerate(zip(inputs, start))}
-                instance.set(**base)
-                if k == probe:
-                    break
-                fmu.doStep(currentCommunicationPoint=k * step, communicationStepSize=step)
-                k += 1
-            where = f"at t = {k * step:g} s"
-            y0 = fmu.getReal(out_vr)
-            for v in inputs:
-                for delta in PERTURBATIONS:
-                    fmu.setReal([v.valueReference], [base[v.name] + delta])
-                    y1 = fmu.getReal(out_vr)
-                    fmu.setReal([v.valueReference], [base[v.name]])
-                    y2 = fmu.getReal(out_vr)
-                    for u, a, b, c in zip(outputs, y0, y1, y2):
-                        name = u.variable.name
-                        largest[name] = max(largest[name], abs(a), abs(b))
-                        declared = any(d.name == v.name for d in u.dependencies)
-                        if not same(a, b):
-                            if declared:
-                                changed_by_declared[name] = True
-                            else:
-                                problems.append(
-                                    f"'{name}' changes when input '{v.name}' changes by {delta} {where}, "
-                                    "but does not declare that dependency")
-                        if not same(a, c):
-                            problems.append(f"'{name}' does not return to {a!r} when input '{v.name}' is "
-                                            f"restored {where} (got {c!r})")
-        fmu.terminate()
-    except FMICallException as exc:
-        reasons = "; ".join(m for s, m in instance.messages if s >= 2)
-        return problems + [f"the experiment could not run the FMU: {exc}; logged: {reasons}"]
-    finally:
-        instance.free()
-    for u in outputs:
-        rounding_only = largest[u.variable.name] <= ROUNDING_LEVEL
-        if u.dependencies and not changed_by_declared[u.variable.name] and not rounding_only:
-            names = ", ".join(d.name for d in u.dependencies)
-            problems.append(f"'{u.variable.name}' declares dependencies on {names}, but no perturbation of "
-                            "them changed it (declare only what the output depends on)")
-    return sorted(set(problems), key=problems.index)
-
-
-def _experiment_in_child(path: Path) -> tuple[list[str], list[str]]:
-    """(start problems, dependency problems) of the FMU at ``path``, from a child process whose
-    TMPDIR goes with it (a crashed child cannot remove what it extracted)."""
-    cmd = [sys.executable, "-P", "-m", "orchestration.compliance.validate", str(Path(path).resolve())]
-    with tempfile.TemporaryDirectory(prefix="sotc_validate_") as tmp:
-        try:
-            proc = subprocess.run(cmd, cwd=tmp, capture_output=True, text=True, timeout=core_paths.TIME_LIMIT,
-                                  env={**os.environ, "TMPDIR": tmp})
-        except subprocess.TimeoutExpired:
-            return [], [f"the experiment took over {core_paths.TIME_LIMIT:g} s"]
-    if proc.returncode < 0:
-        return [], [core_paths.crash_finding(path, proc.returncode)]
-    lines = proc.stdout.strip().splitlines()
-    if proc.returncode != 0 or not lines:
-        why = next((ln.strip() for ln in reversed(proc.stderr.splitlines()) if ln.strip()), f"exit {proc.returncode}")
-        return [], [f"the experiment's process failed: {why}"]
-    starts, dependencies = json.loads(lines[-1])
-    return starts, dependencies
-
-
 # --- driver -------------------------------------------------------------------------------------
 
 def validate_fmu_file(path: Path) -> FmuReport:
+    """Every check of one FMU (``children.Stopped`` after a signal the command deferred)."""
     from fmpy import read_model_description
 
     report = FmuReport(Path(path))
     report.problems["archive"] = archive_problems(path)
     if report.problems["archive"]:
+        report.skip(CHECKS, "the file is not an FMU that can be read (archive)")
         return report
     report.problems["fmpy"] = _fmpy_problems(path)
     report.problems["fmutool"] = _fmutool_problems(path)
+    children.check()
     try:
         md = read_model_description(str(path), validate=False)
     except Exception as exc:  # an unreadable modelDescription: fmpy/fmutool say why
         report.problems["descriptions"].append(f"cannot read modelDescription.xml: {exc}")
+        report.skip(CHECKS[CHECKS.index("fmutool") + 1:], "its modelDescription.xml cannot be read (descriptions)")
         return report
     report.model = md.coSimulation.modelIdentifier if md.coSimulation else md.modelName
     _metadata_problems(md, report)
     report.problems["standalone"] = _standalone_problems(path)
-    starts, report.problems["dependencies"] = _experiment_in_child(path)
-    report.problems["starts"] += starts
-    report.problems["cores"] = core_paths.problems(path)
+    stem = _slave_module(path)
+    if stem and _script_problems(path, stem):  # pythonfmu3's binary would hang, pythonfmu's crash
+        report.skip(("starts", "dependencies", "cores"), "the FMU's code cannot be imported (standalone): "
+                    "it was not instantiated")
+        return report
+    _instance_problems(path, report)
     return report
 
 
+def _instance_problems(path: Path, report: FmuReport) -> None:
+    """The checks on instances, each in child processes (``children``)."""
+    try:
+        starts, report.problems["dependencies"] = dependencies.in_child(path)
+        report.problems["starts"] += starts
+    except children.ChildFailed as exc:
+        report.problems["dependencies"] = [str(exc)]
+        report.skip(("starts",), "no fresh instance could be read (dependencies)")
+        if exc.hung:  # each run of the cores check would hang as long
+            report.skip(("cores",), "instantiating the FMU hung (dependencies)")
+            return
+    children.check()
+    report.problems["cores"] = core_paths.problems(path)
+
+
 def validate_fmus(paths: list[Path]) -> ValidationReport:
-    reports = [validate_fmu_file(Path(p)) for p in paths]
+    """Every check of every FMU, in a scratch folder of this process (``SCRATCH``: a later validate removes
+    the one a killed validate left); ``children.Stopped`` after a signal the command deferred."""
+    with scratch.owned_tempdir(SCRATCH):
+        reports = []
+        for p in paths:
+            reports.append(validate_fmu_file(Path(p)))
+            children.check()
     set_problems = []
     seen: dict[str, tuple[Path, dict[str, bytes]]] = {}
     for r in reports:
@@ -448,11 +376,12 @@ def validate_fmus(paths: list[Path]) -> ValidationReport:
 
 
 def format_report(report: ValidationReport, details: bool = True) -> str:
+    """The table (``ok``, ``FAIL(n)``, ``-``: not run), then a line per problem and per reason a check was not run."""
     width = max([len("FMU")] + [len(r.model) for r in report.fmus])
     cols = [max(len(c), 6) for c in CHECKS]
     lines = ["  ".join(["FMU".ljust(width)] + [c.ljust(w) for c, w in zip(CHECKS, cols)] + ["verdict"])]
     for r in report.fmus:
-        cells = ["ok" if not r.problems[c] else f"FAIL({len(r.problems[c])})" for c in CHECKS]
+        cells = [f"FAIL({len(r.problems[c])})" if r.problems[c] else "-" if c in r.not_run else "ok" for c in CHECKS]
         lines.append("  ".join([r.model.ljust(width)] + [x.ljust(w) for x, w in zip(cells, cols)]
                                + ["pass" if r.ok else "FAIL"]))
     lines.append(f"set: {'every script module name stands for one bundle' if not report.set_problems else 'FAIL'}")
@@ -461,18 +390,9 @@ def format_report(report: ValidationReport, details: bool = True) -> str:
             for check in CHECKS:
                 for problem in r.problems[check]:
                     lines.append(f"  {r.model} [{check}] {problem}")
+            for why in dict.fromkeys(r.not_run.values()):
+                skipped = ", ".join(c for c in CHECKS if r.not_run.get(c) == why)
+                lines.append(f"  {r.model} [{skipped}] not run: {why}")
         lines += [f"  set: {p}" for p in report.set_problems]
     lines.append("all FMUs pass" if report.ok else "validation FAILED")
     return "\n".join(lines)
-
-
-def main(argv: list[str] | None = None) -> int:
-    """The child of ``_experiment_in_child``: prints [start problems, dependency problems] as JSON."""
-    starts: list[str] = []
-    dependencies = _dependency_problems(Path((argv or sys.argv[1:])[0]), starts)
-    print(json.dumps([starts, dependencies]))
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

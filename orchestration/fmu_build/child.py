@@ -43,7 +43,7 @@ class Stopped(BaseException):
 _LIBC = ctypes.CDLL(None, use_errno=True) if sys.platform.startswith("linux") else None
 
 
-def _parent_death_signal() -> bool:
+def parent_death_signal() -> bool:
     """Linux: SIGTERM to this process when its parent dies; False elsewhere. Safe in a ``preexec_fn``."""
     return _LIBC is not None and _LIBC.prctl(_PR_SET_PDEATHSIG, signal.SIGTERM, 0, 0, 0) == 0
 
@@ -51,7 +51,7 @@ def _parent_death_signal() -> bool:
 def die_with_parent(parent: int) -> None:
     """Have SIGTERM sent to this process when its parent ``parent`` (a pid) dies, also if it died
     before this call (where the kernel cannot: a thread watching the parent)."""
-    if _parent_death_signal():
+    if parent_death_signal():
         if os.getppid() != parent:
             os.kill(os.getpid(), signal.SIGTERM)
         return
@@ -85,7 +85,7 @@ def run_compiler(cmd: list[str], cwd, env: dict[str, str], timeout: float) -> su
     """Run the compile command in its own process group, which is killed whole (the C compilers it
     started included) when the build stops, fails or runs out of time."""
     proc = subprocess.Popen(cmd, cwd=cwd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            start_new_session=True, preexec_fn=_parent_death_signal)
+                            start_new_session=True, preexec_fn=parent_death_signal)
     try:
         out, err = proc.communicate(timeout=timeout)
     except BaseException:
@@ -110,7 +110,8 @@ class BuildInterrupted(Exception):
         self.signum = signum
 
 
-def _pump(stream, sink: Callable[[str], None]) -> None:
+def pump(stream, sink: Callable[[str], None]) -> None:
+    """Hand each line of ``stream`` (without its newline) to ``sink`` until it ends (a reader thread)."""
     for line in stream:
         sink(line.rstrip("\n"))
 
@@ -135,8 +136,8 @@ def run_child(cmd: list[str], cwd, on_line: Callable[[str], None]) -> tuple[int,
 
     proc = subprocess.Popen(cmd, cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     errors: list[str] = []
-    readers = [threading.Thread(target=_pump, args=(proc.stdout, on_line), daemon=True),
-               threading.Thread(target=_pump, args=(proc.stderr, errors.append), daemon=True)]
+    readers = [threading.Thread(target=pump, args=(proc.stdout, on_line), daemon=True),
+               threading.Thread(target=pump, args=(proc.stderr, errors.append), daemon=True)]
     for reader in readers:
         reader.start()
     try:
