@@ -100,9 +100,10 @@ def least_cost_on_the_circle(cost, bound) -> float:
 
 
 def projections(seed: int, n: int):
+    """The paper's arm, and a heavy one (its multiplier is small: D^-2 ~ 1e-6)."""
     rng = np.random.default_rng(seed)
-    p = ArmParameters()
-    for _ in range(n):
+    for k in range(n):
+        p = ArmParameters() if k % 3 else ArmParameters(p1=900.0, p2=100.0, p3=50.0)
         d = inertia_entries(float(rng.uniform(-math.pi, math.pi)), p)
         angle, scale = rng.uniform(-math.pi, math.pi), 10 ** rng.uniform(0.05, 2.0)
         bound = float(10 ** rng.uniform(-2.0, 1.0))
@@ -135,6 +136,8 @@ def test_accel_projection_leaves_a_torque_in_the_disc_alone_and_a_zero_bound_at_
     assert sat.accel_projection(0.3, -0.2, 1.0, *d) == (0.3, -0.2, False)
     assert sat.accel_projection(3.0, -2.0, 0.0, *d) == (0.0, -0.0, True)
     assert sat.accel_projection(3.0, 2.0, 5e-324, *d)[:2] == (0.0, 0.0)
+    # a multiplier too large to represent (D^-2 overflows): the disc is taken as its centre
+    assert sat.accel_projection(1.8, 1.5, 1.0, 1e-160, 0.0, 1e-160) == (0.0, 0.0, True)
 
 
 def test_limit_handling_spec_is_the_integer_code_of_the_handlings():
