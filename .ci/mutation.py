@@ -30,7 +30,7 @@ MODULES = {
     # test_sotc_core.py's loops would take hours over every mutant: the references of test_sotc_exact.py do
     "fmu_controller/sotc_math.py": ["test_sotc_exact.py", "test_interpreted_paths.py"],
     "orchestration/study/statistics.py": ["test_statistics.py"],
-    "orchestration/run/metrics.py": ["test_metrics.py"],
+    "orchestration/run/metrics.py": ["test_metrics.py", "test_metrics_exact.py"],
 }
 # FMU tests (they build FMUs) and the slow ones stay out; one process per mutant, no xdist
 PYTEST_ARGS = ["-n", "0", "-p", "no:cacheprovider", "-m", "not slow", "-q", "-k", "not fmu"]
