@@ -40,6 +40,7 @@ def test_a_full_disk_ends_other_outputs_in_one_line_and_keeps_nothing_partial(co
 
 def test_a_file_size_limit_ends_a_recorded_run_in_one_line(fmu_dir, tmp_path):
     target = tmp_path / "out" / "r.rrd"
+    target.parent.mkdir()  # a file output's folder must exist (tests/orchestration/test_cli_refusals.py)
     proc = run(["run", "paper", *SHORT, "--recording", str(target), "--fmu-dir", str(fmu_dir)], tmp_path,
                limit_bytes=1024 * 1024)
     assert proc.returncode == 1
