@@ -150,22 +150,29 @@ def compile_bundle(resources: Path, lib: str, pxd: dict[str, str]) -> list[str]:
     ``.py``, no C file left), typed by ``pxd`` (path under ``lib`` -> text, renamed into ``lib``), which
     are staged for the compiler only; return the compiled modules' paths under ``lib``. Extensions made
     from the same inputs before are taken from the private cache instead (``cached``)."""
+    return build_cores(resources, lib, pxd)[0]
+
+
+def build_cores(resources: Path, lib: str, pxd: dict[str, str]) -> tuple[list[str], bool]:
+    """``compile_bundle``, and whether the extensions were taken from the private cache (True) or
+    compiled here (False), which the build says."""
     present = [rel for rel in HOT if (resources / lib / rel).is_file()]
     if not present:
-        return []
+        return [], False
     cache = cached(resources, lib, present, pxd)
     if cache is None:
         _compile(resources, lib, present, pxd)
-        return present
+        return present, False
     from orchestration import verified
 
     with _one_compiler(cache.parent):  # a concurrent build of the same bundle finds it compiled
-        if not (verified.hold(cache) and _reuse(cache, resources / lib, present)):
-            _compile(resources, lib, present, pxd)
-            _keep(cache, resources / lib, present)
-            verified.hold(cache)  # not trimmed away by the trim it may call for
-            verified.trim()
-    return present
+        if verified.hold(cache) and _reuse(cache, resources / lib, present):
+            return present, True
+        _compile(resources, lib, present, pxd)
+        _keep(cache, resources / lib, present)
+        verified.hold(cache)  # not trimmed away by the trim it may call for
+        verified.trim()
+    return present, False
 
 
 @contextlib.contextmanager

@@ -405,15 +405,16 @@ def _declarations(packages: dict[str, Path], lib: str) -> dict[str, str]:
 
 
 def package_fmu(model: str, script: Path, packages: dict[str, Path], equations: list[Path],
-                dest_file: Path, workdir: Path, compile_cores: bool = False, fmi: int = 2) -> tuple[Path, list[str]]:
-    """Stage, describe and zip one FMU into ``dest_file``; return it and the cores compiled into it
-    (``compile_cores``: ``compiled.compile_bundle``). The bundle's module names carry the digest of its
-    own content (``bundle_digest``), the extensions included."""
+                dest_file: Path, workdir: Path, compile_cores: bool = False,
+                fmi: int = 2) -> tuple[Path, list[str], bool]:
+    """Stage, describe and zip one FMU into ``dest_file``; return it, the cores compiled into it
+    (``compile_cores``: ``compiled.build_cores``) and whether they came from the private cache. The
+    bundle's module names carry the digest of its own content (``bundle_digest``), the extensions included."""
     resources = workdir / "resources"
     placeholder = bundle_stem(model, PLACEHOLDER_DIGEST)
     requirements = stage(model, script, packages, placeholder, resources, fmi)
     lib = f"{placeholder}_lib"
-    cores = compiled.compile_bundle(resources, lib, _declarations(packages, lib)) if compile_cores else []
+    cores, from_cache = compiled.build_cores(resources, lib, _declarations(packages, lib)) if compile_cores else ([], False)
     stem = bundle_stem(model, bundle_digest(bundled_files(resources), placeholder, model))
     _rename_bundle(resources, placeholder, stem)
     write_core_digests(resources)
@@ -427,4 +428,4 @@ def package_fmu(model: str, script: Path, packages: dict[str, Path], equations: 
     write_fmu(dest_file, model, resources, xml, documentation_html(model, xml, docs, requirements, cores), fmi,
               shim_binary)
     shutil.rmtree(resources)
-    return dest_file, cores
+    return dest_file, cores, from_cache

@@ -12,6 +12,7 @@ from pathlib import Path
 import pytest
 
 from orchestration.fmu_build import compiled
+from orchestration.fmu_build.build import cores_made
 from orchestration.verified import MANIFEST
 
 LIB = "sotc_Model_000000000000_lib"
@@ -63,6 +64,14 @@ def test_a_bundle_compiles_once_then_comes_from_the_cache(compiler, tmp_path):
     assert compiler.calls == 1
     assert extension(second) == extension(first)
     assert not (second / LIB / "fmu_controller/elementary.pxd").exists()  # nothing staged for a compiler
+
+
+def test_a_build_says_whether_its_cores_came_from_the_cache(compiler, tmp_path):
+    assert compiled.build_cores(bundle(tmp_path / "a"), LIB, PXD) == ([MODULE], False)
+    assert compiled.build_cores(bundle(tmp_path / "b"), LIB, PXD) == ([MODULE], True)
+    assert cores_made([MODULE] * 3, True) == "3 cores from the cache"
+    assert cores_made([MODULE] * 3, False) == "3 cores compiled"
+    assert cores_made([], False) == "Python"
 
 
 @pytest.mark.parametrize("change", ["source", "declarations", "name", "compiler"])
