@@ -5,6 +5,9 @@ Wherever Cython and a C compiler are found at install time, the modules of
 by the ``.pxd`` beside each, with the same flags as the FMUs' cores (no fused multiply-add), so the
 in-process studies (the pure loop of tuning, the fair evaluation, the docs' tables) run them as C and
 get the bits of the ``.py``. Each extension is optional: a failed compile leaves that module Python.
+The FMUs cannot load these (their bundles' modules carry another name), so the install also compiles the
+cores of the default scenario's FMUs into the user's private cache, where the first ``sotc-cosim run``
+takes them from (``compile_fmu_cores``).
 An editable install (``pip install -e``) and ``SOTC_COSIM_COMPILE=0`` compile nothing, so the ``.py``
 being edited is always what runs.
 """
@@ -28,12 +31,31 @@ class OptionalBuildExt(build_ext):
         if getattr(self, "editable_mode", False) or self.inplace:
             self.extensions = []
         super().run()
+        if self.extensions:
+            compile_fmu_cores()
 
     def build_extension(self, ext):
         try:
             super().build_extension(ext)
         except Exception as exc:  # no compiler, no headers: that module stays Python
             print(f"sotc-cosim: {ext.name} stays Python ({exc})", file=sys.stderr)
+
+
+def compile_fmu_cores() -> None:
+    """The cores of the FMUs the first ``sotc-cosim run`` builds (the default scenario's), compiled now
+    into the user's private cache under their bundles' names (``build.compile_ahead``): that run takes
+    them from the cache. Any failure leaves them to that run."""
+    sys.path.insert(0, str(HERE))
+    try:
+        from orchestration.cli.options import DEFAULT_SCENARIO
+        from orchestration.fmu_build.build import compile_ahead
+        from orchestration.run.scenario import load_scenario
+
+        compile_ahead(sorted({i.fmu for i in load_scenario(DEFAULT_SCENARIO).instances.values()}))
+    except Exception as exc:  # noqa: BLE001 - the install goes on; the first run compiles them
+        print(f"sotc-cosim: the FMUs' cores are left to the first run ({exc})", file=sys.stderr)
+    finally:
+        sys.path.remove(str(HERE))
 
 
 def hot_extensions() -> list:

@@ -27,6 +27,9 @@ compiler's path and ``--version``, and the environment variables setuptools read
 same bundle (another folder, FMI 3, a change elsewhere in the sources) copies them, each checked against
 the manifest as it is copied; a cache folder that differs is removed and the cores compiled again.
 Builds running at once take turns on the cache (a lock file in it), so a bundle is compiled once for all.
+``pip install .`` fills the cache for the default scenario's FMUs (setup.py: ``build.compile_ahead``, the same
+modules written as their builds stage them), so the first ``run`` compiles nothing; the build says which
+FMUs' cores came from the cache.
 """
 from __future__ import annotations
 

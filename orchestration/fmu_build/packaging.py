@@ -226,8 +226,8 @@ def stage(model: str, script: Path, packages: dict[str, Path], stem: str, dest: 
     lib = f"{stem}_lib"
     (dest / lib).mkdir(parents=True)
     (dest / lib / "__init__.py").write_text(f'"""Python code of the {model} FMU ({stem}); imported from here only."""\n')
-    host_check = Path(packages["fmi_slave"], "host_check.py")  # the script's generated first import
-    files = {dest / lib / rel: src.read_text() for rel, src in import_closure([script, host_check], packages).items()}
+    host_check = Path(packages["fmi_slave"], "host_check.py")
+    files = {dest / lib / rel: src.read_text() for rel, src in bundle_closure(script, packages).items()}
     files.setdefault(dest / lib / "fmi_slave" / "host_check.py", host_check.read_text())
     files.setdefault(dest / lib / "fmi_slave" / "__init__.py", Path(packages["fmi_slave"], "__init__.py").read_text())
     files.setdefault(dest / lib / "fmi_slave" / "compiled_check.py",
@@ -255,6 +255,24 @@ def stage(model: str, script: Path, packages: dict[str, Path], stem: str, dest: 
     (dest / "requirements.txt").write_text("".join(r + "\n" for r in requirements))
     (dest / "slavemodule.txt").write_text(stem)
     return requirements
+
+
+def bundle_closure(script: Path, packages: dict[str, Path]) -> dict[Path, Path]:
+    """The modules of ``packages`` a bundle carries for ``script`` (``import_closure`` of the script and
+    of its generated first import, the host check)."""
+    return import_closure([script, Path(packages["fmi_slave"], "host_check.py")], packages)
+
+
+def compile_cores_ahead(model: str, script: Path, packages: dict[str, Path], dest: Path) -> list[str]:
+    """The hot cores ``package_fmu`` compiles for this model's bundle, compiled now into the private cache
+    (or found there), from only those modules written under ``dest`` as ``stage`` writes them (renamed
+    into the placeholder's ``lib``): the bundle's build then takes them from the cache."""
+    lib = f"{bundle_stem(model, PLACEHOLDER_DIGEST)}_lib"
+    for rel, src in bundle_closure(script, packages).items():
+        if rel.as_posix() in compiled.HOT:
+            (dest / lib / rel).parent.mkdir(parents=True, exist_ok=True)
+            (dest / lib / rel).write_text(rename_imports(src.read_text(), lib))
+    return compiled.compile_bundle(dest, lib, _declarations(packages, lib))
 
 
 def import_closure(starts: list[Path], packages: dict[str, Path]) -> dict[Path, Path]:

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from orchestration.fmu_build import compiled
+from orchestration.fmu_build import build, compiled, packaging
 from orchestration.fmu_build.build import cores_made
 from orchestration.verified import MANIFEST
 
@@ -72,6 +72,21 @@ def test_a_build_says_whether_its_cores_came_from_the_cache(compiler, tmp_path):
     assert cores_made([MODULE] * 3, True) == "3 cores from the cache"
     assert cores_made([MODULE] * 3, False) == "3 cores compiled"
     assert cores_made([], False) == "Python"
+
+
+def test_cores_compiled_ahead_are_the_ones_the_build_takes(compiler, tmp_path, monkeypatch):
+    """What ``pip install .`` compiles (setup.py: ``build.compile_ahead``) is what the FMU's build looks for."""
+    monkeypatch.setattr(build, "compiles", lambda: True)
+    build.compile_ahead(["ArmPlant"])
+    assert compiler.calls == 1
+    source = build.FMU_SOURCES["ArmPlant"]
+    packages = {pkg: build.PACKAGE_ROOT / pkg for pkg in source.packages}
+    stem = packaging.bundle_stem("ArmPlant", packaging.PLACEHOLDER_DIGEST)
+    resources = tmp_path / "resources"
+    packaging.stage("ArmPlant", build.PACKAGE_ROOT / source.script, packages, stem, resources)
+    lib = f"{stem}_lib"
+    assert compiled.build_cores(resources, lib, packaging._declarations(packages, lib)) == ([MODULE], True)
+    assert compiler.calls == 1
 
 
 @pytest.mark.parametrize("change", ["source", "declarations", "name", "compiler"])
