@@ -125,3 +125,17 @@ def test_settle_time_is_the_first_sample_after_the_last_one_outside_the_band(err
     t = np.arange(len(err)) * 0.1
     got = metrics.settle_time(t, np.array(err))
     assert got == (None if want is None else pytest.approx(want))
+
+
+def test_the_last_half_is_that_of_the_last_sample_by_default():
+    t = np.array([0.0, 1.0, 1.6, 2.0, 3.4])  # last half: t >= 1.7
+    e = np.zeros((5, 2))
+    e[2], e[3] = 0.3, 0.1
+    assert metrics.tracking_metrics(t, e, np.zeros((5, 2)))["max_abs_error_last_half"] == [0.1, 0.1]
+
+
+def test_no_sample_is_refused():
+    with pytest.raises(ValueError, match="^tracking_metrics needs at least one sample$"):
+        metrics.tracking_metrics([], np.zeros((0, 2)), np.zeros((0, 2)))
+    with pytest.raises(ValueError, match="^tracking_metrics needs at least one sample$"):
+        metrics.TrackingMetrics(LIMIT, 1.0).result()
