@@ -139,3 +139,40 @@ def test_no_sample_is_refused():
         metrics.tracking_metrics([], np.zeros((0, 2)), np.zeros((0, 2)))
     with pytest.raises(ValueError, match="^tracking_metrics needs at least one sample$"):
         metrics.TrackingMetrics(LIMIT, 1.0).result()
+
+
+def test_a_time_axis_that_does_not_increase_is_refused_with_its_message():
+    for t in ([0.0, 0.0], [0.0, 0.02, 0.01]):
+        with pytest.raises(ValueError, match="^t must be strictly increasing$"):
+            metrics.tracking_metrics(np.array(t), np.zeros((len(t), 2)), np.zeros((len(t), 2)))
+    acc = metrics.TrackingMetrics(LIMIT, 1.0)
+    acc.add([0.5], np.zeros((1, 2)), np.zeros((1, 2)))
+    with pytest.raises(ValueError, match="^t must be strictly increasing$"):  # across blocks too
+        acc.add([0.5], np.zeros((1, 2)), np.zeros((1, 2)))
+
+
+@pytest.mark.parametrize("name", ["e_dot", "limit_flags"])
+def test_each_optional_column_is_named_when_missing(name):
+    acc = metrics.TrackingMetrics(LIMIT, 1.0, with_e_dot=name == "e_dot", with_flags=name == "limit_flags")
+    with pytest.raises(ValueError, match=f"^{name} is needed in every block"):
+        acc.add([0.0], np.zeros((1, 2)), np.zeros((1, 2)))
+
+
+def test_one_sample_and_a_short_run():
+    one = metrics.tracking_metrics([2.0], [[0.1, -0.2]], [[1.0, -1.0]])
+    assert (one["duration"], one["tau_total_variation_rate"], one["iae"]) == (0.0, [0.0, 0.0], [0.0, 0.0])
+    assert one["settle_time_10mrad"] == [None, None] and one["n_samples"] == 1
+    short = metrics.tracking_metrics([0.0, 0.5], [[0.0, 0.0], [0.0, 0.0]], [[1.0, 0.0], [0.0, 2.0]])
+    assert short["tau_total_variation_rate"] == [2.0, 4.0] and short["settle_time_10mrad"] == [0.0, 0.0]
+
+
+def test_a_block_that_starts_inside_the_band_after_one_that_ended_outside_settles_there():
+    acc = metrics.TrackingMetrics(LIMIT, 1.0)
+    acc.add([0.0, 0.1], [[0.5, 0.5], [0.5, 0.0]], np.zeros((2, 2)))
+    acc.add([0.2, 0.3], [[0.0, 0.0], [0.0, 0.0]], np.zeros((2, 2)))
+    assert acc.result()["settle_time_10mrad"] == [0.2, 0.1]
+
+
+def test_a_diverged_run_reports_none_not_inf():
+    got = metrics.tracking_metrics([0.0, 0.01], [[0.1, 0.1], [0.1, 0.1]], [[math.inf, 0.0], [1.0, 0.0]])
+    assert got["max_tau_norm"] is None and got["control_energy"] is None and got["max_abs_tau"] == [None, 0.0]
