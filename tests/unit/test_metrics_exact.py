@@ -176,3 +176,19 @@ def test_a_block_that_starts_inside_the_band_after_one_that_ended_outside_settle
 def test_a_diverged_run_reports_none_not_inf():
     got = metrics.tracking_metrics([0.0, 0.01], [[0.1, 0.1], [0.1, 0.1]], [[math.inf, 0.0], [1.0, 0.0]])
     assert got["max_tau_norm"] is None and got["control_energy"] is None and got["max_abs_tau"] == [None, 0.0]
+
+
+def test_the_boundaries_count_as_the_docstring_says():
+    """A sample at exactly t0 of a late window, |e| exactly at the band, ||tau|| exactly at limit - 1e-9 and
+    limit + 1e-9, the limit acting at the last sample."""
+    t = np.array([0.0, 1.0, 1.6, 2.0, 3.4])
+    e = np.zeros((5, 2))
+    e[2], e[3] = 0.3, 0.1
+    assert metrics.tracking_metrics(t, e, np.zeros((5, 2)), stop_time=3.2)["max_abs_error_last_half"] == [0.3, 0.3]
+    acc = metrics.TrackingMetrics(LIMIT, 1.0)
+    acc.add([0.0, 0.1, 0.2], [[0.01, 0.5], [0.0, 0.5], [0.0, 0.0]], np.zeros((3, 2)))
+    assert acc.result()["settle_time_10mrad"] == [0.1, 0.2]
+    tau = [[LIMIT - metrics.LIMIT_TOLERANCE, 0.0], [LIMIT + metrics.LIMIT_TOLERANCE, 0.0], [0.0, 0.0]]
+    got = metrics.tracking_metrics([0.0, 0.1, 0.2], np.zeros((3, 2)), tau, LIMIT, limit_flags=[0.0, 0.0, 1.0])
+    assert (got["samples_at_limit"], got["samples_over_limit"]) == (2, 0)
+    assert got["last_limit_time"] == 0.2 and got["mse_after_limit"] is None
