@@ -192,3 +192,9 @@ def test_the_boundaries_count_as_the_docstring_says():
     got = metrics.tracking_metrics([0.0, 0.1, 0.2], np.zeros((3, 2)), tau, LIMIT, limit_flags=[0.0, 0.0, 1.0])
     assert (got["samples_at_limit"], got["samples_over_limit"]) == (2, 0)
     assert got["last_limit_time"] == 0.2 and got["mse_after_limit"] is None
+
+
+def test_the_windows_take_a_sample_within_1e_12_s_of_their_start():
+    for start, key in ((metrics.TRANSIENT_END, "mse_after_5s"), (20.0, "max_abs_error_after_20s")):
+        got = metrics.tracking_metrics([0.0, start - 1e-12], [[0.0, 0.0], [0.1, 0.1]], np.zeros((2, 2)))
+        assert got[key] == pytest.approx([0.01, 0.01] if key.startswith("mse") else [0.1, 0.1]), key
