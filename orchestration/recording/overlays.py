@@ -10,8 +10,10 @@ import rerun as rr
 
 from orchestration.recording.blueprint import comparison_blueprint, sweep_blueprint
 from orchestration.recording.rrd_file import RecordingFile
+from orchestration.recording.workspace import send_frame
 from orchestration.recording.writer import (
     COMPARE_BLOCK,
+    DESIRED,
     LIMIT,
     PALETTE,
     RunWriter,
@@ -78,6 +80,9 @@ def record_comparison(results: Sequence[RunResult], path: str | Path) -> Path:
     try:
         stream.send_recording_name("compare: " + ", ".join(labels))
         send_view_properties(stream)
+        if any(w.has_arm or w.has_target for w in writers):
+            send_frame(stream, [(label, color) for label, color, w in zip(labels, colors, writers) if w.has_arm]
+                       + [("E_d: desired path (47)", DESIRED)] * any(w.has_target for w in writers), mirror=True)
         for r, label, writer in zip(results, labels, writers):
             send_scenario_properties(stream, r.scenario, r.parameters, prefix=f"{label}_", fmus=r.fmus)
             send_result_properties(stream, r, prefix=f"{label}_")

@@ -1,5 +1,5 @@
-"""Rerun recordings of runs (``.rrd`` files). With ``recording.blueprint`` (its default views),
-the only module of the project that imports rerun.
+"""Rerun recordings of runs (``.rrd`` files). With ``recording.blueprint`` (its default views) and
+``recording.workspace`` (the path views' frame), in the only package of the project that imports rerun.
 
 ``RunRecorder`` is a ``RunObserver``: the master hands it the samples in blocks while the run
 happens, and it sends each block with ``send_columns`` and flushes it to the file, so a run that
@@ -14,12 +14,14 @@ of exactly ``step * round(T * 1e9)`` ns, ``step`` the sample index):
   rather than per output: 8x cheaper to send (see README "Recordings").
 - ``/joints/phi1``, ``/joints/phi2``: [phi_i, phi_i_d] (paper Figs 3-4).
 - ``/tracking/error``: [e1, e2] = phi - phi_d (Fig. 5).
-- ``/controller/weights``: [W1 .. W10] (Figs 1-2), when the controller has them.
+- ``/controller/weights``: [W1 .. W10] (Figs 1-2), ``/controller/pe``: the probing signal, when the
+  controller has them.
 - ``/torques/tau_star``, ``/torques/tau_a``: Figs 6-7, when the controller has them.
 - ``/torques/tau``: [tau1, tau2, ||tau||]; ``/torques/limit``: [+rho, -rho] (Fig. 8).
 - ``/workspace/arm``: the arm as a 2D line strip base -> elbow -> end effector; ``/workspace/target``:
   the desired end-effector point; ``/workspace/path/actual`` and ``/workspace/path/desired``: one
-  segment per step (previous -> current point), shown up to the time cursor (Fig. 9).
+  segment per step (previous -> current point), shown up to the time cursor (Fig. 9); ``/workspace/frame``:
+  static, its grid, axes, base and legend (``recording.workspace``).
 - ``/events/<topic>``: text logs derived from the diagnostics (PE off, CL on, tuning-law switches,
   clipping by the bound (5) or the torque limit) and the run's end or failure.
 
@@ -45,6 +47,7 @@ from orchestration.recording.blueprint import (
     VIEW_DESCRIPTIONS,
     run_blueprint,
 )
+from orchestration.recording.workspace import MIRROR, send_frame
 from orchestration.run.scenario import Scenario
 
 if TYPE_CHECKING:  # not imported: the master brings fmpy, which the writer process has no use for
@@ -54,6 +57,7 @@ COMPARE_BLOCK = 10_000  # samples per send_columns when a finished run is writte
 
 JOINT_COLORS = ((31, 119, 180), (255, 127, 14), (120, 120, 120))  # joint 1, joint 2, norm
 ACTUAL, DESIRED, LIMIT = (220, 60, 40), (40, 110, 220), (150, 150, 150)
+ARM_ALPHA = 110  # the arm is drawn half transparent over the path of E
 DESIRED_DRAW_ORDER = 40.0  # above the runs' paths and arms (Rerun's default for 2D lines is 20)
 PALETTE = ((31, 119, 180), (255, 127, 14), (44, 160, 44), (214, 39, 40), (148, 103, 189),
            (140, 86, 75), (227, 119, 194), (127, 127, 127), (188, 189, 34), (23, 190, 207))
@@ -127,10 +131,10 @@ def run_groups(scenario: Scenario) -> list[Group]:
         for i in (1, 2)
     ]
     groups.append(Group("/tracking/error", tuple(
-        Series(f"e{i} = phi{i} - phi{i}_d [rad]", JOINT_COLORS[i - 1], (f"plant.phi{i}", f"reference.phi{i}_d"), "diff")
-        for i in (1, 2))))
+        Series(f"e{i} [rad]", JOINT_COLORS[i - 1], (f"plant.phi{i}", f"reference.phi{i}_d"), "diff") for i in (1, 2))))
     groups.append(Group("/controller/weights", tuple(
         Series(f"W{k}", PALETTE[k - 1], (f"controller.W{k}",)) for k in range(1, 11))))
+    groups.append(Group("/controller/pe", (Series("PE [N.m]", JOINT_COLORS[2], ("controller.pe",)),)))
     for name, label in (("tau_star", "tau*"), ("tau_a", "tau^a")):
         groups.append(_pair(f"/torques/{name}", f"controller.{name}1", f"controller.{name}2",
                             (f"{label}1 [N.m]", f"{label}2 [N.m]"), JOINT_COLORS))
@@ -231,12 +235,15 @@ class RunWriter:
                 static=True)
         ws = self.entity("/workspace")
         if self.has_arm or self.has_target:
-            # the 2D view draws +y downwards: mirror the workspace so that +y points up
-            log(ws, rr.Transform3D(scale=[1.0, -1.0, 1.0]), static=True)
+            log(ws, MIRROR, static=True)  # the 2D view draws +y downwards: mirrored, +y points up
+            if not self.prefix:  # a comparison has one frame for all its runs
+                arm = [("E: actual path", self.arm_color), ("arm at the time cursor", (*self.arm_color, ARM_ALPHA))]
+                send_frame(self.stream, arm * self.has_arm + [("E_d: desired path (47)", DESIRED)] * self.has_target,
+                           mirror=False)
         if self.has_arm:
             # the arm in the run's colour, half transparent and thinner than before, so the path of E
             # (same colour, opaque) stays readable underneath it
-            log(f"{ws}/arm", rr.LineStrips2D.from_fields(colors=[(*self.arm_color, 110)], radii=[0.012]), static=True)
+            log(f"{ws}/arm", rr.LineStrips2D.from_fields(colors=[(*self.arm_color, ARM_ALPHA)], radii=[0.012]), static=True)
             log(f"{ws}/path/actual", rr.LineStrips2D.from_fields(colors=[self.arm_color], radii=[0.006]), static=True)
         if self.has_target:
             # drawn above every run's path and arm (DrawOrder), thin, so that it stays visible where runs

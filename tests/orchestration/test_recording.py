@@ -13,7 +13,7 @@ from fmpy import read_model_description
 from rerun.chunk import RrdReader
 
 from orchestration.cli import main
-from orchestration.recording.blueprint import VIEW_DESCRIPTIONS
+from orchestration.recording.blueprint import TABS, VIEW_DESCRIPTIONS
 from orchestration.recording.overlays import record_comparison
 from orchestration.recording.rrd_file import APPLICATION_ID
 from orchestration.recording.writer import BLOCK_SIZE, RunRecorder
@@ -137,7 +137,7 @@ def test_blueprint_properties_and_identity_are_stored(ct_run, sotc_run, fmu_path
     for fig in ("Fig. 1-2", "Fig. 3", "Fig. 4", "Fig. 5", "Fig. 6", "Fig. 7", "Fig. 8", "Fig. 9"):
         assert any(n.startswith(fig) for n in names), fig
     assert max(len(n) for n in names) <= 16, names  # titles readable at 1600 x 1000; details in "views"
-    assert set(names) <= set(VIEW_DESCRIPTIONS) | {"Paper figures", "FMU outputs", "plant", "reference", "controller"}
+    assert set(names) <= set(VIEW_DESCRIPTIONS) | set(TABS) | {"plant", "reference", "controller"}
     props = statics(sotc_path)
     assert props["/__properties/scenario"]["name"] == [["paper"]]
     assert props["/__properties/scenario"]["stop_time"] == [[5.0]]
