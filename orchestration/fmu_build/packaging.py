@@ -268,9 +268,11 @@ def compile_cores_ahead(model: str, script: Path, packages: dict[str, Path], des
     (or found there), from only those modules written under ``dest`` as ``stage`` writes them (renamed
     into the placeholder's ``lib``): the bundle's build then takes them from the cache."""
     lib = f"{bundle_stem(model, PLACEHOLDER_DIGEST)}_lib"
+    (dest / lib).mkdir(parents=True)
+    (dest / lib / "__init__.py").write_text("")  # the packages Cython names the modules by: lib.fmu_plant.x
     for rel, src in bundle_closure(script, packages).items():
-        if rel.as_posix() in compiled.HOT:
-            (dest / lib / rel).parent.mkdir(parents=True, exist_ok=True)
+        if rel.as_posix() in compiled.HOT or rel.name == "__init__.py":
+            (dest / lib / rel).parent.mkdir(exist_ok=True)
             (dest / lib / rel).write_text(rename_imports(src.read_text(), lib))
     return compiled.compile_bundle(dest, lib, _declarations(packages, lib))
 

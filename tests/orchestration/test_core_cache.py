@@ -27,6 +27,8 @@ class FakeCompiler:
 
     def __call__(self, resources: Path, lib: str, present: list[str], pxd: dict[str, str]) -> None:
         self.calls += 1
+        for rel in present:  # as Cython: a module's qualified name comes from the packages above it
+            assert all((resources / lib / p / "__init__.py").is_file() for p in Path(rel).parents), rel
         for rel in present:
             text = (resources / lib / rel).read_bytes()
             (resources / lib / compiled._extension(rel)).write_bytes(b"ELF " + text + repr(sorted(pxd)).encode())
@@ -46,6 +48,8 @@ def bundle(root: Path, source: str = "def cos(x):\n    return x\n") -> Path:
     module = root / "resources" / LIB / MODULE
     module.parent.mkdir(parents=True)
     module.write_text(source)
+    for package in (module.parent, module.parent.parent):
+        (package / "__init__.py").touch()
     return root / "resources"
 
 
@@ -104,6 +108,8 @@ def test_what_the_extension_is_made_from_is_in_its_key(compiler, tmp_path, monke
     resources = tmp_path / "b" / "resources"
     (resources / lib / MODULE).parent.mkdir(parents=True)
     (resources / lib / MODULE).write_text(source)
+    for package in (resources / lib, (resources / lib / MODULE).parent):
+        (package / "__init__.py").touch()
     compiled.compile_bundle(resources, lib, pxd)
     assert compiler.calls == 2
 
