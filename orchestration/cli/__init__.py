@@ -57,7 +57,7 @@ class _VersionAlone(argparse._VersionAction):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog="sotc-cosim", description=__doc__.split("\n")[0])
+    parser = _Parser(prog="sotc-cosim", description=__doc__.split("\n")[0].replace("``", ""))  # no reST markup
     parser.add_argument("--version", action=_VersionAlone, version=f"%(prog)s {VERSION}")
     sub = parser.add_subparsers(dest="command")  # required, checked by _Parser.parse_args after the rest
     for group in _command_groups():
@@ -72,6 +72,8 @@ def main(argv: list[str] | None = None) -> int:
         from orchestration.fmu_build.child import BuildError, BuildInterrupted
         from orchestration.outputs import OutputError
         from orchestration.paths import check_output_folder
+        from orchestration.cli.options import live_of
+        from orchestration.recording import live
 
         args = build_parser().parse_args(argv)
         try:
@@ -80,7 +82,11 @@ def main(argv: list[str] | None = None) -> int:
             fmu_dir = getattr(args, "fmu_dir", None)
             if fmu_dir is not None and not fmu_dir.is_dir():  # an existing folder may be read-only: prebuilt
                 check_output_folder(fmu_dir, "--fmu-dir")
-            code = args.func(args)
+            live.ask(live_of(args))  # before a command forks its recordings' writer (``recording.live``)
+            try:
+                code = args.func(args)
+            finally:
+                live.ask(None)  # for this command only (main may be called again in one process)
         except interrupt.NothingRan as exc:  # here or after a command's own imports
             code, stopped = interrupt.exit_code(), str(exc)
         except interrupt.Interrupted:

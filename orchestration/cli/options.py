@@ -5,7 +5,9 @@ import argparse
 import math
 from pathlib import Path
 
+from orchestration.exit_codes import UsageError
 from orchestration.paths import DEFAULT_FMU_DIR, FMI_VERSIONS, fmu_folder
+from orchestration.recording import live
 from orchestration.run.scenario import MAX_STEPS
 
 DEFAULT_SCENARIO = "paper"
@@ -99,3 +101,27 @@ def add_cluster(p: argparse.ArgumentParser, scheduler_note: str = "") -> None:
     where.add_argument("--scheduler", action=_SchedulerAddress, metavar="ADDRESS",
                        help=f"an existing dask.distributed scheduler, tcp://host:8786{scheduler_note} "
                             "(default: a local cluster)")
+
+
+def _rerun_url(text: str) -> str:
+    try:
+        return live.check_url(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def add_live(p: argparse.ArgumentParser) -> None:
+    """Rerun's script options for watching the recording live (``rerun.script_add_args``), beside the
+    file, which is written as without them (``orchestration.recording.live``); ``live_of`` reads them."""
+    g = p.add_argument_group("watching live (Rerun's script options; the recording file is written either way)")
+    g.add_argument("--connect", action="store_true", help="also stream to a running Rerun viewer (start one with `rerun`)")
+    g.add_argument("--url", type=_rerun_url, help=f"the viewer --connect streams to (default {live.DEFAULT_URL})")
+    g.add_argument("--serve", action="store_true",
+                   help=f"also host a gRPC server (port {live.GRPC_PORT}) and a web viewer (http://127.0.0.1:{live.WEB_PORT})")
+
+
+def live_of(args: argparse.Namespace) -> live.Live | None:
+    """What ``add_live``'s options ask for (None: the file only, also for a command without them)."""
+    if getattr(args, "url", None) and not args.connect:
+        raise UsageError("--url is the viewer of --connect: give both")
+    return live.of_arguments(getattr(args, "connect", False), getattr(args, "url", None), getattr(args, "serve", False))

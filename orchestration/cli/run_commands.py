@@ -2,12 +2,14 @@
 from __future__ import annotations
 
 import argparse
+import shutil
 import sys
+import textwrap
 from pathlib import Path
 
 from orchestration import exit_codes
-from orchestration.cli.options import (DEFAULT_SCENARIO, add_fmi, add_fmu_dir, add_force, add_stop_time, fmu_dir_of,
-                                       positive_int)
+from orchestration.cli.options import (DEFAULT_SCENARIO, add_fmi, add_fmu_dir, add_force, add_live, add_stop_time,
+                                       fmu_dir_of, positive_int)
 from orchestration.paths import DEFAULT_FMU_DIR, OUTPUTS, check_output_file, check_output_folder, fmu_folder
 from orchestration.recording import RRD
 from orchestration.run import interrupt
@@ -32,8 +34,14 @@ def _cmd_build(args: argparse.Namespace) -> int:
 
 
 def _cmd_scenarios(args: argparse.Namespace) -> int:
-    for name in available_scenarios():
-        print(f"{name:<16} {load_scenario(name).description}")
+    """One scenario a line (its description wrapped to the terminal, under itself), names in a column as wide
+    as the longest."""
+    names = available_scenarios()
+    width = max(map(len, names), default=0) + 2
+    columns = max(shutil.get_terminal_size().columns, width + 40)
+    for name in names:
+        print(textwrap.fill(load_scenario(name).description, columns, initial_indent=name.ljust(width),
+                            subsequent_indent=" " * width))
     return exit_codes.OK
 
 
@@ -111,6 +119,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
     if args.recording and len(args.scenarios) > 1:
         raise ScenarioError("--recording takes one scenario; without it each run writes recordings/<scenario>.rrd")
     if args.no_recording:
+        if args.connect or args.serve:
+            raise ScenarioError("--connect and --serve stream the recording, which --no-recording does not make")
         return _run_and_report(args, None)
     from orchestration.recording.writer_process import forked_writer
 
@@ -182,10 +192,9 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
     results, summaries = zip(*run_each(*prepare(reproduce_scenarios(), args.stop_time, fmu_dir_of(args), check, args.fmi),
                                         progress_label="reproduce"))
     notes = chaos_notes(summaries)
-    md, cs, text = write_table(summaries, args.out, notes)
-    print(text)
+    md, cs = write_table(summaries, args.out, notes)
     print(compact_table(summaries, notes))
-    print(f"wrote {md} and {cs}")
+    print(f"wrote {md} and {cs} (every column)")
     print(f"recording: {record_comparison(results, args.recording)} (paper Figs 10-12: every run overlaid)")
     return exit_code(summaries)
 
@@ -213,6 +222,7 @@ def add_commands(sub) -> None:
                    help="record every N-th sample only (long runs: a 10,000 s run is about 960 MB at N = 1)")
     add_force(p, f"{RRD.name} or a run summary")
     add_fmi(p)
+    add_live(p)
     p.set_defaults(func=_cmd_run)
 
     p = sub.add_parser("compare", help="run scenarios and overlay them in one Rerun recording (paper Figs 10-12)")
@@ -223,6 +233,7 @@ def add_commands(sub) -> None:
     add_stop_time(p, "override every scenario's stop time, s")
     add_fmu_dir(p)
     add_fmi(p)
+    add_live(p)
     p.set_defaults(func=_cmd_compare)
 
     p = sub.add_parser("reproduce", help="run the paper's section 4 experiment and write Table 1 extended")
@@ -233,6 +244,7 @@ def add_commands(sub) -> None:
     add_stop_time(p, "override every scenario's stop time, s (default: the paper's 100 s)")
     add_fmu_dir(p)
     add_fmi(p)
+    add_live(p)
     p.set_defaults(func=_cmd_reproduce)
 
     p = sub.add_parser("scenarios", help="list the scenarios that ship with the package")

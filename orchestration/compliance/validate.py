@@ -384,7 +384,8 @@ def format_report(report: ValidationReport, details: bool = True) -> str:
         cells = [f"FAIL({len(r.problems[c])})" if r.problems[c] else "-" if c in r.not_run else "ok" for c in CHECKS]
         lines.append("  ".join([r.model.ljust(width)] + [x.ljust(w) for x, w in zip(cells, cols)]
                                + ["pass" if r.ok else "FAIL"]))
-    lines.append(f"set: {'every script module name stands for one bundle' if not report.set_problems else 'FAIL'}")
+    if report.set_problems:  # said only when it fails: a line that passes meant nothing to a user
+        lines.append("FMUs together: FAIL (two of them cannot run in one process)")
     if details:
         for r in report.fmus:
             for check in CHECKS:
@@ -393,6 +394,6 @@ def format_report(report: ValidationReport, details: bool = True) -> str:
             for why in dict.fromkeys(r.not_run.values()):
                 skipped = ", ".join(c for c in CHECKS if r.not_run.get(c) == why)
                 lines.append(f"  {r.model} [{skipped}] not run: {why}")
-        lines += [f"  set: {p}" for p in report.set_problems]
+        lines += [f"  together: {p}" for p in report.set_problems]
     lines.append("all FMUs pass" if report.ok else "validation FAILED")
     return "\n".join(lines)

@@ -1,13 +1,15 @@
 """Streaming runs into Rerun recordings (.rrd) with a stored blueprint of the paper's figures.
 
 Rerun's file writer logs a failed write to stderr itself; ``recording.writer.RecordingFile`` reports it
-as one ``OutputError`` instead, so that log line is off unless the user sets ``RUST_LOG``."""
+as one ``OutputError`` instead, and its gRPC client logs a live viewer that went away, which
+``recording.live`` says in one line: those log lines are off unless the user sets ``RUST_LOG``."""
 import os
 from pathlib import Path
 
 from orchestration.paths import OUTPUTS, magic_kind
 
-os.environ.setdefault("RUST_LOG", "warn,re_log_encoding::rrd::file_sink=off,re_sdk::recording_stream=off")
+os.environ.setdefault("RUST_LOG", "warn,re_log_encoding::rrd::file_sink=off,re_sdk::recording_stream=off,"
+                                  "re_grpc_client=off")
 
 # Samples per block handed over by the master (and flushed to the file): chosen by
 # ``sotc-cosim bench recording``, see README "Recordings".

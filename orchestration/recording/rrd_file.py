@@ -14,6 +14,7 @@ from pathlib import Path
 import rerun as rr
 
 from orchestration.outputs import OutputError, PathLock, temporary_path
+from orchestration.recording import live
 
 APPLICATION_ID = "sotc-cosim"
 DRAIN_POLL = 0.0002  # s between looks at the pipe while a flush waits for the pump
@@ -25,7 +26,8 @@ class RecordingFile:
     ``path``, which ``close`` renames into place; an advisory lock on ``path`` keeps a second writer
     out. Rerun's own writer, on a full disk, stops and leaves every later flush (and ``disconnect``)
     waiting for ever; ours records the error (path and errno), drops the rest of the stream, and
-    ``flush``/``close`` raise it as ``OutputError`` at once."""
+    ``flush``/``close`` raise it as ``OutputError`` at once. A live viewer asked for (``recording.live``)
+    gets the same calls and blueprint through a stream of its own; its going away changes nothing here."""
 
     def __init__(self, path: Path, blueprint, lock: PathLock | None = None):
         self.path = Path(path)
@@ -35,6 +37,7 @@ class RecordingFile:
             self.pump = _Pump(self.path)
             self.stream = rr.RecordingStream(application_id=APPLICATION_ID, recording_id=str(uuid.uuid4()))
             self.stream.save(f"/dev/fd/{self.pump.write_end}", default_blueprint=blueprint)
+            self.stream = live.stream(live.ASKED, self.stream, blueprint, self.path)  # also watched live, if asked
         except BaseException:
             self.lock.release()
             raise

@@ -74,6 +74,9 @@ def test_reproduce_writes_the_table_from_its_own_runs(fmu_dir, tmp_path, monkeyp
     assert unclipped["samples_over_limit"] > 0 and all(
         s["samples_over_limit"] == 0 for s in captured if s["limit_handling"] != "none")
     assert "paper-otc-accel" in printed and "wrote" in printed
+    # what fits a terminal, and says the run's stop time beside the paper's 100 s; every column in table1.md
+    assert max(map(len, printed.splitlines())) <= 120, max(printed.splitlines(), key=len)
+    assert "stop time 3 s" in printed and not any(line.startswith("|") for line in printed.splitlines())
     # every controller tuned by the one protocol, under accel and radial (the README's tuned rows)
     assert {f"{sc}-tuned-{h}" for sc in ("paper", "paper-ct", "paper-lqr", "paper-otc") for h in ("accel", "radial")} <= {
         line.split()[0] for line in printed.splitlines() if line.split()}
@@ -128,8 +131,9 @@ def test_a_chaotic_reading_is_reported_as_not_tracking_with_its_sensitivity(monk
     assert notes["paper-literal"] == ("does not track (MSE_1 + MSE_2 chaotic: 7.4–14; moves up to 60 % under 3 "
                                       "perturbations of the initial state)")
     table = compact_table([{"scenario": "paper-literal", "controller": "SotcController", "limit_handling": "radial",
-                            "mse": [1.7, 6.6], "tracking_cost": 1885.0, "max_norm_tau": 4.0, "samples_over_limit": 0}], notes)
-    assert "1.7" not in table.splitlines()[3] and "chaotic: see below" in table and notes["paper-literal"] in table
+                            "stop_time": 100.0, "mse": [1.7, 6.6], "tracking_cost": 1885.0, "max_norm_tau": 4.0, "samples_over_limit": 0}], notes)
+    assert "stop time 100 s" in table.splitlines()[0] and max(map(len, table.splitlines())) <= 120, table
+    assert "1.7" not in table.splitlines()[4] and "chaotic: see below" in table and notes["paper-literal"] in " ".join(table.split())
     summary = {"scenario": "paper-literal", "controller": "SotcController", "status": "ok", "mse": [1.7, 6.6]}
     _, rows = table_rows([summary], chaotic=frozenset(notes))
     assert rows[-1][4 + 1:4 + 7] == ["chaotic (see below)"] * 6 and "1.7" not in rows[-1]
