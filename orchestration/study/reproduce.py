@@ -253,20 +253,21 @@ def compact_table(summaries: list[dict[str, Any]], notes: dict[str, str]) -> str
     paper's (a chaotic reading's MSE: see the notes below), the torque bound, then ``sections``."""
     w = max(22, *(len(s["scenario"]) for s in summaries)) if summaries else 22
     lines = [f"rows 'paper': the paper's Table 1 (MSE over 100 s); the others: this run, stop time {_stop_times(summaries)}",
-             f"{'':<{w}} {'controller':<15} {'limit':<7} {'MSE 1':>9} {'MSE 2':>9} {'MSE1 t>=5':>10} "
-             f"{'MSE2 t>=5':>10} {'cost':>8} {'max||tau||':>10} {'over limit':>10}"]
+             f"{'':<{w}} {'controller':<10} {'limit':<6} {'MSE 1':>9} {'MSE 2':>9} {'MSE1 t>=5':>9} "
+             f"{'MSE2 t>=5':>9} {'cost':>8} {'max||tau||':>10} {'over limit':>10}"]
     for name, (m1, m2) in PAPER_TABLE1.items():
         bound = "<= 4" if name == "SOTC" else "?"  # the paper states the bound for SOTC only
-        lines.append(f"{'paper':<{w}} {name:<15} {'':<7} {m1:>9.5f} {m2:>9.5f} {'':>10} {'':>10} {'':>8} {bound:>10} {'':>10}")
+        lines.append(f"{'paper':<{w}} {name:<10} {'':<6} {m1:>9.5f} {m2:>9.5f} {'':>9} {'':>9} {'':>8} {bound:>10} {'':>10}")
     for s in summaries:
         mse = s.get("mse") or [None, None]
         late = s.get("mse_after_5s") or [None, None]
-        first = (f"{fmt_cell(mse[0], '.4g', 9)} {fmt_cell(mse[1], '.4g', 9)} {fmt_cell(late[0], '.3g', 10)} "
-                 f"{fmt_cell(late[1], '.3g', 10)}")
+        first = (f"{fmt_cell(mse[0], '.4g', 9)} {fmt_cell(mse[1], '.4g', 9)} {fmt_cell(late[0], '.3g', 9)} "
+                 f"{fmt_cell(late[1], '.3g', 9)}")
         if s["scenario"] in notes:
-            first = f"{'chaotic: see below':>41}"
+            first = f"{'chaotic: see below':>39}"
+        controller = str(s["controller"]).removesuffix("Controller")  # SotcController: Sotc, as the paper's SOTC
         lines.append(
-            f"{s['scenario']:<{w}} {str(s['controller']):<15} {str(s.get('limit_handling')):<7} {first} "
+            f"{s['scenario']:<{w}} {controller:<10} {str(s.get('limit_handling')):<6} {first} "
             f"{fmt_cell(s.get('tracking_cost'), '.4g', 8)} "
             f"{fmt_cell(s.get('max_norm_tau'), '.4g', 10)} {fmt_cell(s.get('samples_over_limit'), 'd', 10)}"
         )

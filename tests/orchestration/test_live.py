@@ -7,6 +7,7 @@ import shutil
 import signal
 import socket
 import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -103,3 +104,32 @@ def test_a_viewer_that_goes_away_mid_run_stops_nothing_and_the_file_is_complete(
     rows = read_entities(tmp_path / "r.rrd")["/joints/phi1"]
     assert list(rows["step"]) == list(range(len(rows["step"]))), "a step is missing"
     assert rows["sim_time"][-1] == 60_000_000_000, rows["sim_time"][-3:]  # to the end of the run
+
+
+_SERVE = """
+import socket, sys, urllib.request
+import rerun as rr
+from orchestration.recording import live
+grpc_port, web_port = map(int, sys.argv[2:])
+live.ask(live.Live(serve=True, grpc_port=grpc_port, web_port=web_port))
+from orchestration.recording.rrd_file import RecordingFile
+f = RecordingFile(sys.argv[1], None)
+f.stream.log("x", rr.Scalars([1.0]))
+f.flush()
+socket.create_connection(("127.0.0.1", grpc_port), timeout=5).close()
+page = urllib.request.urlopen(f"http://127.0.0.1:{web_port}/", timeout=30)
+f.close()
+print("served", page.status)
+"""
+
+
+def test_serve_hosts_a_grpc_server_and_a_web_viewer_beside_the_file(tmp_path):
+    grpc_port, web_port = _free_port(), _free_port()
+    proc = subprocess.run([sys.executable, "-c", _SERVE, str(tmp_path / "s.rrd"), str(grpc_port), str(web_port)],
+                          capture_output=True, text=True, timeout=TIME_LIMIT)
+    assert proc.returncode == 0 and proc.stdout.split() == ["served", "200"], proc.stderr
+    assert f"web viewer at http://127.0.0.1:{web_port}" in proc.stderr, proc.stderr
+    if RERUN is not None:
+        verified = subprocess.run([RERUN, "rrd", "verify", str(tmp_path / "s.rrd")], capture_output=True, text=True,
+                                  timeout=TIME_LIMIT)
+        assert verified.returncode == 0, verified.stderr
