@@ -35,6 +35,7 @@ MODULES = {
 # FMU tests (they build FMUs) and the slow ones stay out; one process per mutant, no xdist
 PYTEST_ARGS = ["-n", "0", "-p", "no:cacheprovider", "-m", "not slow", "-q", "-k", "not fmu"]
 EQUIVALENT = re.compile(r"^- `([\w.]+__mutmut_\d+)`: ", re.M)
+DETECTED = ("killed", "timeout")  # a mutant that makes its tests fail, or hang past mutmut's limit
 
 
 def scratch_copy(dest: Path) -> None:
@@ -71,7 +72,7 @@ def mutate(module: str, children: int) -> tuple[dict[str, str], dict[str, str]]:
         status = dict(re.findall(r"^\s*([\w.]+__mutmut_\d+): (.+)$", listing, re.M))
         diffs = {name: subprocess.run([sys.executable, "-m", "mutmut", "show", name], cwd=dest, env=env,
                                       capture_output=True, text=True).stdout
-                 for name, what in status.items() if what != "killed"}
+                 for name, what in status.items() if what not in DETECTED}
     return status, diffs
 
 
@@ -85,10 +86,10 @@ def main(argv: list[str]) -> int:
     unexplained = 0
     for module in modules:
         status, diffs = mutate(module, max(1, os.cpu_count() or 1))
-        killed = sum(1 for s in status.values() if s == "killed")
+        killed = sum(1 for s in status.values() if s in DETECTED)
         print(f"## {module}: {len(status)} mutants, {killed} killed, {len(status) - killed} not")
         for name, what in sorted(status.items()):
-            if what == "killed":
+            if what in DETECTED:
                 continue
             said = "equivalent (docs/testing.md)" if name in equivalent else "NOT EXPLAINED"
             unexplained += name not in equivalent

@@ -5,6 +5,7 @@ derivative of the paper's basis (section 4) and D^-1 of eq. (46) inverted exactl
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -121,6 +122,8 @@ def test_the_critic_basis_its_derivatives_and_the_policy_arguments(z, W, phi2):
     assert sm.basis(z) == pytest.approx([float(v) for v in ZETA_NUM(z)], rel=1e-15)
     grad = [float(v) for v in GRAD(z, W)]
     assert sm.value_gradient(z, W) == pytest.approx(grad, rel=1e-13, abs=1e-13)
+    jacobian = [[float(sp.diff(zeta, zi).subs(dict(zip(Z, z)))) for zi in Z] for zeta in ZETA]
+    assert sm.basis_jacobian(z).ravel() == pytest.approx(np.ravel(jacobian), rel=1e-15)
     hess = [[float(v) for v in row] for row in HESSIAN(z, W)]
     assert [list(row) for row in sm.value_hessian(W)] == hess
     assert sm.hessian_phi_times(sm.weights_buffer(W), *z) == pytest.approx(np.array(hess)[:2] @ z, rel=1e-13)
@@ -128,7 +131,7 @@ def test_the_critic_basis_its_derivatives_and_the_policy_arguments(z, W, phi2):
     directional = [float(e) for e in DIRECTIONAL(z, v)]
     assert sm.basis_directional(z, v) == pytest.approx(directional, rel=1e-13, abs=1e-13)
     dinv = inverse_inertia(phi2, p)
-    s, r = 0.6, (1.0, 2.0, 0.5, 3.0)
+    s, r = 0.6, (1.5, 2.0, 0.5, 3.0)
     K = sm.CriticConstants(s, r, (1.0,) * 4, (1.0, 1.0), (1.0, 1.0), True, True)
     got = sm.policy_arguments(K, *z, sm.weights_buffer(W), float(dinv[0, 0]), float(dinv[0, 1]), float(dinv[1, 1]))
     assert got == pytest.approx([float(x) for x in tanh_law(z, W, s, r, dinv)], rel=1e-12, abs=1e-12)
@@ -223,3 +226,18 @@ def test_the_probing_signal_of_section_4(time):
           + mp.sin(T_) ** 5 + mp.sin(1.12 * T_) ** 2 + mp.cos(2.4 * T_) * mp.sin(2.4 * T_) ** 3)
     assert sm.probing_signal(time) == pytest.approx(float(0.5 * pe), rel=1e-13, abs=1e-15)
     assert sm.probing_signal(time, 2.0) == pytest.approx(float(2 * pe), rel=1e-13, abs=1e-15)
+
+
+@pytest.mark.parametrize("s, r", [(0.0, (1.0,) * 4), (0.6, (1.0, 0.0, 1.0, 1.0)), (0.6, (1.0, 1.0, -2.0, 1.0)),
+                                  (1e-162, (1e-162,) * 4), (math.nan, (1.0,) * 4)])
+def test_critic_constants_refuse_a_policy_denominator_2_s_r_that_is_not_positive(s, r):
+    """1e-162 * 1e-162 * 2 rounds to zero: the denominator itself is checked, not its factors."""
+    with pytest.raises(ValueError, match=rf"^s = {s!r} and r = {re.escape(repr(tuple(r)))} must be positive"):
+        sm.CriticConstants(s, r, (1.0,) * 4, (1.0, 1.0), (1.0, 1.0), False, True)
+    with pytest.raises(ValueError, match="^W has 9 weights, the critic 10$"):
+        sm.weights_buffer([1.0] * 9)
+
+
+def test_the_integrand_of_13():
+    for u, s, r in ((0.3, 0.6, 2.0), (-3.9, 4.0, 0.5), (0.0, 1.0, 1.0)):
+        assert sm.omega_integrand(u, s, r) == pytest.approx(float(2 * s * r * mp.atanh(mp.mpf(u) / s)), rel=1e-14)
