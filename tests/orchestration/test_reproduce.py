@@ -41,6 +41,7 @@ def test_reproduce_writes_the_table_from_its_own_runs(fmu_dir, tmp_path, monkeyp
     monkeypatch.setattr(summary_module, "summarize", spy)
     monkeypatch.chdir(tmp_path)
     rrd = tmp_path / "out" / "reproduce.rrd"
+    rrd.parent.mkdir()  # a file output outside recordings/ must be in an existing folder (issue 47)
     code = main(["reproduce", "--stop-time", "3", "--fmu-dir", str(fmu_dir), "--out", str(tmp_path / "out"),
                  "--recording", str(rrd)])
     printed = capsys.readouterr().out
