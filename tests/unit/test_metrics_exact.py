@@ -198,3 +198,8 @@ def test_the_windows_take_a_sample_within_1e_12_s_of_their_start():
     for start, key in ((metrics.TRANSIENT_END, "mse_after_5s"), (20.0, "max_abs_error_after_20s")):
         got = metrics.tracking_metrics([0.0, start - 1e-12], [[0.0, 0.0], [0.1, 0.1]], np.zeros((2, 2)))
         assert got[key] == pytest.approx([0.01, 0.01] if key.startswith("mse") else [0.1, 0.1]), key
+
+
+def test_the_weights_window_takes_samples_within_1e_9_s_of_its_ends():
+    t, w = np.array([0.0, 1.0 - 1e-9, 2.0 + 1e-9, 3.0]), np.array([[0.0], [1.0], [3.0], [6.0]])
+    assert metrics.weight_total_variation(t, w, 1.0, 2.0) == 2.0
