@@ -6,6 +6,7 @@ parameter checks say what they refuse. The checks on the result are reached thro
 from __future__ import annotations
 
 import math
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -104,13 +105,19 @@ def test_parameter_checks_say_what_they_refuse():
                                "singular for some phi (valid range: p3 < sqrt(p2 (p1 - p2)))")
     with pytest.raises(ParameterError) as info:
         dyn.ArmParameters(p1=2.0, p2=1.0, p3=math.sqrt(1.0 - 1e-7))
-    assert info.value.name == "p2" and "D(phi) is nearly singular: its smallest eigenvalue can be" in str(info.value)
-    for changes, name in (({"f2": 900.0}, "f2"), ({"b1": 900.0}, "b1"), ({"f1": 900.0, "b1": 1.0}, "b1")):
+    assert str(info.value) == ("parameter 'p2': D(phi) is nearly singular: its smallest eigenvalue can be 2e-08 kg.m2, "
+                               "below 1e-06 (raise p2, or p1 - p2, or lower p3)")
+    for changes, name in (({"f2": 900.0}, "f2"), ({"b1": 900.0}, "b1"), ({"f1": 900.0, "b1": 1.0}, "b1"),
+                          ({"f1": 900.0, "f2": 900.0}, "f1"), ({"f1": 900.0, "f2": 500.0, "b2": 450.0}, "b2")):
         with pytest.raises(ParameterError) as info:
             dyn.ArmParameters(p1=0.5, p2=0.05, p3=0.14, **changes)
         assert info.value.name == name and "makes the arm too stiff" in str(info.value), changes
         joint = name[1]
         assert f"lower f{joint}/b{joint}" in str(info.value)
+    inv = dyn.ArmParameters(p1=0.5, p2=0.05, p3=0.14).inv_inertia
+    with pytest.raises(ParameterError) as info:
+        dyn.ArmParameters(p1=0.5, p2=0.05, p3=0.14, f1=900.0, b1=1.0)
+    assert f"friction 901 N.m.s/rad against inertia down to {1.0 / inv:.3g} kg.m2 makes" in str(info.value)
     p = dyn.ArmParameters(p1=2.0, p2=0.5, p3=0.3, f1=1.0, f2=2.0, b1=3.0, b2=4.0)
     assert p.coefficients == (2.0, 0.5, 0.3, 1.0, 2.0, 3.0, 4.0)
     assert p.inv_inertia == pytest.approx((2.0 + 0.5 + 0.6) / (0.5 * 1.5 - 0.09), rel=1e-15)
@@ -130,3 +137,22 @@ def test_solve_inertia_inverts_d(phi2):
     r = np.array([1.3, -0.4])
     expected = np.linalg.solve(np.array([[d11, d12], [d12, d22]]), r)
     assert dyn.solve_inertia(phi2, *r, P) == pytest.approx(expected, rel=1e-13)
+
+
+def test_an_arm_whose_step_at_rest_needs_exactly_max_substeps_is_accepted():
+    """The construction's check is substeps_needed at rest (dphi = 0) against MAX_SUBSTEPS, inclusive."""
+    base = dict(p1=0.5, p2=0.05, p3=0.14)
+    inv = dyn.ArmParameters(**base).inv_inertia
+
+    def needed(f1):
+        arm = SimpleNamespace(coefficients=(0.5, 0.05, 0.14, f1, 2.35, 0.0, 0.0), inv_inertia=inv, p3=0.14)
+        return dyn.substeps_needed(0.0, 0.0, 0.0, T, arm)
+
+    lo, hi = 0.0, 1000.0  # needed(lo) <= MAX_SUBSTEPS < needed(hi)
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if needed(mid) <= dyn.MAX_SUBSTEPS else (lo, mid)
+    assert needed(lo) == dyn.MAX_SUBSTEPS and needed(hi) == dyn.MAX_SUBSTEPS + 1
+    dyn.ArmParameters(**base, f1=lo)
+    with pytest.raises(ParameterError, match="too stiff"):
+        dyn.ArmParameters(**base, f1=hi)
