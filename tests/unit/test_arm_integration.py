@@ -31,7 +31,8 @@ def bound_of_the_docstring(phi2, dphi1, dphi2, dt, p, tau_norm=0.0) -> int:
 
 
 ARMS = [P, dyn.ArmParameters(b1=3.0, b2=7.0, f1=1.0, f2=20.0), dyn.ArmParameters(p3=0.1, b1=9.0)]
-STATES = [(0.5, -0.5, 0.0, 0.0), (1.0, 2.0, 30.0, -40.0), (0.1, -3.0, -5.0, 200.0), (0.0, 0.7, 1e3, 1.0)]
+STATES = [(0.5, -0.5, 0.0, 0.0), (1.0, 2.0, 30.0, -40.0), (0.1, -3.0, -5.0, 200.0), (0.0, 0.7, 1e3, 1.0),
+          (0.0, 0.3, 1e4, -1e4)]  # the last needs more than MAX_SUBSTEPS
 
 
 @pytest.mark.parametrize("p", ARMS)
@@ -146,7 +147,7 @@ def test_an_arm_whose_step_at_rest_needs_exactly_max_substeps_is_accepted():
 
     def needed(f1):
         arm = SimpleNamespace(coefficients=(0.5, 0.05, 0.14, f1, 2.35, 0.0, 0.0), inv_inertia=inv, p3=0.14)
-        return dyn.substeps_needed(0.0, 0.0, 0.0, T, arm)
+        return dyn.substeps_needed(0.0, 0.0, 0.0, T, arm, 0.0)  # at rest, no torque
 
     lo, hi = 0.0, 1000.0  # needed(lo) <= MAX_SUBSTEPS < needed(hi)
     for _ in range(200):
