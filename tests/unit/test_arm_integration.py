@@ -157,3 +157,25 @@ def test_an_arm_whose_step_at_rest_needs_exactly_max_substeps_is_accepted():
     dyn.ArmParameters(**base, f1=lo)
     with pytest.raises(ParameterError, match="too stiff"):
         dyn.ArmParameters(**base, f1=hi)
+
+
+def test_a_step_whose_energy_reaches_exactly_the_allowed_growth_is_accepted(dynamics_py, monkeypatch):
+    """The check is ``speed_after <= allowed``: at equality the step stands (a mutant with ``<`` refuses it).
+    The velocities were searched ulp by ulp so that sqrt(2 E) is ``allowed`` to the bit; the test asserts that."""
+    p = dynamics_py.ArmParameters()
+    start, tau = (0.5, -0.5, 0.3, -0.2), (1.5, 2.0)
+    before = math.sqrt(2.0 * dynamics_py.kinetic_energy(start[1], start[2], start[3], p))
+    allowed = (before + T * math.hypot(*tau) * math.sqrt(p.inv_inertia)) * 1.05 + 1e-9
+    new = (start[0], start[1], 0.35274878714628755, -0.23516585809752502)
+    assert math.sqrt(2.0 * dynamics_py.kinetic_energy(new[1], new[2], new[3], p)) == allowed
+    monkeypatch.setattr(dynamics_py, "rk4_step", lambda *args: new)
+    assert dynamics_py.integrate(start, *tau, T, 4, p) == new
+
+
+def test_an_arm_whose_inverse_inertia_bound_is_exactly_the_limit_is_accepted():
+    """``inv <= MAX_INVERSE_INERTIA``: p3 so small that it rounds away, p1 and p2 chosen so that
+    (p1 + p2) / (p2 (p1 - p2)) is 1e6 to the bit; the next smaller p1 crosses it and is refused."""
+    p1, p2, small = 5.999999800000079e-06, 2.0000002e-06, dict(p3=1e-300, f1=1e-9, f2=1e-9)
+    assert dyn.ArmParameters(p1=p1, p2=p2, **small).inv_inertia == dyn.MAX_INVERSE_INERTIA
+    with pytest.raises(ParameterError, match="nearly singular"):
+        dyn.ArmParameters(p1=math.nextafter(p1, 0.0), p2=p2, **small)
