@@ -35,6 +35,8 @@ def test_tune_refuses_bad_values_with_one_line(shipped):
 
 def test_tune_writes_the_store_and_resumes_after_ctrl_c_to_the_same_trials(shipped):
     work = shipped.workdir("tune")
+    for folder in ("whole", "cut"):  # a file output's folder must exist (docs/commands.md, outputs)
+        (work / folder).mkdir()
     whole = shipped.cli(*ARGS, "--out", "whole/tuned.json", cwd=work)
     assert whole.returncode == 0, whole.stderr
     store = json.loads((work / "whole" / "tuned.json").read_text())
