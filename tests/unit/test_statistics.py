@@ -164,3 +164,11 @@ def test_a_single_pair_is_its_own_interval(a, verdict):
     v = paired([a, None], [1.0, 1.0])
     assert (v.ratio.n, v.ratio.failed, v.failed_a, v.verdict) == (1, 0, 1, verdict)
     assert v.ratio.value == v.ratio.low == v.ratio.high == pytest.approx(a, rel=1e-15)
+
+
+def test_single_precision_figures_are_taken_in_double():
+    """The logarithms are taken of float64 copies: MSEs handed over as float32 (a store read with numpy, say)
+    give the interval of their exact values, not logarithms rounded to single precision."""
+    values = [0.0123, 0.0456, 0.0789, 0.0321, 0.0654, 0.0987]
+    single = [np.float32(v) for v in values]
+    assert geometric_interval(single) == geometric_interval([float(v) for v in single])
