@@ -109,10 +109,10 @@ def magic_kind(name: str, magic: bytes) -> OutputKind:
 
 
 def check_output_file(path: Path, argument: str, locked: bool = False, kind: OutputKind | None = None,
-                      force: bool = False) -> Path:
+                      force: bool = False, within: Path | None = None) -> Path:
     """``path`` can be created or overwritten as a regular file, and so can its lock file (``locked``).
-    Its folder must exist, unless it is under ``OUTPUTS`` (made as needed: the nearest existing folder
-    must be one we can write in); its name, with the temporary and lock names made from
+    Its folder must exist, unless it is under ``OUTPUTS`` or under ``within``, an output folder the
+    command makes itself (both made as needed: the nearest existing folder must be one we can write in); its name, with the temporary and lock names made from
     it, must fit the file system; an existing file that is not empty must be of its ``kind``, unless
     ``force``. Nothing is left behind."""
     path = Path(path)
@@ -122,7 +122,7 @@ def check_output_file(path: Path, argument: str, locked: bool = False, kind: Out
         raise OutputPathError(f"{argument} {path}: is a folder; give a file path")
     if path.exists() and not path.is_file():
         raise OutputPathError(f"{argument} {path}: exists and is not a regular file")
-    if not _under_outputs(path) and not path.parent.is_dir() and not path.parent.is_symlink():
+    if not _under(path, OUTPUTS, within) and not path.parent.is_dir() and not path.parent.is_symlink():
         raise OutputPathError(f"{argument} {path}: the folder {path.parent} does not exist; create it first "
                               "(a file output's folder is not made for it)")
     _check_folder(path.parent, argument, path)
@@ -134,8 +134,8 @@ def check_output_file(path: Path, argument: str, locked: bool = False, kind: Out
     return path
 
 
-def _under_outputs(path: Path) -> bool:
-    return Path(os.path.abspath(path)).is_relative_to(os.path.abspath(OUTPUTS))
+def _under(path: Path, *folders: Path | None) -> bool:
+    return any(Path(os.path.abspath(path)).is_relative_to(os.path.abspath(f)) for f in folders if f is not None)
 
 
 def _check_name(path: Path, argument: str) -> None:

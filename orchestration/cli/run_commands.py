@@ -164,9 +164,10 @@ def _run_and_report(args: argparse.Namespace, writer) -> int:
     return exit_code(summaries)
 
 
-def _check_recording(args: argparse.Namespace) -> None:
-    """``--recording`` of compare and reproduce: a Rerun recording, or any file with ``--force``."""
-    check_output_file(args.recording, "--recording", locked=True, kind=RRD, force=args.force)
+def _check_recording(args: argparse.Namespace, within: Path | None = None) -> None:
+    """``--recording`` of compare and reproduce: a Rerun recording, or any file with ``--force``; it may go
+    into ``within``, the command's own ``--out`` folder, before that folder is made."""
+    check_output_file(args.recording, "--recording", locked=True, kind=RRD, force=args.force, within=within)
 
 
 def _cmd_compare(args: argparse.Namespace) -> int:
@@ -187,7 +188,7 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
 
     def check(_) -> None:
         check_output_folder(args.out, "--out")
-        _check_recording(args)
+        _check_recording(args, within=args.out)
 
     results, summaries = zip(*run_each(*prepare(reproduce_scenarios(), args.stop_time, fmu_dir_of(args), check, args.fmi),
                                         progress_label="reproduce"))

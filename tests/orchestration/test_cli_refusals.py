@@ -136,3 +136,16 @@ def test_tune_keeps_a_foreign_store_or_journal(tmp_path, monkeypatch, capsys):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["s.json", "t.json.journal"]
     assert (tmp_path / "t.json.journal").read_bytes() == FOREIGN
 
+
+
+def test_a_file_output_may_go_into_the_output_folder_the_command_makes(tmp_path):
+    """reproduce --out DIR --recording DIR/r.rrd: DIR is made by reproduce itself, so the recording's folder
+    need not exist yet (the before-stop smoke run was refused); anywhere else a missing folder still is."""
+    from orchestration.paths import OutputPathError, check_output_file
+
+    out = tmp_path / "out"
+    assert check_output_file(out / "r.rrd", "--recording", within=out) == out / "r.rrd"
+    assert not any(tmp_path.iterdir())  # nothing made by the check
+    for path, within in ((out / "r.rrd", None), (tmp_path / "other" / "r.rrd", out)):
+        with pytest.raises(OutputPathError, match="does not exist"):
+            check_output_file(path, "--recording", within=within)
