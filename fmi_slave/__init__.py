@@ -3,4 +3,4 @@ ranges, a modelDescription that validates, checked FMU states, and the workaroun
 needs. It imports pythonfmu and the standard library only, never the models or the orchestration.
 This file imports nothing, so the pure cores can use ``fmi_slave.parameters`` without pythonfmu."""
 
-VERSION = "0.2.0"  # the project's version: pyproject.toml, the FMUs and the CLI read it here
+VERSION = "0.3.0"  # the project's version: pyproject.toml, the FMUs and the CLI read it here
