@@ -324,7 +324,7 @@ BLOCKS: dict[str, Block] = {
     "nominal-tuned": Block("docs/baselines.md", nominal_tuned_table, True),
     "fair-initial": Block("docs/robustness.md", lambda: fair_tables.summary_table(ROOT, "initial states"), False),
     "fair-perturbed": Block("docs/robustness.md", lambda: fair_tables.summary_table(ROOT, "perturbed"), False),
-    "fair-paired": Block("docs/robustness.md", lambda: fair_tables.paired_table(ROOT), False),
+    "fair-paired": Block("docs/robustness-paired.md", lambda: fair_tables.paired_table(ROOT), False),  # the appendix
     "fair-verdict": Block("docs/robustness.md", lambda: fair_tables.verdict(ROOT), False),
     # the stored optimum (rerun: sotc-cosim optimum --cold all --json docs/optimum/optimum.json)
     "optimum": Block("docs/optimum.md", lambda: optimum_tables.report(optimum_tables.stored(ROOT)), False),

@@ -22,7 +22,7 @@ from orchestration.study.tuning import stored as stored_tuning
 # The tuning criterion is the MSE on the training points (orchestration.study.tuning): a verdict on another
 # measure judges what no search was tuned for, and says so (docs/baselines.md, "What the criterion judges").
 NOT_TUNED_FOR = {"tail": "tail (not tuned for)"}
-VERDICT_HANDLING = "accel"  # the handling the verdict is stated under (all three are in docs/robustness.md)
+VERDICT_HANDLING = "accel"  # the handling the verdict is stated under (all three: the tables of docs/robustness*.md)
 SOTC = "SotcController"
 BASELINES = tuple(f for f in CONTROLLERS if f != SOTC)
 
