@@ -2,8 +2,9 @@
 
 A single run: the paper's figures over the whole run in two tabs ("Figs 1-5", "Figs 6-9"), their
 transients in "First seconds" with the events log, and "FMU outputs" with one plot per FMU instance
-(the raw layer). A comparison: the runs overlaid joint by joint (Figs 10-12). Views whose entities a
-run lacks are left out, and views are laid out in full rows, so no container or grid cell is empty.
+(the raw layer). A comparison: the runs overlaid joint by joint, over the whole run ("Figs 10-11"),
+their paths beside every run's events ("Fig. 12, events") and the first seconds. Views whose entities a run
+lacks are left out, and views are laid out in full rows, so no container or grid cell is empty.
 
 Every time-series view has its legend at the right top corner, in a strip right of the data: its time
 axis runs on past the span it shows, by about 130 px (``ROOM``). Durations read "+40s", "+1m 20s" in Rerun's
@@ -39,6 +40,9 @@ FIRST_SHARES = (4, 3)  # its first row is the taller: the legend of W1 ... W10 n
 # a time axis spans ROOM x the time it shows, two or three views per row: the legend's strip right of
 # the data (about 130 px of a 1600 px window)
 ROOM, FIRST_ROOM = 1.2, 1.35
+# a legend at 1600 x 1000: about 6.5 px a character of its longest name, 24 px for its marker and margins,
+# beside a plot as wide as its share of the 1600 px row less 60 px (the y axis labels and the view's margins)
+CHAR_PX, MARKER_PX, WINDOW_PX, MARGIN_PX = 6.5, 24, 1600, 60
 EVENT_LEVELS = ["CRITICAL", "ERROR", "WARN", "INFO"]  # the CL stack's growth (DEBUG) is left out
 
 # short view titles (they must fit a view at 1600 x 1000) and what each shows, stored in the recording
@@ -59,7 +63,8 @@ VIEW_DESCRIPTIONS = {
     "tau^a, 0-5 s": "Feedforward inputs tau^a while the bound (5) clips them, first 5 s (Fig. 7) [N.m]",
     "tau*, 0-1 s": "Saturated optimal inputs tau* over the first second (Fig. 6) [N.m]",
     "PE, 0-1 s": "The probing signal PE added to both joint torques, first second [N.m]",
-    "Events": "PE on/off, CL, tuning-law switches (30)/(31), clipping by (5) or the limit, FMU logs, the end",
+    "Events": "PE on/off, CL, tuning-law switches (30)/(31), clipping by (5) or the limit, FMU logs, the end "
+              "(a comparison: every run's, its text beginning with the run's name)",
     "Fig. 10: e1": "Joint 1 tracking error of every run [rad]",
     "Fig. 10: e2": "Joint 2 tracking error of every run [rad]",
     "Fig. 11: tau1": "Joint 1 torque of every run, with +-rho [N.m]",
@@ -67,8 +72,14 @@ VIEW_DESCRIPTIONS = {
     "||tau||": "Torque norm of every run, with the limit rho [N.m]",
     "Fig. 12: paths": "End-effector paths of every run (run colours) and the desired path (blue, drawn on top), "
                       "on a 0.5 m grid [m]",
+    "e1, 0-5 s": "Joint 1 tracking error of every run over the first 5 s (Fig. 10) [rad]",
+    "e2, 0-5 s": "Joint 2 tracking error of every run over the first 5 s (Fig. 10) [rad]",
+    "tau1, 0-5 s": "Joint 1 torque of every run over the first 5 s, with +-rho (Fig. 11) [N.m]",
+    "tau2, 0-5 s": "Joint 2 torque of every run over the first 5 s, with +-rho (Fig. 11) [N.m]",
+    "||tau||, 0-5 s": "Torque norm of every run over the first 5 s, with the limit rho [N.m]",
 }
 TABS = ("Figs 1-5", "Figs 6-9", "First seconds", "FMU outputs")
+COMPARE_TABS = ("Figs 10-11", "Fig. 12, events", TABS[2])
 
 
 @cache
@@ -97,11 +108,14 @@ def _first(seconds: float, step_size: float) -> rrb.VisibleTimeRanges:
     ])
 
 
-def _event_columns() -> rrb.archetypes.TextLogColumns:
-    """Time, level and text: the entity path (``/events/<topic>``) repeats what the text says."""
+def _events(contents: Sequence[str]) -> rrb.TextLogView:
+    """The events log: time, level and text (in a comparison, beginning with the run's name); the entity
+    path (``/events/<topic>``) repeats what the text says, and the viewer cuts it short."""
     kinds = {"LogLevel": True, "Body": True, "EntityPath": False}
-    return rrb.archetypes.TextLogColumns(text_log_columns=[rrb.encodings.TextLogColumn(kind=k, visible=v)
-                                                           for k, v in kinds.items()])
+    columns = rrb.archetypes.TextLogColumns(text_log_columns=[rrb.encodings.TextLogColumn(kind=k, visible=v)
+                                                              for k, v in kinds.items()])
+    return rrb.TextLogView(origin="/", contents=list(contents), name="Events", columns=columns,
+                           rows=rrb.archetypes.TextLogRows(filter_by_log_level=EVENT_LEVELS))
 
 
 @cache
@@ -120,6 +134,31 @@ def _rows(views: Sequence, per_row: int, name: str | None = None, shares: Sequen
     rows = [views[i:i + per_row] for i in range(0, len(views), per_row)]
     rows = [row[0] if len(row) == 1 else rrb.Horizontal(*row) for row in rows]
     return rrb.Vertical(*rows, name=name, row_shares=list(shares[:len(rows)]) or None) if rows else None
+
+
+def _room(longest: int, per_row: int, least: float) -> float:
+    """How far a time axis runs past what it shows (x the span, ``least`` at the least) so that a legend
+    of names up to ``longest`` characters fits right of the data, ``per_row`` views a row."""
+    plot = WINDOW_PX / per_row - MARGIN_PX
+    return max(least, round(plot / (plot - CHAR_PX * longest - MARKER_PX), 2))
+
+
+def _series(name: str, contents: Sequence[str], stop: float, step: float, first: float | None = None,
+            room: float | None = None) -> rrb.TimeSeriesView:
+    """``contents`` over the whole run (0 .. ``stop``) or over its first ``first`` seconds only, the
+    legend at the right top in the strip its time axis keeps right of the data (``room``: ``_room``)."""
+    if first is None:
+        window, axis = None, _time_axis(stop, room or ROOM)
+    else:
+        window, axis = _first(first, step), _time_axis(first, room or FIRST_ROOM)
+    return rrb.TimeSeriesView(origin="/", contents=list(contents), name=name, axis_x=axis, plot_legend=LEGEND,
+                              time_ranges=window)
+
+
+def _tabs(*tabs: rrb.Container | None) -> rrb.Blueprint:
+    """The tabs that hold something; the side panels collapsed, the time panel reduced to its slider."""
+    return rrb.Blueprint(rrb.Tabs(*[t for t in tabs if t is not None]), rrb.TimePanel(timeline="sim_time", state="collapsed"),
+                         rrb.BlueprintPanel(state="collapsed"), rrb.SelectionPanel(state="collapsed"))
 
 
 def _workspace_view(writers: Sequence["RunWriter"], name: str) -> rrb.Spatial2DView | None:
@@ -145,11 +184,7 @@ def run_blueprint(writer: "RunWriter") -> rrb.Blueprint:
     stop, step = writer.scenario.stop_time, writer.scenario.step_size
 
     def plot(name: str, *paths: str, first: float | None = None) -> rrb.TimeSeriesView | None:
-        if paths[0] not in present:
-            return None
-        window, axis = (None, _time_axis(stop, ROOM)) if first is None else (_first(first, step), _time_axis(first, FIRST_ROOM))
-        return rrb.TimeSeriesView(origin="/", contents=[p for p in paths if p in present], name=name,
-                                  axis_x=axis, plot_legend=LEGEND, time_ranges=window)
+        return _series(name, [p for p in paths if p in present], stop, step, first) if paths[0] in present else None
 
     W, e, tau, limit = "/controller/weights", "/tracking/error", "/torques/tau", "/torques/limit"
     torques = _rows([plot("Fig. 6: tau*", "/torques/tau_star"), plot("Fig. 7: tau^a", "/torques/tau_a"),
@@ -162,41 +197,44 @@ def run_blueprint(writer: "RunWriter") -> rrb.Blueprint:
                    plot("PE, 0-1 s", "/controller/pe", first=PE_SECONDS)], FIRST_ROW, shares=FIRST_SHARES)
     raw = [rrb.TimeSeriesView(origin=f"/fmu/{inst}", name=inst, axis_x=_time_axis(stop, ROOM), plot_legend=LEGEND)
            for inst, names in writer.columns.items() if names]
-    events = rrb.TextLogView(origin="/events", name="Events", rows=rrb.archetypes.TextLogRows(filter_by_log_level=EVENT_LEVELS),
-                             columns=_event_columns())
-    tabs = [
+    events = _events(["/events/**"])
+    return _tabs(
         _rows([plot("Fig. 1-2: W", W), plot("Fig. 3: phi1", "/joints/phi1"), plot("Fig. 4: phi2", "/joints/phi2"),
                plot("Fig. 5: e", e)], ROW, name=TABS[0]),
         _rows([torques, path], ROW, name=TABS[1]),
         rrb.Vertical(first, events, row_shares=[5, 2], name=TABS[2]) if first else rrb.Vertical(events, name=TABS[2]),
         _rows(raw, ROW, name=TABS[3]),
-    ]
-    return rrb.Blueprint(rrb.Tabs(*[t for t in tabs if t is not None]), rrb.TimePanel(timeline="sim_time", state="collapsed"),
-                         rrb.BlueprintPanel(state="collapsed"), rrb.SelectionPanel(state="collapsed"))
+    )
+
+
+# a comparison's time-series views: whole-run title, first-seconds title, the runs' entity, the extra entities
+OVERLAYS = (("Fig. 10: e1", "e1", "/tracking/e1", ()), ("Fig. 10: e2", "e2", "/tracking/e2", ()),
+            ("Fig. 11: tau1", "tau1", "/torques/tau1", ("/limit",)), ("Fig. 11: tau2", "tau2", "/torques/tau2", ("/limit",)),
+            ("||tau||", "||tau||", "/torques/norm", ("/limit",)))
 
 
 def comparison_blueprint(labels: Sequence[str], writers: Sequence["RunWriter"]) -> rrb.Blueprint:
-    def overlay(name: str, suffix: str, extra: Sequence[str] = ()) -> rrb.TimeSeriesView | None:
-        paths = [w.entity(suffix) for w in writers if w.entity(suffix) in {g.path for g in w.groups}]
-        if not paths:
-            return None
-        return rrb.TimeSeriesView(origin="/", contents=paths + list(extra), name=name, axis_x=_whole_run())
+    """The runs overlaid, under ``/<label>/``, two views a row (the legends name the runs: wider than a
+    run's); the time axes span the longest run (or its first seconds), and the legend's strip fits the
+    longest name in the row's share of the window (a view alone in its row needs less room)."""
+    longest = max(writers, key=lambda w: w.scenario.stop_time).scenario
+    stop, step = longest.stop_time, longest.step_size
+    chars = max((len(s.label) for w in writers for g in w.groups for s in g.series), default=0)
+    present = {g.path for w in writers for g in w.groups}
+    shown = [(title, short, [w.entity(suffix) for w in writers if w.entity(suffix) in present] + list(extra))
+             for title, short, suffix, extra in OVERLAYS if any(w.entity(suffix) in present for w in writers)]
+    # the views of each one's row: the last row holds the rest
+    in_row = [min(ROW, len(shown) - i // ROW * ROW) for i in range(len(shown))]
 
-    views = [
-        overlay("Fig. 10: e1", "/tracking/e1"),
-        overlay("Fig. 10: e2", "/tracking/e2"),
-        overlay("Fig. 11: tau1", "/torques/tau1", ["/limit"]),
-        overlay("Fig. 11: tau2", "/torques/tau2", ["/limit"]),
-        overlay("||tau||", "/torques/norm", ["/limit"]),
-    ]
-    side = [rrb.TextLogView(origin="/", contents=[f"/{label}/events/**" for label in labels], name="Events")]
-    ws = _workspace_view(writers, "Fig. 12: paths")
-    if ws is not None:
-        side.insert(0, ws)
-    return rrb.Blueprint(
-        rrb.Horizontal(rrb.Grid(*[v for v in views if v is not None]), rrb.Vertical(*side, row_shares=[3, 1][: len(side)]),
-                       column_shares=[3, 2]),
-        rrb.TimePanel(timeline="sim_time"), collapse_panels=False,
+    def views(first: float | None) -> list[rrb.TimeSeriesView]:
+        return [_series(title if first is None else f"{short}, 0-5 s", paths, stop, step, first, _room(chars, n, ROOM))
+                for (title, short, paths), n in zip(shown, in_row)]
+
+    return _tabs(
+        _rows(views(None), ROW, name=COMPARE_TABS[0]),
+        _rows([_workspace_view(writers, "Fig. 12: paths"), _events([f"/{label}/events/**" for label in labels])],
+              ROW, name=COMPARE_TABS[1]),
+        _rows(views(FIRST_SECONDS), ROW, name=COMPARE_TABS[2]),
     )
 
 

@@ -318,9 +318,10 @@ class RunWriter:
 
     def send_events(self, topic: str, events: Sequence[tuple[int, str, str]]) -> None:
         steps = np.array([e[0] for e in events], dtype=np.int64)
+        run = f"{self.prefix[1:]}: " if self.prefix else ""  # a comparison's runs share one events view
         self.stream.send_columns(
             self.entity(f"/events/{topic}"), time_columns(steps, self.step_ns),
-            rr.TextLog.columns(text=[e[1] for e in events], level=[e[2] for e in events]),
+            rr.TextLog.columns(text=[run + e[1] for e in events], level=[e[2] for e in events]),
         )
 
     def send_end(self, result: RunResult) -> None:
