@@ -4,7 +4,8 @@ Wherever Cython and a C compiler are found at install time, the modules of
 ``orchestration/fmu_build/compiled.py``'s ``HOT`` list are compiled from the same ``.py`` files, typed
 by the ``.pxd`` beside each, with the same flags as the FMUs' cores (no fused multiply-add), so the
 in-process studies (the pure loop of tuning, the fair evaluation, the docs' tables) run them as C and
-get the bits of the ``.py``. Each extension is optional: a failed compile leaves that module Python.
+get the bits of the ``.py``. The set is all or nothing (the modules cimport one another, so one of them
+as a ``.py`` would break the imports of the others): a failed compile leaves every module Python.
 The FMUs cannot load these (their bundles' modules carry another name), so the install also compiles the
 cores of the default scenario's FMUs into the user's private cache, where the first ``sotc-cosim run``
 takes them from (``compile_fmu_cores``).
@@ -25,20 +26,27 @@ _spec.loader.exec_module(compiled)
 
 
 class OptionalBuildExt(build_ext):
-    """Skips the extensions in an editable install, and any one that fails to compile."""
+    """Skips the extensions in an editable install; compiles all of them or, where one fails, none."""
 
     def run(self):
         if getattr(self, "editable_mode", False) or self.inplace:
             self.extensions = []
+        self.failed = None
         super().run()
-        if self.extensions:
+        if self.failed:  # the ones compiled before it are taken out of the wheel again
+            for ext in self.extensions:
+                Path(self.get_ext_fullpath(ext.name)).unlink(missing_ok=True)
+            print(f"sotc-cosim: the cores stay Python ({self.failed})", file=sys.stderr)
+        elif self.extensions:
             compile_fmu_cores()
 
     def build_extension(self, ext):
+        if self.failed:
+            return
         try:
             super().build_extension(ext)
-        except Exception as exc:  # no compiler, no headers: that module stays Python
-            print(f"sotc-cosim: {ext.name} stays Python ({exc})", file=sys.stderr)
+        except Exception as exc:  # no compiler, no headers: no module is compiled
+            self.failed = f"{ext.name}: {exc}"
 
 
 def compile_fmu_cores() -> None:
@@ -66,7 +74,7 @@ def hot_extensions() -> list:
     except ImportError:
         return []
     flags = compiled.CFLAGS.split()
-    modules = [Extension(rel[:-3].replace("/", "."), [rel], extra_compile_args=flags, optional=True)
+    modules = [Extension(rel[:-3].replace("/", "."), [rel], extra_compile_args=flags)
                for rel in compiled.HOT]
     return cythonize(modules, build_dir="build/cython", quiet=True, compiler_directives=compiled.DIRECTIVES)
 

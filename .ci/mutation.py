@@ -51,7 +51,7 @@ def configure(dest: Path, module: str) -> None:
     with open(dest / "pyproject.toml", "a") as f:
         f.write(f"""
 [tool.mutmut]
-source_paths = ["fmi_slave/", "fmu_plant/", "fmu_controller/", "orchestration/"]
+source_paths = ["fmi_slave/", "fmu_numerics/", "fmu_plant/", "fmu_controller/", "orchestration/"]
 only_mutate = ["{module}"]
 pytest_add_cli_args = {PYTEST_ARGS!r}
 pytest_add_cli_args_test_selection = {tests!r}

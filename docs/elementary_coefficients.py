@@ -1,4 +1,4 @@
-"""Derives every constant of fmu_controller/elementary.py in exact rational arithmetic (no libm, no mpmath):
+"""Derives every constant of fmu_numerics/elementary.py in exact rational arithmetic (no libm, no mpmath):
 pi (Machin's formula, the module's own integer version) and ln 2 (2 atanh(1/3)) to 300 bits and their
 Cody-Waite splits, and each kernel polynomial by Chebyshev economization of its Taylor series on the
 kernel's interval (Lanczos; Hart et al., "Computer Approximations", 1968, section 6.1): the truncated Chebyshev series is within a small
@@ -15,7 +15,7 @@ from fractions import Fraction as F
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from fmu_controller.elementary_big import _pi_scaled  # noqa: E402
+from fmu_numerics.elementary_big import _pi_scaled  # noqa: E402
 
 BITS = 300
 TOL = F(1, 2**60)

@@ -31,7 +31,7 @@ from typing import Sequence
 
 from fmi_slave.parameters import ParameterSpec, positive
 from fmu_controller.base import ControllerCore, OutputSpec
-from fmu_controller.elementary import hypot
+from fmu_numerics.elementary import hypot
 from fmu_controller.saturation import ACCEL, limit_handling_spec, limit_torque
 from fmu_plant.dynamics import TORQUE_LIMIT, inertia_entries, inverse_dynamics
 

@@ -1,4 +1,4 @@
-"""CtController: FMI 2.0 co-simulation FMU of the saturated computed-torque baseline.
+"""CtController: FMI 2.0 and 3.0 co-simulation FMU of the saturated computed-torque baseline.
 
 A thin adapter: ``fmu_controller.computed_torque.CtCore`` does the maths, ``ControllerSlave``
 the ports (shared by every controller FMU).

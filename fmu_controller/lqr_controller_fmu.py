@@ -1,4 +1,4 @@
-"""LqrController: FMI 2.0 co-simulation FMU of the LQR baseline on the feedback-linearised error
+"""LqrController: FMI 2.0 and 3.0 co-simulation FMU of the LQR baseline on the feedback-linearised error
 dynamics, saturated on the torque norm. A thin adapter over ``fmu_controller.lqr.LqrCore``.
 """
 from fmu_controller.lqr import LqrCore

@@ -74,8 +74,8 @@ from fmi_slave.parameters import (
     positive,
 )
 from fmu_controller.base import ControllerCore, OutputSpec
-from fmu_controller.elementary import exp, hypot
-from fmu_controller.fixed_linalg import dot_sequence
+from fmu_numerics.elementary import exp, hypot
+from fmu_numerics.fixed_linalg import dot_sequence
 from fmu_controller.riccati import solve_care
 from fmu_controller.saturation import NONE, limit_handling_spec, limit_torque
 from fmu_controller.sotc_math import (

@@ -1,4 +1,4 @@
-"""OtcController: FMI 2.0 co-simulation FMU of the comparison controller (OTC) of the SOTC paper's
+"""OtcController: FMI 2.0 and 3.0 co-simulation FMU of the comparison controller (OTC) of the SOTC paper's
 section 4, reconstructed from Kong et al. (2021) as documented in docs/baselines.md. Unsaturated
 by design. A thin adapter over ``fmu_controller.otc.OtcCore``.
 """

@@ -19,7 +19,7 @@ from typing import Sequence
 
 import numpy as np
 
-from fmu_controller.fixed_linalg import buffer, cholesky
+from fmu_numerics.fixed_linalg import buffer, cholesky
 
 MAX_STEPS = 60
 CONVERGED = 1e-12  # relative change of P between the last two iterates that still counts as converged

@@ -3,7 +3,7 @@
 # Python's here (inf, and the rare paths' sqrt, ldexp, isfinite); the exact test in_disc falls back to
 # (Python integers) is a Python function.
 cimport cython
-from fmu_controller.elementary cimport atan2, cos, hypot, sin
+from fmu_numerics.elementary cimport atan2, cos, hypot, sin
 
 @cython.locals(c1=double, c2=double)
 cpdef (double, double, bint) clip_box(double v1, double v2, double bound) noexcept

@@ -28,7 +28,7 @@ from __future__ import annotations
 import math
 
 from fmi_slave.parameters import ParameterSpec, integer_code
-from fmu_controller.elementary import atan2, cos, hypot, sin
+from fmu_numerics.elementary import atan2, cos, hypot, sin
 
 LIMIT_HANDLINGS = ("radial", "joint", "accel", "none")
 RADIAL, JOINT, ACCEL, NONE = range(4)

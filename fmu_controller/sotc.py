@@ -28,7 +28,7 @@ from typing import Any, ClassVar, Sequence
 from fmi_slave.parameters import ParameterError, ParameterSpec, nonnegative, positive
 from fmu_controller.base import ControllerCore, OutputSpec
 from fmu_controller.saturation import ACCEL, limit_handling_spec
-from fmu_controller.elementary import tanh
+from fmu_numerics.elementary import tanh
 from fmu_controller.sotc_kernel import SotcKernel
 from fmu_controller.sotc_math import N_BASIS, CriticConstants, policy_arguments
 from fmu_controller.sotc_stack import REPLAYS as CL_REPLAYS

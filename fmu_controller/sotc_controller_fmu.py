@@ -1,4 +1,4 @@
-"""SotcController: FMI 2.0 co-simulation FMU of the saturated optimal tracking controller (SOTC)
+"""SotcController: FMI 2.0 and 3.0 co-simulation FMU of the saturated optimal tracking controller (SOTC)
 of Dien et al. (2023), sections 2.2-3.
 
 A thin adapter: ``fmu_controller.sotc.SotcCore`` does the maths (feedforward (4)/(5), the

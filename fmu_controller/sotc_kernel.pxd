@@ -5,9 +5,9 @@
 # are Python's, imported by name (the rare paths); hypot and tanh elementary.pxd's.
 cimport cython
 from libc cimport math
-from fmu_controller.elementary cimport hypot, tanh
+from fmu_numerics.elementary cimport hypot, tanh
 from fmu_controller.saturation cimport clip_box, limit_torque, limit_without_metric, saturate_norm
-from fmu_controller.fixed_linalg cimport add_scaled, cholesky, cholesky_solve, dot, scale_into
+from fmu_numerics.fixed_linalg cimport add_scaled, cholesky, cholesky_solve, dot, scale_into
 from fmu_controller.sotc_math cimport (CriticConstants, basis_into, critic_row, directional_into, gradient,
                                        hessian_phi_times, implicit_system, normalisation, policy_arguments,
                                        probing_signal)

@@ -17,15 +17,14 @@ from array import array
 from math import fsum, nan  # Python's own (math.f is C's libm f in the compiled kernel)
 from typing import Any, Sequence
 
-from fmu_controller.elementary import hypot, tanh
-from fmu_controller.fixed_linalg import add_scaled, buffer, cholesky, cholesky_solve, dot, scale_into
+from fmu_numerics.elementary import INTERPRETED, hypot, tanh
+from fmu_numerics.fixed_linalg import add_scaled, buffer, cholesky, cholesky_solve, dot, scale_into
 from fmu_controller.saturation import JOINT, NONE, clip_box, limit_torque, limit_without_metric, saturate_norm
 from fmu_controller.sotc_math import (N_BASIS, basis_into, critic_row, directional_into, gradient, hessian_phi_times,
                                       implicit_system, normalisation, policy_arguments, probing_signal)
 from fmu_controller.sotc_zv import solve_zv
 from fmu_plant.dynamics import bias_torque, forward_dynamics, inertia_entries
 
-INTERPRETED = __file__.endswith(".py")  # False in the compiled kernel (an extension module)
 
 
 def exact_sum_loop(x: array, n: int, p: array) -> float:

@@ -4,7 +4,7 @@
 # buffers (double[::1], array('d')) and return C tuples: a sample creates no Python object.
 cimport cython
 from libc cimport math
-from fmu_controller.elementary cimport atanh, cos, exp, log, log1p, sin, sinh, tanh
+from fmu_numerics.elementary cimport atanh, cos, exp, log, log1p, sin, sinh, tanh
 
 cdef double LN2  # a C constant: no module lookup per sample
 

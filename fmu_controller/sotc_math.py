@@ -33,9 +33,11 @@ from typing import Sequence
 
 import numpy as np
 
-from fmu_controller.elementary import atanh, cos, exp, log, log1p, sin, sinh, tanh
-from fmu_controller.fixed_linalg import as_buffer, buffer
-from fmu_controller.fixed_linalg_interpreted import in_order
+from fmu_numerics.elementary import INTERPRETED, atanh, cos, exp, log, log1p, sin, sinh, tanh
+from fmu_numerics.fixed_linalg import as_buffer, buffer
+
+if INTERPRETED:  # the Python build's numpy path of the weight step (the same bits)
+    from fmu_controller.sotc_math_interpreted import implicit_system_array
 
 LN2 = log(2.0)
 
@@ -45,9 +47,6 @@ BASIS_PAIRS: tuple[tuple[int, int], ...] = (
     (0, 0), (0, 1), (0, 2), (0, 3), (1, 1), (1, 2), (1, 3), (2, 2), (2, 3), (3, 3),
 )
 N_BASIS = len(BASIS_PAIRS)
-INTERPRETED = __file__.endswith(".py")  # False in the compiled core (an extension module)
-_LOWER = np.tril(np.ones((N_BASIS, N_BASIS), dtype=bool))  # the entries (a, k), k <= a, implicit_system forms
-_DIAGONAL = np.eye(N_BASIS, dtype=bool)
 
 
 # --- saturated cost, eqs. (13)-(17) ---------------------------------------------------------------
@@ -342,7 +341,7 @@ def implicit_system(W: array, wdot: array, xi: array, eta: array, M: array, with
                     G: array, rhs: array) -> None:
     """The linear system (I + c Gamma) W+ = W + dt dW/dt + c Gamma W of ``advance``, c = dt alpha1,
     Gamma = xi eta^T (+ M, the CL matrix, when the CL sum entered dW/dt); G (flat) and rhs receive it.
-    The interpreted core takes ``implicit_system_array`` (the same bits)."""
+    The interpreted core takes ``sotc_math_interpreted.implicit_system_array`` (the same bits)."""
     if INTERPRETED:
         implicit_system_array(W, wdot, xi, eta, M, with_cl, dt, c, G, rhs)
         return
@@ -359,21 +358,3 @@ def implicit_system(W: array, wdot: array, xi: array, eta: array, M: array, with
         rhs[a] = W[a] + dt * wdot[a] + acc
     for a in range(N):
         G[a * N + a] += 1.0
-
-
-def implicit_system_array(W: array, wdot: array, xi: array, eta: array, M: array, with_cl: bool, dt: float,
-                          c: float, G: array, rhs: array) -> None:
-    """``implicit_system``'s loops as numpy operations, the same bits: the same elementwise products and
-    sums (no fused multiply-add), G's lower triangle mirrored as there, and (G W)_a summed over k in order
-    (``fixed_linalg_interpreted.in_order``)."""
-    N = N_BASIS
-    with np.errstate(all="ignore"):  # an overflow gives inf silently, as the loops do
-        g = np.multiply.outer(np.frombuffer(xi, count=N), np.frombuffer(eta, count=N))
-        if with_cl:
-            g = g + np.frombuffer(M, count=N * N).reshape(N, N)
-        g = c * g
-        Gv = np.where(_LOWER, g, g.T)
-        Wv = np.frombuffer(W, count=N)
-        np.frombuffer(rhs, count=N)[:] = Wv + dt * np.frombuffer(wdot, count=N) + in_order(Gv * Wv, 1)
-        Gv[_DIAGONAL] += 1.0
-        np.frombuffer(G, count=N * N)[:] = Gv.ravel()

@@ -5,8 +5,8 @@
 # per-sample paths (cl_terms, record, the swap trials) C methods; _swap_row stays cpdef so that a Python
 # subclass can override it (orchestration/study/swap_margin.py).
 cimport cython
-from fmu_controller.elementary cimport tanh
-from fmu_controller.fixed_linalg cimport cholesky, forward_substitute, smallest_eigenvalue, sturm_count, trace
+from fmu_numerics.elementary cimport tanh
+from fmu_numerics.fixed_linalg cimport cholesky, forward_substitute, smallest_eigenvalue, sturm_count, trace
 from fmu_controller.sotc_math cimport CriticConstants, critic_row, normalisation, policy_arguments
 
 @cython.locals(N=int, i=int, k=int, a=int, c=int, o=int, ee=double, xa=double)

@@ -46,12 +46,9 @@ from __future__ import annotations
 from array import array
 from typing import Any, Sequence
 
-import numpy as np
-
-from fmu_controller.elementary import tanh
-from fmu_controller.fixed_linalg import (EPS, buffer, cholesky, dot, forward_substitute,
+from fmu_numerics.elementary import INTERPRETED, tanh
+from fmu_numerics.fixed_linalg import (EPS, buffer, cholesky, dot, forward_substitute,
                                          smallest_eigenvalue, sturm_count, trace)
-from fmu_controller.fixed_linalg_interpreted import in_order
 from fmu_controller.sotc_math import (N_BASIS, CriticConstants, critic_row, normalisation, policy_arguments,
                                       weights_buffer)
 
@@ -60,16 +57,14 @@ REPLAYS = ("current", "stored")
 MAXEIG_GAIN = 1.01  # a swap must raise lambda_min(M) by more than 1 % ...
 SWAP_MARGIN = 1e3 * EPS  # ... and by more than SWAP_MARGIN trace(M), a hundred times M's rounding level n eps trace(M)
 _WIDTHS = {"eta": N_BASIS, "z": 4, "dinv": 3, "fe": 2}
-INTERPRETED = __file__.endswith(".py")  # False in the compiled core (an extension module)
-_LOWER = np.tril(np.ones((N_BASIS, N_BASIS), dtype=bool))  # entries (a, c), c <= a, that cl_matrix sums
-if INTERPRETED:  # the Python build's replay over all rows at once (imports the elementary functions' constants)
-    from fmu_controller.sotc_replay import replay_current_array
+if INTERPRETED:  # the Python build's numpy paths: the CL sums and the replay over all rows at once
+    from fmu_controller.sotc_stack_interpreted import cl_matrix_numpy, replay_current_array
 
 
 def cl_matrix(n: int, E: array, rew: array, M: array, b: array, sc: array) -> None:
     """M = sum_i sc_i eta_i eta_i^T and b = sum_i sc_i r_i eta_i over the first n rows of E (flat,
     n x 10), sc_i = 1 / (1 + |eta_i|^2)^2; rows in order, M's lower triangle mirrored. The interpreted
-    core takes ``cl_matrix_numpy`` (the same bits; these loops in Python were half its controller's time)."""
+    core takes ``sotc_stack_interpreted.cl_matrix_numpy`` (the same bits; these loops in Python were half its controller's time)."""
     if INTERPRETED:
         cl_matrix_numpy(n, E, rew, M, b, sc)
         return
@@ -94,24 +89,6 @@ def cl_matrix(n: int, E: array, rew: array, M: array, b: array, sc: array) -> No
             M[c * N + a] = M[a * N + c]
 
 
-def cl_matrix_numpy(n: int, E, rew, M, b, sc) -> None:
-    """``cl_matrix`` for the interpreted core, the same bits: every product is the same elementwise
-    product (numpy rounds each one as Python does, no FMA), and every sum runs in the same order:
-    ``in_order`` over the rows, and over k for eta_i^T eta_i; only the loops over the entries of a row
-    become vector operations."""
-    N = N_BASIS
-    Ev = np.frombuffer(E, count=n * N).reshape(n, N)
-    with np.errstate(all="ignore"):  # an overflow gives inf silently, as the loops do
-        ee = in_order(Ev * Ev, 1)  # eta_i^T eta_i over k in order, for all rows at once
-        scv = np.array([1.0 / normalisation(v) for v in ee.tolist()])
-        np.frombuffer(sc, count=n)[:] = scv
-        xa = Ev * scv[:, None]
-        Mv = in_order(xa[:, :, None] * Ev[:, None, :], 0)  # xa_a eta_c of each row, summed over the rows
-        bv = in_order(xa * np.frombuffer(rew, count=n)[:, None], 0)
-    np.frombuffer(M).reshape(N, N)[:] = np.where(_LOWER, Mv, Mv.T)
-    np.frombuffer(b)[:] = bv
-
-
 def cl_rate(M: array, b: array, W: array, out: array) -> None:
     """out = M W + b (rows of M in order)."""
     N = N_BASIS
@@ -126,7 +103,7 @@ def replay_current(K: CriticConstants, n: int, W: array, z: array, dinv: array, 
                    rew: array) -> None:
     """eta_i and r_i of the first n rows re-evaluated at the weights W (the ``current`` replay): the
     policy (28) the critic W implies at z_i, and the controller's own ``critic_row``. The interpreted core
-    takes ``sotc_replay.replay_current_array`` (the same bits, all rows at once)."""
+    takes ``sotc_stack_interpreted.replay_current_array`` (the same bits, all rows at once)."""
     if INTERPRETED:
         replay_current_array(K, n, W, z, dinv, fe, E, rew)
         return

@@ -4,7 +4,7 @@
 # a rare fallback with closures) stays Python code, compiled as such.
 cimport cython
 from libc cimport math
-from fmu_controller.elementary cimport atanh, tanh
+from fmu_numerics.elementary cimport atanh, tanh
 from fmu_controller.sotc_math cimport CriticConstants, gradient
 
 @cython.locals(s=double, g1=double, g2=double, t1=double, t2=double)

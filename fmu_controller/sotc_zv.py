@@ -8,7 +8,7 @@ from __future__ import annotations
 import math
 from array import array
 
-from fmu_controller.elementary import atanh, tanh
+from fmu_numerics.elementary import atanh, tanh
 from fmu_controller.sotc_math import CriticConstants, gradient
 
 # the implicit z_v (``solve_zv``): plain and damped Newton iterations, step halvings, and

@@ -1,1 +1,2 @@
-"""The two-link arm and the reference trajectory: pure numpy cores and their FMI 2.0 wrappers."""
+"""The two-link arm, the reference trajectory and the perturbations: pure cores (numpy and the project's
+numerics, no FMI) and their FMU scripts (FMI 2.0 and 3.0 co-simulation)."""

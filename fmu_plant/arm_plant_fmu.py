@@ -1,4 +1,4 @@
-"""ArmPlant: FMI 2.0 co-simulation FMU of the two-link arm, eq. (1)/(46) of the SOTC paper.
+"""ArmPlant: FMI 2.0 and 3.0 co-simulation FMU of the two-link arm, eq. (1)/(46) of the SOTC paper.
 
 A thin adapter over ``fmu_plant.dynamics``: inputs are held constant over each communication step
 (zero-order hold) and the state is advanced with RK4 (``substeps`` per step at least, more where the

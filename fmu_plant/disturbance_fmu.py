@@ -1,4 +1,4 @@
-"""Disturbance: FMI 2.0 co-simulation FMU of the disturbance torques d1, d2 (``fmu_plant.perturbation``).
+"""Disturbance: FMI 2.0 and 3.0 co-simulation FMU of the disturbance torques d1, d2 (``fmu_plant.perturbation``).
 
 Outputs are a function of time only (no inputs): connect them to the plant's inputs d1, d2.
 """

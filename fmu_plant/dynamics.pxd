@@ -4,7 +4,7 @@
 # elementary.pxd's.
 cimport cython
 from libc cimport math
-from fmu_controller.elementary cimport cos, hypot, sin, sincos, tanh
+from fmu_numerics.elementary cimport cos, hypot, sin, sincos, tanh
 
 ctypedef (double, double, double, double, double, double, double) coef_t  # ArmParameters.coefficients
 

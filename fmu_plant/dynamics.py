@@ -13,7 +13,7 @@ external disturbance torque added to tau.
 
 Everything here is scalar float math on purpose: for 2x2 matrices, float arithmetic is about ten times
 faster than numpy on tiny arrays, and the plant FMU evaluates the right-hand side four times per RK4
-substep. cos, sin, sincos, tanh and hypot are ``fmu_controller.elementary``'s (the same bits on every machine,
+substep. cos, sin, sincos, tanh and hypot are ``fmu_numerics.elementary``'s (the same bits on every machine,
 unlike libm's; docs/paper-notes.md, section 2.10b). Matrix-valued helpers (``inertia_matrix`` ...) wrap the same scalar
 formulas for the controllers and tests.
 """
@@ -31,7 +31,7 @@ from fmi_slave.parameters import (
     nonnegative,
     positive,
 )
-from fmu_controller.elementary import cos, hypot, sin, sincos, tanh
+from fmu_numerics.elementary import cos, hypot, sin, sincos, tanh
 
 # T and rho, re-exported: the arm model is what a controller imports from fmu_plant
 from fmu_plant.paper_setting import STEP_SIZE as STEP_SIZE

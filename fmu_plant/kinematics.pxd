@@ -2,7 +2,7 @@
 # stays the one source of the formulas and runs as it is wherever the cores are not compiled. sin, sincos,
 # acos and atan2 are elementary.pxd's C functions.
 cimport cython
-from fmu_controller.elementary cimport acos, atan2, sin, sincos
+from fmu_numerics.elementary cimport acos, atan2, sin, sincos
 
 @cython.locals(s1=double, c1=double, sa=double, ca=double, ex=double, ey=double)
 cpdef (double, double, double, double) arm_points(double phi1, double phi2, double l1, double l2)

@@ -2,12 +2,12 @@
 velocities and accelerations to joint space analytically.
 
 Angles in rad, lengths in m. ``phi2`` is the relative (elbow) angle, as in the paper. sincos (the sine and
-cosine of one angle from one reduction), acos and atan2 are ``fmu_controller.elementary``'s (the same bits on
+cosine of one angle from one reduction), acos and atan2 are ``fmu_numerics.elementary``'s (the same bits on
 every machine; docs/paper-notes.md, 2.10b).
 """
 from __future__ import annotations
 
-from fmu_controller.elementary import acos, atan2, sin, sincos
+from fmu_numerics.elementary import acos, atan2, sin, sincos
 
 
 def arm_points(phi1: float, phi2: float, l1: float, l2: float) -> tuple[float, float, float, float]:

@@ -1,4 +1,4 @@
-"""MeasurementNoise: FMI 2.0 co-simulation FMU between the plant and a controller.
+"""MeasurementNoise: FMI 2.0 and 3.0 co-simulation FMU between the plant and a controller.
 
 Inputs ``phi1, phi2, dphi1, dphi2`` (the plant's state), outputs ``phi1_m .. dphi2_m`` = input +
 seeded Gaussian noise (``fmu_plant.perturbation``); each output depends directly on its input. The

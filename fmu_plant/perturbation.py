@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from fmi_slave.parameters import ParameterSpec, nonnegative
-from fmu_controller.elementary import sin
+from fmu_numerics.elementary import sin
 
 
 def _torque(name: str, description: str) -> ParameterSpec:

@@ -1,4 +1,4 @@
-"""ReferenceTrajectory: FMI 2.0 co-simulation FMU of the desired path, eq. (47), mapped through the
+"""ReferenceTrajectory: FMI 2.0 and 3.0 co-simulation FMU of the desired path, eq. (47), mapped through the
 inverse kinematics (48) to joint references with analytic first and second derivatives.
 
 Outputs at a communication point t are the reference at t; they depend on time only.

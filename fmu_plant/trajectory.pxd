@@ -2,7 +2,7 @@
 # stays the one source of the formulas and runs as it is wherever the cores are not compiled. sin and cos
 # are elementary.pxd's C functions; the circle's validation, with hypot, runs once.
 cimport cython
-from fmu_controller.elementary cimport cos, hypot, sin
+from fmu_numerics.elementary cimport cos, hypot, sin
 from fmu_plant.kinematics cimport inverse_kinematics, joint_rates
 
 @cython.locals(a=double, s=double, c=double, r=double, w=double)

@@ -17,7 +17,7 @@ from fmi_slave.parameters import (
     check_all,
     positive,
 )
-from fmu_controller.elementary import cos, hypot, sin
+from fmu_numerics.elementary import cos, hypot, sin
 from fmu_plant.kinematics import inverse_kinematics, joint_rates
 
 TRAJECTORY_PARAMETER_SPECS: tuple[ParameterSpec, ...] = (

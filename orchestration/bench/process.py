@@ -20,7 +20,7 @@ from orchestration.threads import user_environment
 
 PLAIN_NUMPY = PACKAGE_ROOT / "benchmarks" / "plain_numpy.py"
 RUN = "from orchestration.cli import console; console()"  # what the installed script runs
-PACKAGES = ("fmi_slave", "fmi3_slave", "fmu_plant", "fmu_controller", "orchestration")  # pyproject's packages
+PACKAGES = ("fmi_slave", "fmi3_slave", "fmu_numerics", "fmu_plant", "fmu_controller", "orchestration")  # pyproject's packages
 STARTUP_STOP_TIME = "0.01"  # one step: what is measured is start-up, loading and the recording's set-up
 STARTUP_RUNS = 3  # start-ups per repeat: half a second each, and one busy moment moves a median of three
 

@@ -40,9 +40,9 @@ class FmuSource:
     equations: tuple[str, ...] = ()  # modules whose docstrings summarise the FMU's equations
 
 
-# every FMU bundles fmu_controller: the plant's cores call its elementary functions (fmu_controller.elementary);
-# only the modules a script imports go in (packaging.import_closure)
-BUNDLED = ("fmi_slave", "fmu_plant", "fmu_controller")
+# the packages an FMU may bundle; only the modules a script imports go in (packaging.import_closure), so a
+# plant FMU carries no controller code
+BUNDLED = ("fmi_slave", "fmu_numerics", "fmu_plant", "fmu_controller")
 FMU_SOURCES: dict[str, FmuSource] = {
     s.model: s
     for s in (

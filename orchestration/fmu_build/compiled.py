@@ -16,7 +16,7 @@ and with ``CYTHON_COMPRESS_STRINGS=0``, else Cython stores the module names comp
 fully qualified module name the extension registers is renamed with the rest, so two builds of one FMU
 in one process each run their own code (tests/fmu/test_compiled_cores.py). The compiled cores give the
 pure-Python outputs bit for bit (same test; ``-ffp-contract=off``; the elementary functions are
-``fmu_controller/elementary.py``'s own, libm's only sqrt, which IEEE 754 rounds correctly everywhere).
+``fmu_numerics/elementary.py``'s own, libm's only sqrt, which IEEE 754 rounds correctly everywhere).
 
 A bundle's extensions are compiled once per content: they are kept in the user's private cache
 (``private_folder(*verified.CORES)/<key>``, with a manifest of their SHA-256: ``orchestration.verified``,
@@ -38,6 +38,7 @@ import hashlib
 import importlib.machinery
 import importlib.util
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -46,11 +47,30 @@ import tempfile
 from pathlib import Path
 
 SWITCH = "SOTC_COSIM_COMPILE"  # "0": never compile the cores; unset or "1": compile them where possible
-# the hot path of a step (the elementary functions, first: the others cimport them; controller
-# evaluate/learn, the plant's RK4, the reference and its inverse kinematics, the limiters)
-HOT = ("fmu_controller/elementary.py", "fmu_controller/sotc.py", "fmu_controller/sotc_kernel.py", "fmu_controller/sotc_math.py",
-       "fmu_controller/sotc_zv.py", "fmu_controller/sotc_stack.py", "fmu_controller/saturation.py", "fmu_controller/fixed_linalg.py",
-       "fmu_plant/dynamics.py", "fmu_plant/trajectory.py", "fmu_plant/kinematics.py")
+CORE_PACKAGES = ("fmu_numerics", "fmu_plant", "fmu_controller")  # where the hot modules live
+_CIMPORT = re.compile(r"^from\s+([\w.]+)\s+cimport", re.M)
+
+
+def _hot_modules(root: Path) -> tuple[str, ...]:
+    """The hot path of a step: every core module with a ``.pxd`` beside it (the elementary functions,
+    controller evaluate/learn, the plant's RK4, the reference and its inverse kinematics, the limiters),
+    each after the modules its ``.pxd`` cimports, so the order is the one the declarations give."""
+    pxds = {f"{p.parent.name}/{p.stem}.py": p for package in CORE_PACKAGES for p in sorted((root / package).glob("*.pxd"))}
+    order: list[str] = []
+
+    def visit(rel: str) -> None:
+        if rel not in order:
+            for dotted in _CIMPORT.findall(pxds[rel].read_text()):
+                if (needed := dotted.replace(".", "/") + ".py") in pxds:
+                    visit(needed)
+            order.append(rel)
+
+    for rel in pxds:
+        visit(rel)
+    return tuple(order)
+
+
+HOT = _hot_modules(Path(__file__).resolve().parents[2])
 # names stay plain bytes (renamed); no fused multiply-add, so the compiled cores round as the .py does
 CFLAGS = "-O2 -g0 -fvisibility=hidden -DCYTHON_COMPRESS_STRINGS=0 -ffp-contract=off"
 TIME_LIMIT = 900.0  # s for compiling one bundle

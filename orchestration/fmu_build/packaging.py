@@ -51,7 +51,7 @@ from orchestration.fmu_build import compiled, shim
 from orchestration.outputs import atomic_file
 
 # top-level packages renamed into <stem>_lib
-BUNDLED = ("fmi_slave", "fmi3_slave", "fmu_plant", "fmu_controller", "pythonfmu", "pythonfmu3")
+BUNDLED = ("fmi_slave", "fmi3_slave", "fmu_numerics", "fmu_plant", "fmu_controller", "pythonfmu", "pythonfmu3")
 EXPORTERS = {2: "pythonfmu", 3: "pythonfmu3"}  # FMI version -> the package whose binary an FMU carries
 DISTRIBUTION = "sotc-cosim"
 # CPython versions the project's test suite runs the built FMUs on (requires-python >= 3.11)
@@ -274,7 +274,7 @@ def compile_cores_ahead(model: str, script: Path, packages: dict[str, Path], des
         if rel.as_posix() in compiled.HOT or rel.name == "__init__.py":
             (dest / lib / rel).parent.mkdir(exist_ok=True)
             (dest / lib / rel).write_text(rename_imports(src.read_text(), lib))
-    return compiled.compile_bundle(dest, lib, _declarations(packages, lib))
+    return compiled.compile_bundle(dest, lib, _declarations(packages, dest / lib))
 
 
 def import_closure(starts: list[Path], packages: dict[str, Path]) -> dict[Path, Path]:
@@ -413,14 +413,15 @@ def write_fmu(dest_file: Path, model: str, resources: Path, xml: Element, docume
         z.writestr("documentation/index.html", documentation)
 
 
-def _declarations(packages: dict[str, Path], lib: str) -> dict[str, str]:
-    """The hot modules' ``.pxd`` files, renamed into ``lib`` (``compiled.compile_bundle``)."""
+def _declarations(packages: dict[str, Path], lib: Path) -> dict[str, str]:
+    """The ``.pxd`` files of the hot modules staged under ``lib`` (the bundle's library folder), renamed
+    into it (``compiled.compile_bundle``)."""
     out = {}
     for rel in compiled.HOT:
         top, _, rest = compiled.declarations(rel).partition("/")
         source = Path(packages[top], rest) if top in packages else None
-        if source is not None and source.is_file():
-            out[f"{top}/{rest}"] = rename_imports(source.read_text(), lib)
+        if source is not None and source.is_file() and (lib / rel).is_file():
+            out[f"{top}/{rest}"] = rename_imports(source.read_text(), lib.name)
     return out
 
 
@@ -434,7 +435,8 @@ def package_fmu(model: str, script: Path, packages: dict[str, Path], equations: 
     placeholder = bundle_stem(model, PLACEHOLDER_DIGEST)
     requirements = stage(model, script, packages, placeholder, resources, fmi)
     lib = f"{placeholder}_lib"
-    cores, from_cache = compiled.build_cores(resources, lib, _declarations(packages, lib)) if compile_cores else ([], False)
+    declared = _declarations(packages, resources / lib)
+    cores, from_cache = compiled.build_cores(resources, lib, declared) if compile_cores else ([], False)
     stem = bundle_stem(model, bundle_digest(bundled_files(resources), placeholder, model))
     _rename_bundle(resources, placeholder, stem)
     write_core_digests(resources)

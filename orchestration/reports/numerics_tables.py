@@ -7,7 +7,7 @@ from typing import Any
 import numpy as np
 
 from fmu_controller.saturation import ACCEL, LIMIT_HANDLINGS, RADIAL
-from fmu_controller.fixed_linalg import EPS
+from fmu_numerics.fixed_linalg import EPS
 from fmu_controller.sotc_stack import SELECTIONS, SWAP_MARGIN
 from orchestration.markdown import stable, stable_pair, table
 from orchestration.reports import perturbed

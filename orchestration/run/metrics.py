@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from fmu_controller import elementary
+from fmu_numerics import elementary
 from fmu_plant.dynamics import TORQUE_LIMIT
 
 # tolerance of "at the limit": ||tau|| >= limit - LIMIT_TOLERANCE counts (a norm scaled to the
@@ -28,12 +28,12 @@ TRANSIENT_END = 5.0  # s: "post-transient" metrics use t >= 5 s
 
 def _norms(tau: np.ndarray) -> np.ndarray:
     """||tau|| per row (m, 2) by the cores' hypot, the same bits anywhere: its C function where
-    ``elementary`` is compiled, else ``elementary_array``'s (the same bits on the whole column at once;
+    ``elementary`` is compiled, else ``elementary_interpreted``'s (the same bits on the whole column at once;
     one interpreted call per row cost over 1 us a sample)."""
     if elementary.__file__.endswith(".py"):
-        from fmu_controller import elementary_array
+        from fmu_numerics import elementary_interpreted
 
-        return elementary_array.hypot(tau[:, 0], tau[:, 1])
+        return elementary_interpreted.hypot(tau[:, 0], tau[:, 1])
     return np.array([elementary.hypot(a, b) for a, b in tau.tolist()]).reshape(len(tau))
 # controller outputs that flag a sample where the torque limit acts (SOTC: bound (5) on tau^a or
 # chi_vd^a, the actuator limit; CT/LQR: the limit handling; OTC: the torque before the limit is over it)

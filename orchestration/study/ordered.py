@@ -5,7 +5,7 @@ LAPACK, whose kernels (chosen per CPU, or by ``OPENBLAS_CORETYPE``) block, vecto
 differently, so their last bits differ from one machine to the next; a stored figure computed through
 them once differed in 1-3 ulps between two kernels of the same machine (``docs/perturbed.json``, the
 value study's LQR row). Every function here runs the textbook loop in one written order on
-``fmu_controller.fixed_linalg``'s kernels (the controllers' own, compiled or not, with the same bits):
+``fmu_numerics.fixed_linalg``'s kernels (the controllers' own, compiled or not, with the same bits):
 the same result on every CPU. ``tests/unit/test_ordered.py`` checks them against numpy to rounding, and
 ``tests/docs/test_no_blas.py`` that nothing else in ``orchestration/`` calls BLAS or LAPACK.
 """
@@ -16,7 +16,7 @@ from typing import Sequence
 
 import numpy as np
 
-from fmu_controller.fixed_linalg import EPS, buffer, dot_sequence, smallest_eigenvalue
+from fmu_numerics.fixed_linalg import EPS, buffer, dot_sequence, smallest_eigenvalue
 
 
 def norm(x: Sequence[float]) -> float:

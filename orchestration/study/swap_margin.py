@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import functools
 
-from fmu_controller.fixed_linalg import EPS, trace
+from fmu_numerics.fixed_linalg import EPS, trace
 from fmu_controller.saturation import RADIAL
 from fmu_controller.sotc import SotcCore
 from fmu_controller.sotc_math import N_BASIS

@@ -15,28 +15,27 @@ from support.imports import PACKAGES, cycles, graph, modules, room, third_party
 ALLOWED = {
     "fmi_slave": set(),
     "fmi3_slave": {"fmi_slave"},
-    "fmu_plant": {"fmi_slave", "fmu_controller"},  # of fmu_controller only ELEMENTARY (below)
-    "fmu_controller": {"fmi_slave", "fmu_plant"},
-    "orchestration/run": {"fmi_slave", "fmi3_slave", "fmu_plant", "fmu_controller", "orchestration"},
-    "orchestration/fmu_build": {"fmi_slave", "fmu_plant", "fmu_controller", "orchestration"},
-    "orchestration/recording": {"fmu_plant", "fmu_controller", "orchestration", "orchestration/run"},
-    "orchestration/study": {"fmu_plant", "fmu_controller", "orchestration", "orchestration/run"},
-    "orchestration/compliance": {"fmi_slave", "fmu_plant", "fmu_controller", "orchestration", "orchestration/run",
+    "fmu_numerics": set(),
+    "fmu_plant": {"fmi_slave", "fmu_numerics"},
+    "fmu_controller": {"fmi_slave", "fmu_numerics", "fmu_plant"},
+    "orchestration/run": {"fmi_slave", "fmi3_slave", "fmu_numerics", "fmu_plant", "fmu_controller", "orchestration"},
+    "orchestration/fmu_build": {"fmi_slave", "fmu_numerics", "fmu_plant", "fmu_controller", "orchestration"},
+    "orchestration/recording": {"fmu_numerics", "fmu_plant", "fmu_controller", "orchestration", "orchestration/run"},
+    "orchestration/study": {"fmu_numerics", "fmu_plant", "fmu_controller", "orchestration", "orchestration/run"},
+    "orchestration/compliance": {"fmi_slave", "fmu_numerics", "fmu_plant", "fmu_controller", "orchestration", "orchestration/run",
                                  "orchestration/fmu_build"},
-    "orchestration/sweep": {"fmu_plant", "fmu_controller", "orchestration", "orchestration/run",
+    "orchestration/sweep": {"fmu_numerics", "fmu_plant", "fmu_controller", "orchestration", "orchestration/run",
                             "orchestration/fmu_build", "orchestration/recording", "orchestration/study"},
-    "orchestration/bench": {"fmu_plant", "fmu_controller", "orchestration", "orchestration/run",
+    "orchestration/bench": {"fmu_numerics", "fmu_plant", "fmu_controller", "orchestration", "orchestration/run",
                             "orchestration/fmu_build", "orchestration/recording", "orchestration/study",
                             "orchestration/sweep"},
-    "orchestration/reports": {"fmu_plant", "fmu_controller", "orchestration", "orchestration/run",
+    "orchestration/reports": {"fmu_numerics", "fmu_plant", "fmu_controller", "orchestration", "orchestration/run",
                               "orchestration/study", "orchestration/sweep", "orchestration/bench"},
 }
 BASE = {"orchestration.paths", "orchestration.progress", "orchestration.markdown", "orchestration.exit_codes",
         "orchestration.outputs", "orchestration.toml_files", "orchestration.scratch"}
 ARM_MODEL = {"fmu_plant.dynamics", "fmu_plant.kinematics", "fmu_plant.trajectory"}
-ELEMENTARY = "fmu_controller.elementary"  # the one module of fmu_controller the plant may import
-ELEMENTARY_BIG = "fmu_controller.elementary_big"  # its reduction of huge arguments, which imports no package
-CORE_FOLDERS = ("fmi_slave", "fmi3_slave", "fmu_plant", "fmu_controller")
+CORE_FOLDERS = ("fmi_slave", "fmi3_slave", "fmu_numerics", "fmu_plant", "fmu_controller")
 MAX_MODULE_LINES = 500
 MAX_FUNCTION_LINES = 80
 
@@ -73,12 +72,16 @@ def test_the_fmu_packages_need_no_pythonfmu_and_controllers_only_the_arm_model()
     assert not any(t.startswith("orchestration") for m, ts in GRAPH.items() if m.startswith(CORE_FOLDERS) for t in ts)
 
 
-def test_the_plant_imports_of_fmu_controller_only_the_elementary_functions():
-    assert [t for t in GRAPH[ELEMENTARY] if t.startswith(PACKAGES)] == [ELEMENTARY_BIG]  # so no package cycle
-    assert not any(t.startswith(PACKAGES) for t in GRAPH[ELEMENTARY_BIG])  # runs through them
-    wrong = sorted(f"{m} -> {t}" for m, targets in GRAPH.items() if m.startswith("fmu_plant")
-                   for t in targets if t.startswith("fmu_controller") and t != ELEMENTARY)
-    assert wrong == []
+# the floors of the FMU packages, lowest first: a module imports only its own floor and those below
+FLOORS = ("fmu_numerics", "fmu_plant", "fmu_controller")
+
+
+def test_no_import_runs_up_a_floor():
+    """The numerics under the arm, the arm under the controllers: the plant needs no controller code (so
+    its FMU bundles none) and the numerics need neither."""
+    floor = {m: FLOORS.index(m.split(".")[0]) for m in GRAPH if m.split(".")[0] in FLOORS}
+    up = sorted(f"{m} -> {t}" for m in floor for t in GRAPH[m] if t in floor and floor[t] > floor[m])
+    assert up == []
 
 
 def test_orchestration_is_grouped_by_role():
@@ -125,3 +128,26 @@ def test_readme_layout_section_names_the_same_folders_as_architecture_md():
     layout = layout[:layout.index("\n## ", 1)] if "\n## " in layout[1:] else layout
     top = {line.split()[0].rstrip("/") for line in arch.splitlines() if line and not line.startswith(" ")}
     assert all(re.search(rf"`{re.escape(name)}/?`", layout) for name in top), (top, layout)
+
+
+def _named_paths(text: str) -> list[str]:
+    """The repository paths a document names in backticks: those under a top-level folder of the
+    repository, and bare file names of its sources (``x.py``, ``x.pxd``, ``x.c``); paths inside an FMU
+    (``resources/...``) or a URL are no repository paths."""
+    top = {p.name for p in REPO.iterdir()}
+    spans = set(re.findall(r"`([^`\s]+)`", text))
+    return sorted(s for s in spans if s.split("/")[0] in top and "/" in s
+                  or "/" not in s and re.fullmatch(r"[\w*]+\.(py|pxd|c)", s))
+
+
+def _exists(path: str) -> bool:
+    if "/" in path:
+        return any(REPO.glob(path.rstrip("/"))) if "*" in path else (REPO / path).exists()
+    return any(p for p in REPO.rglob(path) if not {".venv", "build"} & set(p.relative_to(REPO).parts))
+
+
+def test_every_path_architecture_md_names_exists():
+    named = _named_paths((REPO / "docs" / "architecture.md").read_text())
+    assert len(named) > 20 and "orchestration/run/master.py" in named and "fmi_direct.py" not in named
+    assert [p for p in named if not _exists(p)] == []
+    assert not _exists("fmu_controller/no_such_module.py") and not _exists("no_such_module.py")

@@ -5,7 +5,7 @@ generated docs block red on a machine whose environment chose another kernel. Ev
 prints is computed by ``orchestration/`` from the cores, so this scans every module there, and the cores
 themselves, for the calls that reach BLAS or LAPACK: ``numpy.linalg`` and ``scipy.linalg`` in any
 spelling, the matrix product ``@``, and numpy's ``dot``, ``matmul``, ``einsum``, ``inner``, ``vdot`` and
-``tensordot``. Fixed-order replacements: ``orchestration.study.ordered``, ``fmu_controller.fixed_linalg``,
+``tensordot``. Fixed-order replacements: ``orchestration.study.ordered``, ``fmu_numerics.fixed_linalg``,
 ``fmu_controller.riccati``, ``orchestration.run.metrics.ordered_sum``.
 """
 from __future__ import annotations
@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
-SCANNED = ("orchestration", "fmu_plant", "fmu_controller")
+SCANNED = ("orchestration", "fmu_numerics", "fmu_plant", "fmu_controller")
 LINALG = ("numpy.linalg", "np.linalg", "scipy.linalg")
 PRODUCTS = {"dot", "matmul", "einsum", "inner", "vdot", "tensordot"}
 

@@ -51,12 +51,23 @@ def test_the_fmu_carries_an_extension_beside_each_hot_module(compiled_paths):
         names = set(z.namelist())
         page = z.read("documentation/index.html").decode()
     controller = _hot_modules(fmu)
-    assert {"fmu_controller/elementary.py", "fmu_controller/sotc.py", "fmu_controller/sotc_math.py",
+    assert {"fmu_numerics/elementary.py", "fmu_controller/sotc.py", "fmu_controller/sotc_math.py",
             "fmu_plant/dynamics.py"} <= set(controller)
     for rel in controller:
         assert f"resources/{stem}_lib/{rel[:-3]}{SUFFIX}" in names, rel  # under the final stem
     assert not [n for n in names if n.endswith(".c") or "000000000000" in n]
     assert "Compiled cores" in page and compiled.target() in page
+
+
+def test_the_plant_fmus_bundle_no_controller_code(compiled_paths):
+    """The numerics sit below the plant (issue 50): an arm or reference FMU carries fmu_numerics and
+    fmu_plant, compiled, and nothing of fmu_controller."""
+    for model in ("ArmPlant", "ReferenceTrajectory"):
+        stem = _stem(compiled_paths[model])
+        with zipfile.ZipFile(compiled_paths[model]) as z:
+            names = z.namelist()
+        assert not [n for n in names if f"{stem}_lib/fmu_controller" in n], model
+        assert f"resources/{stem}_lib/fmu_numerics/elementary{SUFFIX}" in names, model
 
 
 def test_compiled_and_python_builds_run_side_by_side_with_the_same_outputs(compiled_paths, python_paths):

@@ -16,7 +16,7 @@ from orchestration.fmu_build.build import cores_made
 from orchestration.verified import MANIFEST
 
 LIB = "sotc_Model_000000000000_lib"
-MODULE = "fmu_controller/elementary.py"
+MODULE = "fmu_numerics/elementary.py"
 
 
 class FakeCompiler:
@@ -53,7 +53,7 @@ def bundle(root: Path, source: str = "def cos(x):\n    return x\n") -> Path:
     return root / "resources"
 
 
-PXD = {"fmu_controller/elementary.pxd": "cpdef double cos(double x)\n"}
+PXD = {"fmu_numerics/elementary.pxd": "cpdef double cos(double x)\n"}
 
 
 def extension(resources: Path) -> bytes:
@@ -67,7 +67,7 @@ def test_a_bundle_compiles_once_then_comes_from_the_cache(compiler, tmp_path):
     assert compiled.compile_bundle(second, LIB, PXD) == [MODULE]
     assert compiler.calls == 1
     assert extension(second) == extension(first)
-    assert not (second / LIB / "fmu_controller/elementary.pxd").exists()  # nothing staged for a compiler
+    assert not (second / LIB / "fmu_numerics/elementary.pxd").exists()  # nothing staged for a compiler
 
 
 def test_a_build_says_whether_its_cores_came_from_the_cache(compiler, tmp_path):
@@ -89,7 +89,7 @@ def test_cores_compiled_ahead_are_the_ones_the_build_takes(compiler, tmp_path, m
     resources = tmp_path / "resources"
     packaging.stage("ArmPlant", build.PACKAGE_ROOT / source.script, packages, stem, resources)
     lib = f"{stem}_lib"
-    assert compiled.build_cores(resources, lib, packaging._declarations(packages, lib)) == ([MODULE], True)
+    assert compiled.build_cores(resources, lib, packaging._declarations(packages, resources / lib)) == ([MODULE], True)
     assert compiler.calls == 1
 
 
@@ -100,7 +100,7 @@ def test_what_the_extension_is_made_from_is_in_its_key(compiler, tmp_path, monke
     if change == "source":
         source = "def cos(x):\n    return -x\n"
     elif change == "declarations":
-        pxd = {"fmu_controller/elementary.pxd": "cpdef double cos(double x) noexcept\n"}
+        pxd = {"fmu_numerics/elementary.pxd": "cpdef double cos(double x) noexcept\n"}
     elif change == "name":  # another model's placeholder: its module names are in the extension
         lib = "sotc_Other_000000000000_lib"
     else:

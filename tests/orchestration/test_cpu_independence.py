@@ -7,7 +7,7 @@ A kernel is forced with ``OPENBLAS_CORETYPE`` (numpy's and scipy's OpenBLAS both
 SIMD loops are held to the baseline with ``NPY_DISABLE_CPU_FEATURES`` (the features this machine's numpy
 dispatches to beyond it); glibc's CPU-specific variants (its libm's exp, sin ... among them) are switched
 off with ``GLIBC_TUNABLES=glibc.cpu.hwcaps=...`` (the cores call no libm function but sqrt, which IEEE 754
-rounds correctly: ``fmu_controller/elementary.py``). The compiled build is the installed package (its pure loop) and the default
+rounds correctly: ``fmu_numerics/elementary.py``). The compiled build is the installed package (its pure loop) and the default
 FMU build; the Python build is the source tree's ``.py`` on PYTHONPATH and the FMUs built with
 ``SOTC_COSIM_COMPILE=0``. The generated docs blocks that print linear algebra, and every quick block,
 are rendered under other kernels too (``test_generated_docs_are_the_same_under_every_kernel``)."""

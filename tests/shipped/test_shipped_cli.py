@@ -182,13 +182,13 @@ def test_the_installed_build_compiles_the_cores_with_their_declarations(shipped,
     slower), and the installed `sotc-cosim build` compiles where this host can, as the suite's own."""
     from orchestration.fmu_build import compiled
 
-    code = ("import json, pathlib, fmu_controller, fmu_plant; from orchestration.fmu_build import compiled\n"
-            "roots = {'fmu_controller': fmu_controller, 'fmu_plant': fmu_plant}\n"
+    code = ("import json, pathlib, fmu_controller, fmu_numerics, fmu_plant; from orchestration.fmu_build import compiled\n"
+            "roots = {'fmu_controller': fmu_controller, 'fmu_numerics': fmu_numerics, 'fmu_plant': fmu_plant}\n"
             "print(json.dumps([r for r in compiled.HOT if (pathlib.Path(roots[r.split('/')[0]].__file__).parent\n"
             "      / compiled.declarations(r).split('/', 1)[1]).is_file()]))")
     proc = shipped.python_code(code, cwd=shipped.workdir("pxd"))
     _ok(proc)
-    assert {"fmu_plant/dynamics.py", "fmu_controller/sotc.py", "fmu_controller/sotc_zv.py"} <= set(json.loads(proc.stdout))
+    assert {"fmu_numerics/elementary.py", "fmu_plant/dynamics.py", "fmu_controller/sotc.py", "fmu_controller/sotc_zv.py"} <= set(json.loads(proc.stdout))
     described = compiled.describe(shipped_fmu_dir / "SotcController.fmu")
     if compiled.unavailable() is None:
         with zipfile.ZipFile(shipped_fmu_dir / "SotcController.fmu") as z:  # every hot module it bundles

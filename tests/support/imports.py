@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
-PACKAGES = ("fmi_slave", "fmi3_slave", "fmu_plant", "fmu_controller", "orchestration")
+PACKAGES = ("fmi_slave", "fmi3_slave", "fmu_numerics", "fmu_plant", "fmu_controller", "orchestration")
 
 
 def modules(root: Path = ROOT) -> dict[str, Path]:

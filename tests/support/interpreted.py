@@ -2,7 +2,7 @@
 compiled module is C (its constants C variables, its interpreted paths never taken), so a test of the
 interpreted build's own code loads that code from this checkout's ``.py`` files explicitly.
 
-``interpreted("fmu_controller.elementary_array", ...)`` imports the named modules, and every module of the
+``interpreted("fmu_numerics.elementary_interpreted", ...)`` imports the named modules, and every module of the
 project's core packages they import, from the ``.py`` files under the repository, into a separate set of
 module objects: ``sys.modules`` and the installed packages are left as they were."""
 from __future__ import annotations
@@ -16,7 +16,7 @@ from pathlib import Path
 from types import ModuleType
 
 ROOT = Path(__file__).resolve().parents[2]
-PACKAGES = ("fmi_slave", "fmu_plant", "fmu_controller")
+PACKAGES = ("fmi_slave", "fmu_numerics", "fmu_plant", "fmu_controller")
 
 
 class _SourceFinder(importlib.abc.MetaPathFinder):

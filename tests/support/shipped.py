@@ -22,7 +22,7 @@ from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[2]
 # names a host without sotc-cosim does not have; ``BLOCK_PROJECT`` makes them unimportable
-PROJECT_MODULES = ("fmu_plant", "fmu_controller", "orchestration", "pythonfmu")
+PROJECT_MODULES = ("fmu_numerics", "fmu_plant", "fmu_controller", "orchestration", "pythonfmu")
 BLOCK_PROJECT = f'''
 import importlib.abc, sys
 class _NotInstalled(importlib.abc.MetaPathFinder):

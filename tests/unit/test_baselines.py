@@ -13,7 +13,7 @@ import pytest
 
 from fmi_slave.parameters import ParameterError
 from fmu_controller.computed_torque import CtCore
-from fmu_controller.elementary import hypot
+from fmu_numerics.elementary import hypot
 from fmu_controller.lqr import LqrCore, error_system, lqr_gain
 from fmu_controller.otc import OtcCore
 from fmu_controller.saturation import clip_box, saturate_norm

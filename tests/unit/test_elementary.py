@@ -1,4 +1,4 @@
-"""fmu_controller.elementary: within 1 ulp of the exact value (numpy's 64-bit-mantissa long double as the
+"""fmu_numerics.elementary: within 1 ulp of the exact value (numpy's 64-bit-mantissa long double as the
 reference, 2^-11 ulp of a double), C99's special values, the symmetries, the constants exactly as
 docs/elementary_coefficients.py derives them, and the compiled module giving the Python module's bits."""
 from __future__ import annotations
@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 from hypothesis import given, strategies as st
 
-from fmu_controller import elementary as el
+from fmu_numerics import elementary as el
 from orchestration.fmu_build import compiled
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -92,20 +92,20 @@ def compiled_module(tmp_path: Path):
     reason = compiled.unavailable()
     if reason:
         pytest.skip(f"cannot compile: {reason}")
-    lib = tmp_path / "lib" / "fmu_controller"
+    lib = tmp_path / "lib" / "fmu_numerics"
     lib.mkdir(parents=True)
     for package in (lib.parent, lib):
         (package / "__init__.py").write_text("")
-    shutil.copy(ROOT / "fmu_controller/elementary.py", lib)
-    pxd = {"fmu_controller/elementary.pxd": (ROOT / "fmu_controller/elementary.pxd").read_text()}
+    shutil.copy(ROOT / "fmu_numerics/elementary.py", lib)
+    pxd = {"fmu_numerics/elementary.pxd": (ROOT / "fmu_numerics/elementary.pxd").read_text()}
     original = compiled.HOT
-    compiled.HOT = ("fmu_controller/elementary.py",)
+    compiled.HOT = ("fmu_numerics/elementary.py",)
     try:
         compiled.compile_bundle(tmp_path, "lib", pxd)
     finally:
         compiled.HOT = original
     so = next(lib.glob("elementary.*.so"), None) or next(lib.glob("elementary.*.pyd"))
-    return _loaded("lib.fmu_controller.elementary", so)
+    return _loaded("lib.fmu_numerics.elementary", so)
 
 
 @pytest.mark.slow
@@ -128,7 +128,7 @@ def test_compiled_gives_the_same_bits_and_a_million_points_within_one_ulp(tmp_pa
 
 DIGEST = """
 import hashlib, struct, sys
-from fmu_controller import elementary as el
+from fmu_numerics import elementary as el
 x = [-20.0 + 40.0 * ((i * 0.6180339887498949) % 1.0) for i in range(1, 20001)]
 d = hashlib.sha256()
 for name in ("exp", "log1p", "tanh", "sinh", "cosh", "sin", "cos", "atanh", "acos"):
@@ -236,7 +236,7 @@ def test_atan2_and_hypot_within_one_ulp_over_the_whole_range(y, x):
 def test_constants_are_the_derived_ones():
     """On the ``.py`` itself: where the installed package is compiled, its constants are C variables."""
     derived = _loaded("elementary_coefficients", ROOT / "docs/elementary_coefficients.py").constants()
-    source = _loaded("elementary_source", ROOT / "fmu_controller/elementary.py")
+    source = _loaded("elementary_source", ROOT / "fmu_numerics/elementary.py")
     assert {name: getattr(source, name) for name in derived} == derived
-    big = _loaded("elementary_big_source", ROOT / "fmu_controller/elementary_big.py")
+    big = _loaded("elementary_big_source", ROOT / "fmu_numerics/elementary_big.py")
     assert abs(big.PIO2_BIG - big._pi_scaled(big.BIG_BITS + 8) // 512) <= 4  # Machin's truncation: a few units at most

@@ -1,4 +1,4 @@
-"""fmu_controller.elementary against mpmath (correctly rounded at 160 bits, huge angles reduced exactly) over
+"""fmu_numerics.elementary against mpmath (correctly rounded at 160 bits, huge angles reduced exactly) over
 each function's whole domain: every binade of the doubles from the smallest subnormal to the largest finite,
 both signs, two significands in each, plus the edges of each domain; within 1 ulp of the exact value, and
 the exact value's rounding where it overflows or underflows. The long-double reference of test_elementary
@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 
 mp = pytest.importorskip("mpmath")
 
-from fmu_controller import elementary as el  # noqa: E402
+from fmu_numerics import elementary as el  # noqa: E402
 
 PREC = 160
 MAX = 1.7976931348623157e308

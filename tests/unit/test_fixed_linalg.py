@@ -1,4 +1,4 @@
-"""The fixed-order kernels of ``fmu_controller.fixed_linalg`` against numpy (tolerances, not bits: the
+"""The fixed-order kernels of ``fmu_numerics.fixed_linalg`` against numpy (tolerances, not bits: the
 bits are pinned by tests/data/reference_bits.json), on hypothesis-drawn vectors and symmetric matrices."""
 from array import array
 
@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from fmu_controller import fixed_linalg as fl
+from fmu_numerics import fixed_linalg as fl
 
 N = 10  # the critic's size, what the controller solves
 entries = st.floats(-10.0, 10.0, allow_nan=False, allow_infinity=False)

@@ -1,5 +1,5 @@
-"""The numpy paths the interpreted core takes (``sotc_stack.cl_matrix_numpy``,
-``sotc_math.implicit_system_array``) give the bits of the loops ``cl_matrix`` and ``implicit_system`` run (C in
+"""The numpy paths the interpreted core takes (``sotc_stack_interpreted.cl_matrix_numpy``,
+``sotc_math_interpreted.implicit_system_array``) give the bits of the loops ``cl_matrix`` and ``implicit_system`` run (C in
 the compiled core, Python otherwise), on hypothesis-drawn rows (including zeros, signed zeros, tiny and huge
 entries); likewise ``math.fsum``, which the interpreted SOTC kernel calls,
 and the exact-sum loop of the compiled one. Runs in either build: CI's installed package is compiled."""
@@ -10,8 +10,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from fmu_controller import sotc_kernel, sotc_math, sotc_stack
-from fmu_controller.fixed_linalg import buffer
+from fmu_controller import sotc_kernel, sotc_math, sotc_math_interpreted, sotc_stack, sotc_stack_interpreted
+from fmu_numerics.fixed_linalg import buffer
 
 N = 10
 entries = st.one_of(st.floats(-1e3, 1e3, allow_nan=False, allow_infinity=False),
@@ -33,7 +33,7 @@ def test_cl_matrix_numpy_gives_the_bits_of_cl_matrix(data, n):
     E = array("d", data.draw(rows(n)))
     rew = array("d", data.draw(st.lists(entries, min_size=n, max_size=n)))
     out = []
-    for fill in (loops, sotc_stack.cl_matrix_numpy):
+    for fill in (loops, sotc_stack_interpreted.cl_matrix_numpy):
         M, b, sc = array("d", [7.0] * (N * N)), array("d", [7.0] * N), buffer(max(n, 1))
         fill(n, E, rew, M, b, sc)
         out.append((bits(M), bits(b), bits(sc)))
@@ -85,7 +85,7 @@ def test_implicit_system_array_gives_the_bits_of_the_loops(data, with_cl, dt, c)
         with pytest.MonkeyPatch.context() as patch:
             patch.setattr(sotc_math, "INTERPRETED", interpreted)
             if interpreted:
-                sotc_math.implicit_system_array(W, wdot, xi, eta, M, with_cl, dt, c, G, rhs)
+                sotc_math_interpreted.implicit_system_array(W, wdot, xi, eta, M, with_cl, dt, c, G, rhs)
             else:
                 sotc_math.implicit_system(W, wdot, xi, eta, M, with_cl, dt, c, G, rhs)
         out.append((bits(G), bits(rhs)))

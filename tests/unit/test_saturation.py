@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from fmi_slave.parameters import ParameterError
-from fmu_controller import elementary as el
+from fmu_numerics import elementary as el
 from fmu_controller.computed_torque import CtCore
 from fmu_controller.lqr import LqrCore
 from fmu_controller.otc import OtcCore

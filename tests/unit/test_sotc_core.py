@@ -99,7 +99,7 @@ def test_omega_stays_finite_where_tanh_rounds_to_one():
 def test_omega_reuses_the_policys_tanh_to_the_bit():
     """Omega takes tanh(x) from the policy (28): |tanh x| is tanh |x| to the bit, so the term is the one
     computed from |x| alone, on both sides of x = 0 and of the branch at |x| = 1."""
-    from fmu_controller.elementary import tanh
+    from fmu_numerics.elementary import tanh
     for x in np.linspace(-1.5, 1.5, 301).tolist() + [-0.0, 1e-300, -0.999999999, 0.5]:
         a = abs(x)
         alone = a * tanh(a) - sm.log_cosh(a) if a < 1.0 else sm._x_tanh_minus_log_cosh(a, 0.0)

@@ -10,7 +10,7 @@ import math
 
 import pytest
 
-from fmu_controller.fixed_linalg import EPS, MAX_HALVINGS, buffer, halvings, smallest_eigenvalue
+from fmu_numerics.fixed_linalg import EPS, MAX_HALVINGS, buffer, halvings, smallest_eigenvalue
 from fmu_controller.saturation import LIMIT_HANDLINGS, RADIAL
 from fmu_controller.sotc import SotcCore
 from fmu_controller.sotc_math import N_BASIS

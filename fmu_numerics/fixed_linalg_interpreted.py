@@ -10,7 +10,7 @@ object, no row is sliced twice; numpy was slower on blocks of 9 x 9 and less), t
 e_i^2 of the Sturm recurrence are computed once (the products ``sturm_count`` forms at every count), and
 the count of a halving stops as soon as it reaches k: the bisection only asks whether at least k
 eigenvalues lie below the midpoint, and the later terms decide nothing. Only the interpreted
-``fixed_linalg`` imports this module; ``tests/unit/test_elementary_array.py`` compares the two on
+``fixed_linalg`` imports this module; ``tests/unit/test_elementary_interpreted.py`` compares the two on
 hypothesis-drawn matrices.
 """
 from __future__ import annotations

@@ -2,7 +2,7 @@
 
 Why: in the Python build (the cores not compiled) the CL replay evaluates the saturated cost (17) of
 every stored row, a few hundred scalar calls per step; numpy runs each step of an algorithm as one
-operation on all elements. Only the interpreted cores call this module (``sotc_replay``; and the run
+operation on all elements. Only the interpreted cores call this module (``sotc_stack_interpreted``; and the run
 summary's torque norms, ``orchestration.run.metrics``, where ``elementary`` is not compiled); the compiled
 build keeps ``elementary``'s C functions.
 
@@ -17,15 +17,15 @@ itself, or, when there are many, through every branch as masks (``np.where``). A
 ``np.errstate(all="ignore")``, as the scalar code raises no floating-point exception. Powers of two
 are ``np.ldexp`` and the exponent of ``_normalize`` is ``np.frexp``'s, both exact: m = u 2^-k in
 [sqrt(1/2), sqrt(2)) with k an integer has one solution, the one the scalar loop of halvings finds.
-``tests/unit/test_elementary_array.py`` compares every function with the scalar one bit for bit on
+``tests/unit/test_elementary_interpreted.py`` compares every function with the scalar one bit for bit on
 hypothesis-drawn arguments (signed zeros, inf, nan, tiny and huge arguments, the branch boundaries).
 """
 from __future__ import annotations
 
 import numpy as np
 
-from fmu_controller import elementary as el
-from fmu_controller.elementary import (EXP_OVER, EXP_UNDER, INF, NAN, P2_60, P2_500, P2_M54, P2_M500, SINH_OVER,
+from fmu_numerics import elementary as el
+from fmu_numerics.elementary import (EXP_OVER, EXP_UNDER, INF, NAN, P2_60, P2_500, P2_M54, P2_M500, SINH_OVER,
                                        SINH_POLY_MAX, SQRT_HALF, TANH_POLY_MAX, TINY, _corrected_root, _exp_parts,
                                        _log_reduced, _sinh_poly, _sum_of_squares, _tanh_poly, _two_prod)
 

@@ -12,10 +12,9 @@ by IEEE 754); no libm function and no fused multiply-add (the compiled build use
 Method (Cody & Waite, "Software Manual for the Elementary Functions", 1980; the structure of Sun's
 fdlibm): an argument reduction with a constant split in parts whose products with the reduction's
 integer are exact, then a fixed polynomial on the reduced interval. The constants and polynomials
-are derived in exact rational arithmetic by ``docs/elementary_coefficients.py`` (Chebyshev
-economization of the Taylor series; a test checks that this module holds exactly its output). Each
-polynomial is Horner's rule written out: the operations of the loop from 0.0, in its order, without
-the loop's cost. Compiled, it divides as C (no zero test): no denominator can be 0.
+are derived in exact rational arithmetic by ``docs/elementary_coefficients.py`` (Chebyshev economization of
+the Taylor series; a test checks that this module holds exactly its output). Each polynomial is Horner's rule
+written out from its leading coefficient. Compiled, it divides as C (no zero test): no denominator can be 0.
 
 Accuracy: within 1 ulp of the exact value on the tested ranges (tests/unit/test_elementary.py,
 against an extended-precision reference). Special values follow C99 Annex F (nan in, nan out;
@@ -27,8 +26,9 @@ from __future__ import annotations
 
 import math
 
-from fmu_controller.elementary_big import reduce_big
+from fmu_numerics.elementary_big import reduce_big
 
+INTERPRETED = __file__.endswith(".py")  # the cores run as .py, not C: said once, as they compile all or none
 INF = float("inf")
 NAN = float("nan")
 SHIFT = 6755399441055744.0  # 1.5 * 2^52: (v + SHIFT) - SHIFT rounds v (|v| < 2^51) to the nearest integer
@@ -151,7 +151,7 @@ def _exp_parts(x: float) -> tuple:
     r = (x - k * LN2_HI) - k * LN2_LO
     one_r = 1.0 + r
     c = EXP_POLY  # e^r = 1 + r + r^2 (c[0] + c[1] r + ...), Horner's rule from the highest power
-    series = ((((((((((((0.0 * r + c[11]) * r + c[10]) * r + c[9]) * r + c[8]) * r + c[7]) * r + c[6]) * r + c[5])
+    series = (((((((((((c[11] * r + c[10]) * r + c[9]) * r + c[8]) * r + c[7]) * r + c[6]) * r + c[5])
              * r + c[4]) * r + c[3]) * r + c[2]) * r + c[1]) * r + c[0])
     tail = ((1.0 - one_r) + r) + r * r * series
     hi = one_r + tail
@@ -179,7 +179,7 @@ def _log_reduced(k: float, f: float, c: float) -> float:
     z = s * s
     hfsq = 0.5 * f * f
     q = LOG_POLY  # Q(z) = q[0] + q[1] z + ..., Horner's rule from the highest power
-    series = (((((((((0.0 * z + q[8]) * z + q[7]) * z + q[6]) * z + q[5]) * z + q[4]) * z + q[3]) * z + q[2])
+    series = ((((((((q[8] * z + q[7]) * z + q[6]) * z + q[5]) * z + q[4]) * z + q[3]) * z + q[2])
              * z + q[1]) * z + q[0])
     return k * LN2_HI + (f - (hfsq - (s * (hfsq + z * series) + (k * LN2_LO + c))))
 
@@ -218,7 +218,7 @@ def _tanh_poly(x: float) -> float:
     """tanh x = x + x^3 T(x^2) for |x| <= TANH_POLY_MAX, x^2 and the product with their exact errors (``_two_prod``)."""
     z, zl = _two_prod(x, x)
     c = TANH_POLY
-    series = ((((((((((((0.0 * z + c[11]) * z + c[10]) * z + c[9]) * z + c[8]) * z + c[7]) * z + c[6]) * z + c[5])
+    series = (((((((((((c[11] * z + c[10]) * z + c[9]) * z + c[8]) * z + c[7]) * z + c[6]) * z + c[5])
              * z + c[4]) * z + c[3]) * z + c[2]) * z + c[1]) * z + c[0])
     p, pl = _two_prod(x, z * series + zl * c[0])
     t = x + p
@@ -229,7 +229,7 @@ def _sinh_poly(x: float) -> float:
     """sinh x = x + x^3 S(x^2) for |x| <= SINH_POLY_MAX."""
     z = x * x
     c = SINH_POLY
-    return x + x * (z * (((((((((0.0 * z + c[7]) * z + c[6]) * z + c[5]) * z + c[4]) * z + c[3]) * z + c[2])
+    return x + x * (z * ((((((((c[7] * z + c[6]) * z + c[5]) * z + c[4]) * z + c[3]) * z + c[2])
                          * z + c[1]) * z + c[0])))
 
 
@@ -305,7 +305,7 @@ def _sin_kernel(hi: float, lo: float) -> float:
     """sin(hi + lo) for |hi| <= pi/4 (+ rounding), |lo| <= ulp(hi): hi + hi^3 S(hi^2) + lo (1 - hi^2/2)."""
     z = hi * hi
     c = SIN_POLY
-    series = ((((((0.0 * z + c[6]) * z + c[5]) * z + c[4]) * z + c[3]) * z + c[2]) * z + c[1]) * z + c[0]
+    series = (((((c[6] * z + c[5]) * z + c[4]) * z + c[3]) * z + c[2]) * z + c[1]) * z + c[0]
     return hi + ((hi * z) * series + (lo - 0.5 * z * lo))
 
 
@@ -315,7 +315,7 @@ def _cos_kernel(hi: float, lo: float) -> float:
     hz = 0.5 * z
     w = 1.0 - hz
     c = COS_POLY
-    series = ((((((0.0 * z + c[6]) * z + c[5]) * z + c[4]) * z + c[3]) * z + c[2]) * z + c[1]) * z + c[0]
+    series = (((((c[6] * z + c[5]) * z + c[4]) * z + c[3]) * z + c[2]) * z + c[1]) * z + c[0]
     return w + (((1.0 - w) - hz) + (z * z * series - hi * lo))
 
 
@@ -402,7 +402,7 @@ def _atan_ratio(n: float, d: float, extra: float) -> tuple:
     rl = (((num - p) - pl) - r * den_lo) / den
     z = r * r
     q = ATAN_POLY  # A(z) = q[0] + q[1] z + ...
-    series = (((((((((((((0.0 * z + q[12]) * z + q[11]) * z + q[10]) * z + q[9]) * z + q[8]) * z + q[7]) * z + q[6])
+    series = ((((((((((((q[12] * z + q[11]) * z + q[10]) * z + q[9]) * z + q[8]) * z + q[7]) * z + q[6])
              * z + q[5]) * z + q[4]) * z + q[3]) * z + q[2]) * z + q[1]) * z + q[0])
     return c_hi, c_lo + (r + (r * (z * series) + (rl / (1.0 + z) + extra)))
 

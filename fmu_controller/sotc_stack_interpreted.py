@@ -1,5 +1,5 @@
-"""The ``current`` CL replay of the interpreted core over all stored rows at once, to the bits of
-``sotc_stack.replay_current``'s loop over rows.
+"""The interpreted build's twin of ``sotc_stack``: the CL sums (``cl_matrix_numpy``) and the ``current`` CL
+replay over all stored rows at once, to the bits of ``sotc_stack``'s loops over rows.
 
 Per step the replay re-evaluates every stored row of the concurrent-learning sum of (30)/(31) at the
 current weights: the arguments x of the saturated law (28), mu = -s tanh x, the error rate of
@@ -10,12 +10,12 @@ body runs once on those arrays:
 
 - ``sotc_math``'s own ``policy_arguments``, ``error_rate`` and ``directional_into`` on arrays (their
   +, -, *, / apply elementwise in the order written there, so each element is the scalar result);
-- the elementary functions of ``elementary_array`` (each element the bits of ``elementary``'s);
+- the elementary functions of ``elementary_interpreted`` (each element the bits of ``elementary``'s);
 - the saturated cost (17) of the 4 n components at once (``x_tanh_minus_log_cosh``), summed per row in
   ``omega4``'s order.
 
 Only the interpreted ``sotc_stack`` imports this module (sotc_math's compiled functions take doubles);
-``tests/unit/test_elementary_array.py`` compares it with the loop on hypothesis-drawn rows.
+``tests/unit/test_elementary_interpreted.py`` compares it with the loop on hypothesis-drawn rows.
 """
 from __future__ import annotations
 
@@ -23,18 +23,20 @@ from array import array
 
 import numpy as np
 
-from fmu_controller import elementary_array as ea
-from fmu_controller.elementary import tanh
+from fmu_numerics import elementary_interpreted as ea
+from fmu_numerics.elementary import tanh
+from fmu_numerics.fixed_linalg_interpreted import in_order
 from fmu_controller.sotc_math import (LN2, N_BASIS, CriticConstants, _x_tanh_minus_log_cosh, directional_into,
-                                     error_rate, policy_arguments)
+                                     error_rate, normalisation, policy_arguments)
+from fmu_controller.sotc_math_interpreted import lower_masks
 
 
 def x_tanh_minus_log_cosh(x: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """``sotc_math._x_tanh_minus_log_cosh`` elementwise, given t = tanh x (``elementary_array.tanh``):
+    """``sotc_math._x_tanh_minus_log_cosh`` elementwise, given t = tanh x (``elementary_interpreted.tanh``):
     a tanh a - ln(1 + 2 sinh^2(a/2)) for a = |x| < 1 (the main branch, as arrays), where tanh a = |tanh x|
     to the bit (``elementary``'s tanh is odd to the bit: every step of it is); else
     ln 2 - ln(1 + e) - 2 a e / (1 + e), e = e^{-2a} (``_large``; one by one while few, as
-    ``elementary_array.by_branch``)."""
+    ``elementary_interpreted.by_branch``)."""
     with np.errstate(all="ignore"):
         a = np.abs(x)
         small = a < 1.0
@@ -85,3 +87,21 @@ def replay_current_array(K: CriticConstants, n: int, W: array, z: array, dinv: a
         quad = K.theta1 * zp1 * zp1 + K.theta2 * zp2 * zp2 + K.theta3 * zv1 * zv1 + K.theta4 * zv2 * zv2
         np.frombuffer(E, count=N_BASIS * n).reshape(n, N_BASIS)[:] = eta.T
         np.frombuffer(rew, count=n)[:] = quad + omega
+
+
+def cl_matrix_numpy(n: int, E, rew, M, b, sc) -> None:
+    """``cl_matrix`` for the interpreted core, the same bits: every product is the same elementwise
+    product (numpy rounds each one as Python does, no FMA), and every sum runs in the same order:
+    ``in_order`` over the rows, and over k for eta_i^T eta_i; only the loops over the entries of a row
+    become vector operations."""
+    N = N_BASIS
+    Ev = np.frombuffer(E, count=n * N).reshape(n, N)
+    with np.errstate(all="ignore"):  # an overflow gives inf silently, as the loops do
+        ee = in_order(Ev * Ev, 1)  # eta_i^T eta_i over k in order, for all rows at once
+        scv = np.array([1.0 / normalisation(v) for v in ee.tolist()])
+        np.frombuffer(sc, count=n)[:] = scv
+        xa = Ev * scv[:, None]
+        Mv = in_order(xa[:, :, None] * Ev[:, None, :], 0)  # xa_a eta_c of each row, summed over the rows
+        bv = in_order(xa * np.frombuffer(rew, count=n)[:, None], 0)
+    np.frombuffer(M).reshape(N, N)[:] = np.where(lower_masks(N)[0], Mv, Mv.T)
+    np.frombuffer(b)[:] = bv

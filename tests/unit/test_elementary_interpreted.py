@@ -1,5 +1,5 @@
-"""The Python build's own paths give the bits of the loops the compiled build runs: ``elementary_array``'s
-exp, log1p, tanh and sinh against ``elementary``'s, element by element, ``sotc_replay``'s replay over all
+"""The Python build's own paths give the bits of the loops the compiled build runs: ``elementary_interpreted``'s
+exp, log1p, tanh and sinh against ``elementary``'s, element by element, ``sotc_stack_interpreted``'s replay over all
 rows against ``sotc_stack.replay_current``'s loop over rows, ``fixed_linalg_interpreted``' eigenvalue against
 ``fixed_linalg``'s buffers, on hypothesis-drawn arguments (signed zeros, inf, nan, tiny
 and huge arguments, subnormal results, every branch boundary and its neighbours, branches mixed in one array)."""
@@ -15,9 +15,9 @@ from support.interpreted import interpreted
 
 # the interpreted build's modules, from their .py files in either build (CI's installed package is compiled:
 # there elementary's constants and sotc_math's functions are C, and the compiled build never imports these paths)
-el, ea, fl, sotc_math, sotc_replay, sotc_stack = interpreted(
-    "fmu_controller.elementary", "fmu_controller.elementary_array", "fmu_controller.fixed_linalg",
-    "fmu_controller.sotc_math", "fmu_controller.sotc_replay", "fmu_controller.sotc_stack")
+el, ea, fl, sotc_math, sotc_stack_interpreted, sotc_stack = interpreted(
+    "fmu_numerics.elementary", "fmu_numerics.elementary_interpreted", "fmu_numerics.fixed_linalg",
+    "fmu_controller.sotc_math", "fmu_controller.sotc_stack_interpreted", "fmu_controller.sotc_stack")
 CriticConstants = sotc_math.CriticConstants
 
 
@@ -68,7 +68,7 @@ def test_hypot_of_each_pair_has_the_scalar_functions_bits(pairs):
 @given(xs=st.lists(ARGUMENTS, min_size=1, max_size=40))
 def test_the_saturated_cost_term_has_the_scalar_bits(xs):
     x = np.array(xs)
-    got = sotc_replay.x_tanh_minus_log_cosh(x, ea.tanh(x))
+    got = sotc_stack_interpreted.x_tanh_minus_log_cosh(x, ea.tanh(x))
     assert bits(got.tolist()) == bits([sotc_math._x_tanh_minus_log_cosh(v, el.tanh(v)) for v in xs])
 
 
@@ -88,7 +88,7 @@ def test_the_replay_over_all_rows_has_the_loops_bits(data, n, coupled, backstepp
     K = CriticConstants(s, r, (1.0, 2.0, 0.5, 0.25), (5.0, 4.0), (3.0, 2.5), backstepping, coupled)
     W, z, dinv, fe = vector(10), vector(4 * n), vector(3 * n), vector(2 * n)
     out = []
-    for replay in (loop, sotc_replay.replay_current_array):
+    for replay in (loop, sotc_stack_interpreted.replay_current_array):
         E, rew = array("d", [7.0] * (10 * n)), array("d", [7.0] * n)
         replay(K, n, W, z, dinv, fe, E, rew)
         out.append((bits_or_nan(E), bits_or_nan(rew)))

@@ -28,10 +28,11 @@ import math
 from array import array
 from typing import Sequence
 
+from fmu_numerics.elementary import INTERPRETED
+
 EPS = 2.220446049250313e-16  # the unit roundoff of float64, 2^-52
-INTERPRETED = __file__.endswith(".py")  # False in the compiled core (an extension module)
 if INTERPRETED:  # the Python build's eigenvalue paths (the same bits)
-    from fmu_controller import fixed_linalg_interpreted
+    from fmu_numerics import fixed_linalg_interpreted
 MAX_HALVINGS = 200  # bisection never halves more often than this (a zero resolution: until the interval stops shrinking)
 
 

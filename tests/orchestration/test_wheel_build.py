@@ -1,0 +1,55 @@
+"""setup.py's build of the wheel's cores is all or nothing, as the runtime needs (the cores cimport one
+another): where one extension fails to compile, the ones compiled before it leave the build too."""
+from __future__ import annotations
+
+import runpy
+import sys
+from pathlib import Path
+
+import pytest
+import setuptools
+from setuptools import Distribution, Extension
+
+from orchestration.fmu_build import compiled
+from support import REPO
+
+
+@pytest.fixture
+def build_ext_class(monkeypatch):
+    """setup.py's build_ext command, without running its setup()."""
+    taken = {}
+    monkeypatch.setattr(setuptools, "setup", lambda **kw: taken.update(kw))
+    monkeypatch.setenv(compiled.SWITCH, "0")  # no hot extensions are cythonized for this
+    monkeypatch.setattr(sys, "argv", ["setup.py"])
+    runpy.run_path(str(REPO / "setup.py"), run_name="setup")
+    return taken["cmdclass"]["build_ext"]
+
+
+def _build(cls, tmp_path: Path, sources: dict[str, str], monkeypatch):
+    tmp_path.mkdir()
+    for name, text in sources.items():
+        (tmp_path / f"{name}.c").write_text(text)
+    monkeypatch.chdir(tmp_path)
+    dist = Distribution({"name": "t", "ext_modules": [Extension(n, [f"{n}.c"]) for n in sources]})
+    cmd = cls(dist)
+    cmd.build_lib, cmd.build_temp = str(tmp_path / "lib"), str(tmp_path / "tmp")
+    cmd.ensure_finalized()
+    cmd.run()
+    return sorted(p.name.split(".")[0] for p in (tmp_path / "lib").glob("*.so"))
+
+
+GOOD = '#include <Python.h>\nstatic struct PyModuleDef m = {PyModuleDef_HEAD_INIT, "a_good", 0, -1, 0};\n' \
+       'PyMODINIT_FUNC PyInit_a_good(void) { return PyModule_Create(&m); }\n'
+
+
+def test_one_failed_extension_leaves_every_module_python(build_ext_class, tmp_path, monkeypatch, capsys):
+    reason = compiled.unavailable()
+    if reason:
+        pytest.skip(f"cannot compile: {reason}")
+    ahead = []  # the FMUs' cores, compiled ahead after a complete build only
+    monkeypatch.setitem(build_ext_class.run.__globals__, "compile_fmu_cores", lambda: ahead.append("compiled"))
+    assert _build(build_ext_class, tmp_path / "ok", {"a_good": GOOD}, monkeypatch) == ["a_good"]
+    assert ahead == ["compiled"]
+    assert _build(build_ext_class, tmp_path / "bad", {"a_good": GOOD, "b_bad": "this is not C;\n"}, monkeypatch) == []
+    assert "the cores stay Python (b_bad" in capsys.readouterr().err
+    assert ahead == ["compiled"]
