@@ -13,6 +13,7 @@ An editable install (``pip install -e``) and ``SOTC_COSIM_COMPILE=0`` compile no
 being edited is always what runs.
 """
 import importlib.util
+import os
 import sys
 from pathlib import Path
 
@@ -32,6 +33,7 @@ class OptionalBuildExt(build_ext):
         if getattr(self, "editable_mode", False) or self.inplace:
             self.extensions = []
         self.failed = None
+        self.parallel = self.parallel or os.cpu_count() or 1
         super().run()
         if self.failed:  # the ones compiled before it are taken out of the wheel again
             for ext in self.extensions:
@@ -76,7 +78,9 @@ def hot_extensions() -> list:
     flags = compiled.CFLAGS.split()
     modules = [Extension(rel[:-3].replace("/", "."), [rel], extra_compile_args=flags)
                for rel in compiled.HOT]
-    return cythonize(modules, build_dir="build/cython", quiet=True, compiler_directives=compiled.DIRECTIVES)
+    # Cython and the C compiler on every core (as the FMUs' compile does: compiled._SCRIPT)
+    return cythonize(modules, build_dir="build/cython", quiet=True, nthreads=os.cpu_count() or 1,
+                     compiler_directives=compiled.DIRECTIVES)
 
 
 setup(ext_modules=hot_extensions(), cmdclass={"build_ext": OptionalBuildExt})
