@@ -29,6 +29,7 @@ MODULES = {
     "fmu_plant/trajectory.py": ["test_kinematics_exact.py", "test_trajectory.py"],
     # test_sotc_core.py's loops would take hours over every mutant: the references of test_sotc_exact.py do
     "fmu_controller/sotc_math.py": ["test_sotc_exact.py", "test_interpreted_paths.py"],
+    "fmu_controller/sotc_math_interpreted.py": ["test_interpreted_paths.py"],
     "orchestration/study/statistics.py": ["test_statistics.py"],
     "orchestration/run/metrics.py": ["test_metrics.py", "test_metrics_exact.py"],
 }

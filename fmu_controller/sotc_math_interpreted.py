@@ -21,7 +21,8 @@ def implicit_system_array(W: array, wdot: array, xi: array, eta: array, M: array
                           c: float, G: array, rhs: array) -> None:
     """``implicit_system``'s loops as numpy operations, the same bits: the same elementwise products and
     sums (no fused multiply-add), G's lower triangle mirrored as there, and (G W)_a summed over k in order
-    (``fixed_linalg_interpreted.in_order``)."""
+    (``fixed_linalg_interpreted.in_order``). N, the basis size, is rhs's length (one entry per basis term;
+    the other buffers may be longer, and only their first N or N * N entries are read or written)."""
     N = len(rhs)
     lower, diagonal = lower_masks(N)
     with np.errstate(all="ignore"):  # an overflow gives inf silently, as the loops do

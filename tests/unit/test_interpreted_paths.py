@@ -90,3 +90,44 @@ def test_implicit_system_array_gives_the_bits_of_the_loops(data, with_cl, dt, c)
                 sotc_math.implicit_system(W, wdot, xi, eta, M, with_cl, dt, c, G, rhs)
         out.append((bits(G), bits(rhs)))
     assert out[0] == out[1]
+
+
+def _implicit_system_both(W, wdot, xi, eta, M, with_cl, size_G, size_rhs):
+    """G and rhs (their first N*N and N entries) from ``implicit_system``'s loops and from the twin."""
+    out = []
+    for fill in (implicit_loops, sotc_math_interpreted.implicit_system_array):
+        G, rhs = array("d", [7.0] * size_G), array("d", [7.0] * size_rhs)
+        fill(W, wdot, xi, eta, M, with_cl, 0.01, 2.0, G, rhs)
+        out.append((bits(G[:N * N]), bits(rhs[:N])))
+    return out
+
+
+def implicit_loops(*args) -> None:
+    """``implicit_system`` as the compiled core runs it: its loops, never the numpy path."""
+    if not sotc_math.INTERPRETED:
+        sotc_math.implicit_system(*args)
+        return
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(sotc_math, "INTERPRETED", False)
+        sotc_math.implicit_system(*args)
+
+
+def test_the_weight_step_twin_reads_the_first_n_entries_as_the_loops_do():
+    """Input buffers and G longer than the basis (a caller's scratch space): both read and write the first
+    N (N * N) entries only; rhs has one entry per basis term (the twin takes N from it)."""
+    longer = [array("d", [0.5 + k + 0.25 * j for j in range(N + 3)]) for k in range(4)]
+    M = array("d", [0.001 * j for j in range(N * N + 5)])
+    out = _implicit_system_both(*longer, M, True, N * N + 4, N)
+    assert out[0] == out[1]
+
+
+def test_the_weight_step_twin_overflows_to_inf_silently_as_the_loops_do():
+    """An overflow in (I + c Gamma) gives inf entries and no warning, in the loops and in the twin alike
+    (a warning turned into an error by a host's filter would otherwise stop the FMU)."""
+    import warnings
+
+    huge = [array("d", [1e200] * N) for _ in range(4)]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        out = _implicit_system_both(*huge, array("d", [1e200] * (N * N)), True, N * N, N)
+    assert out[0] == out[1] and math.isinf(array("d", out[0][1])[0])

@@ -241,3 +241,33 @@ def test_critic_constants_refuse_a_policy_denominator_2_s_r_that_is_not_positive
 def test_the_integrand_of_13():
     for u, s, r in ((0.3, 0.6, 2.0), (-3.9, 4.0, 0.5), (0.0, 1.0, 1.0)):
         assert sm.omega_integrand(u, s, r) == pytest.approx(float(2 * s * r * mp.atanh(mp.mpf(u) / s)), rel=1e-14)
+
+
+@pytest.mark.parametrize("x", [1.0, -1.0, 1.5, -1.9999999999999998, 0.9999999999999999, -0.5])
+def test_each_form_of_ln_cosh_holds_on_its_own_side_of_one(x):
+    """ln cosh x and x tanh x - ln cosh x switch form at |x| = 1 (docstrings): below it ln(1 + 2 sinh^2(x/2)),
+    from it on |x| + ln(1 + e^-2|x|) - ln 2 and ln 2 - ln(1 + e) - 2|x| e / (1 + e). Both forms are accurate
+    near 1, so the switch is pinned by the bits of the form each side must use, written out here."""
+    from fmu_numerics.elementary import exp, log, log1p, sinh, tanh
+
+    a = abs(x)
+    if a < 1.0:
+        h = sinh(0.5 * a)
+        want_log_cosh = log1p(2.0 * h * h)
+        want_rest = a * abs(tanh(x)) - want_log_cosh
+    else:
+        e = exp(-2.0 * a)
+        want_log_cosh = a + log1p(e) - log(2.0)
+        want_rest = log(2.0) - log1p(e) - 2.0 * a * e / (1.0 + e)
+    assert sm.log_cosh(x).hex() == want_log_cosh.hex()
+    assert sm._x_tanh_minus_log_cosh(x, tanh(x)).hex() == want_rest.hex()
+    assert abs(sm.log_cosh(x) - float(mp.log(mp.cosh(mp.mpf(x))))) <= 4 * EPS * sm.log_cosh(x)
+
+
+def test_the_basis_jacobian_is_float_for_integer_states():
+    """d zeta / dz at an integer z (as an analysis script may pass) is a float64 array of sympy's derivative."""
+    J = sm.basis_jacobian([1, 2, -3, 4])
+    z = sp.symbols("z1:5")
+    zeta = [z[i] * z[j] for i, j in sm.BASIS_PAIRS]
+    exact = sp.Matrix(zeta).jacobian(sp.Matrix(z)).subs(dict(zip(z, (1, 2, -3, 4))))
+    assert J.dtype == np.float64 and J.tolist() == [[float(v) for v in row] for row in exact.tolist()]
