@@ -9,9 +9,9 @@ lists, one row and column shorter after each reflection (an entry is read withou
 object, no row is sliced twice; numpy was slower on blocks of 9 x 9 and less), the squares
 e_i^2 of the Sturm recurrence are computed once (the products ``sturm_count`` forms at every count), and
 the count of a halving stops as soon as it reaches k: the bisection only asks whether at least k
-eigenvalues lie below the midpoint, and the later terms decide nothing. Only the interpreted
-``fixed_linalg`` imports this module; ``tests/unit/test_elementary_interpreted.py`` compares the two on
-hypothesis-drawn matrices.
+eigenvalues lie below the midpoint, and the later terms decide nothing. The interpreted ``fixed_linalg``
+imports this module (the other twins take ``in_order`` from it);
+``tests/unit/test_elementary_interpreted.py`` compares the two on hypothesis-drawn matrices.
 """
 from __future__ import annotations
 

@@ -26,7 +26,7 @@ from orchestration.fmu_build import compiled
 from orchestration.fmu_build.build import PACKAGE_ROOT
 from orchestration.scratch import owner_prefix
 
-CORES = ("fmu_numerics", "fmu_controller", "fmu_plant")  # the packages of compiled.HOT
+CORES = compiled.CORE_PACKAGES
 BEFORE = Path(__file__).with_name("trial_before.json")
 CHILD = (
     "import importlib.machinery, json, time\n"

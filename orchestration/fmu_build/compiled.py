@@ -58,11 +58,13 @@ def _hot_modules(root: Path) -> tuple[str, ...]:
     pxds = {f"{p.parent.name}/{p.stem}.py": p for package in CORE_PACKAGES for p in sorted((root / package).glob("*.pxd"))}
     order: list[str] = []
 
-    def visit(rel: str) -> None:
+    def visit(rel: str, path: tuple[str, ...] = ()) -> None:
+        if rel in path:
+            raise ValueError(f"the .pxd files cimport one another in a cycle: {' -> '.join(path + (rel,))}")
         if rel not in order:
             for dotted in _CIMPORT.findall(pxds[rel].read_text()):
                 if (needed := dotted.replace(".", "/") + ".py") in pxds:
-                    visit(needed)
+                    visit(needed, path + (rel,))
             order.append(rel)
 
     for rel in pxds:

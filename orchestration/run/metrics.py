@@ -1,4 +1,4 @@
-"""Closed-loop performance metrics, pure numpy (no FMI, no rerun).
+"""Closed-loop performance metrics: a pure core (numpy, the project's numerics and the arm model; no FMI, no rerun).
 
 ``tracking_metrics`` turns one run -- time, tracking error, commanded torque, optionally the SOTC
 cost integrand -- into a flat dict of JSON-friendly values (floats, ints, None, lists of two

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import ast
+import re
 import sys
 from pathlib import Path
 
@@ -49,10 +50,19 @@ def imported_names(path: Path, module: str) -> set[str]:
     return names
 
 
+_CIMPORT = re.compile(r"^\s*(?:from\s+([\w.]+)\s+cimport|cimport\s+([\w.]+))", re.M)
+
+
+def cimported_names(path: Path) -> set[str]:
+    """What the ``.pxd`` beside a module cimports (the compiled build's imports; none without a ``.pxd``)."""
+    pxd = path.with_suffix(".pxd")
+    return {a or b for a, b in _CIMPORT.findall(pxd.read_text())} if pxd.is_file() else set()
+
+
 def graph(root: Path = ROOT) -> dict[str, set[str]]:
-    """Module -> the project modules it imports."""
+    """Module -> the project modules it imports, its ``.pxd``'s cimports included."""
     mods = modules(root)
-    return {m: {n for n in imported_names(p, m) if n in mods and n != m} for m, p in mods.items()}
+    return {m: {n for n in imported_names(p, m) | cimported_names(p) if n in mods and n != m} for m, p in mods.items()}
 
 
 def third_party(root: Path = ROOT) -> dict[str, set[str]]:
