@@ -222,7 +222,14 @@ def _per_controller_text(sweep: Sweep) -> str:
     return " Per controller (`controller_settings`): " + "; ".join(parts) + "."
 
 
-def summary_markdown(sweep: Sweep, rows_all: list[dict[str, Any]], total: int, heading: str = "#") -> str:
+DOC_ROWS = 20  # a docs page lists an axis of single points up to this many rows; beyond, its CSV holds them
+
+
+def summary_markdown(sweep: Sweep, rows_all: list[dict[str, Any]], total: int, heading: str = "#",
+                     points_file: str | None = None) -> str:
+    """The sweep's summary, a table per axis group; with ``points_file`` (a docs page's block), a long group
+    (over ``DOC_ROWS`` rows) whose every row is one point is not listed again but named by that file, which
+    holds every point."""
     ok = [r for r in rows_all if r["status"] == "ok"]
     lines = [f"{heading} Sweep `{sweep.name}`", "", sweep.description, "",
              f"{len(rows_all)} of {total} points stored, {len(ok)} ok, {len(rows_all) - len(ok)} failed; base scenario "
@@ -237,7 +244,12 @@ def summary_markdown(sweep: Sweep, rows_all: list[dict[str, Any]], total: int, h
     for group, axes in sweep.groups().items():
         title = f"`{axes[0].label}`" if len(axes) == 1 else f"{group} ({', '.join(f'`{a.label}`' for a in axes)})"
         rows = []
-        for text, ctrl, chosen in group_rows(sweep, rows_all, axes):
+        grouped = group_rows(sweep, rows_all, axes)
+        if points_file and len(grouped) > DOC_ROWS and all(len(chosen) == 1 for _, _, chosen in grouped):
+            lines += [f"{heading}# Axis {title}", "", f"One row per point ({len(grouped)} rows), not repeated "
+                      f"here: every point's settings and metrics are in [{Path(points_file).name}]({points_file}).", ""]
+            continue
+        for text, ctrl, chosen in grouped:
             tails = [t for t in (tail_error(r) for r in chosen) if t is not None]
             taus = [metric(r, "max_norm_tau") for r in chosen if r["status"] == "ok" and metric(r, "max_norm_tau") is not None]
             over = sum(metric(r, "samples_over_limit") or 0 for r in chosen if r["status"] == "ok")
@@ -327,7 +339,7 @@ def write_reports(store: SweepStore, total: int) -> dict[str, Path]:
 # --- generated blocks in docs (orchestration.reports.docgen checks them) ---------------------------------
 
 def doc_block(sweep: Sweep, rows: list[dict[str, Any]], total: int, plots: list[str]) -> str:
-    body = summary_markdown(sweep, rows, total, heading="###")
+    body = summary_markdown(sweep, rows, total, heading="###", points_file=f"sweeps/{sweep.name}/points.csv")
     images = "\n".join(f"![{Path(p).stem}]({p})" for p in plots)
     return f"{body}\n{images}\n"
 

@@ -10,6 +10,7 @@ from orchestration.cli import main
 from orchestration.sweep.results import doc_block, summary_markdown, table_csv
 from orchestration.sweep.runner import PointGuard, point_key, run_point
 from orchestration.sweep.spec import load_sweep, parse_sweep
+from support import REPO
 
 BASE = {"scenario": "paper-ct", "stop_time": 1.0}
 
@@ -417,3 +418,20 @@ def test_the_schema_names_the_file_the_key_and_what_is_allowed(raw, message):
     with pytest.raises(ValueError) as refused:
         parse_sweep({"scenario": "paper-ct", **raw}, "test")
     assert str(refused.value).startswith(message) and "\n" not in str(refused.value)
+
+
+def test_a_docs_block_names_the_csv_for_a_long_axis_of_single_points():
+    """The shipped `controllers` sweep's 80 drawn points: the docs page names points.csv instead of an
+    80-row table (issue 50: the page a reader looks things up in); the terminal summary still lists them,
+    and short axes (the `robustness` sweep's, one point a value) stay tables."""
+    from orchestration.sweep.results import DOC_ROWS, stored_rows
+
+    docs = REPO / "docs"
+    sweep, rows = stored_rows("controllers", docs)
+    block = doc_block(sweep, rows, len(sweep.points()), [])
+    assert "One row per point (80 rows)" in block and "](sweeps/controllers/points.csv)" in block
+    assert (docs / "sweeps" / "controllers" / "points.csv").is_file()
+    assert block.count("\n| ") < 2 * DOC_ROWS  # the controller axis's table only
+    assert summary_markdown(sweep, rows, len(sweep.points())).count("\n| ") > 80
+    sweep, rows = stored_rows("robustness", docs)
+    assert "One row per point" not in doc_block(sweep, rows, len(sweep.points()), [])
