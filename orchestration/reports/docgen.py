@@ -8,7 +8,7 @@
 A block is the text between ``<!-- BEGIN generated:NAME -->`` and ``<!-- END generated:NAME -->`` in
 its file; the generator below produces it from pure-loop runs (``orchestration.study.comparison``,
 ``orchestration.study.sotc_study``, ``orchestration.study.value_function``), which the FMU runs equal sample for
-sample. tests/test_docgen.py fails when a committed block differs from what the code produces (the
+sample. tests/docs/test_docgen.py fails when a committed block differs from what the code produces (the
 quick blocks in the ordinary suite, the long ones under the ``slow`` marker).
 """
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Every controller under every torque-limit handling, and the baselines' tuning, in the pure loop.
 
-The pure loop (``orchestration.study.pure_loop``) is the FMU run sample for sample (tests/test_sotc_fmu.py),
+The pure loop (``orchestration.study.pure_loop``) is the FMU run sample for sample (tests/fmu/test_sotc_fmu.py),
 so these are the numbers ``sotc-cosim reproduce`` gets through the FMUs, in a fraction of the time.
 Runs are cached per process: several generated tables share them (``orchestration.reports.docgen``).
 

@@ -9,6 +9,7 @@ import re
 import pytest
 
 from support import REPO
+from support.doc_paths import exists, named_paths
 from support.imports import PACKAGES, cycles, graph, modules, room, third_party
 
 # folder -> the folders of the project it may import (besides itself); docs/architecture.md's table
@@ -130,28 +131,7 @@ def test_readme_layout_section_names_the_same_folders_as_architecture_md():
     assert all(re.search(rf"`{re.escape(name)}/?`", layout) for name in top), (top, layout)
 
 
-def _named_paths(text: str) -> list[str]:
-    """The repository paths a document names in backticks: those under a top-level folder of the
-    repository, and bare file names of its sources (``x.py``, ``x.pxd``, ``x.c``); paths inside an FMU
-    (``resources/...``) or a URL are no repository paths."""
-    top = {p.name for p in REPO.iterdir()}
-    spans = set(re.findall(r"`([^`\s]+)`", text))
-    return sorted(s for s in spans if s.split("/")[0] in top and "/" in s
-                  or "/" not in s and re.fullmatch(r"[\w*]+\.(py|pxd|c)", s))
-
-
-def _exists(path: str) -> bool:
-    """A path under the repository, or a bare file name that names exactly one file of the project's own code
-    (the tests, build products and virtualenvs aside): ``cli.py`` names no module since cli became a package."""
-    if "/" in path:
-        return any(REPO.glob(path.rstrip("/"))) if "*" in path else (REPO / path).exists()
-    found = [p for p in REPO.rglob(path) if not {".venv", "build", "tests"} & set(p.relative_to(REPO).parts)]
-    return len(found) == 1
-
-
 def test_every_path_architecture_md_names_exists():
-    named = _named_paths((REPO / "docs" / "architecture.md").read_text())
+    named = named_paths((REPO / "docs" / "architecture.md").read_text())
     assert len(named) > 20 and "orchestration/run/master.py" in named
-    assert [p for p in named if not _exists(p)] == []
-    assert not _exists("fmu_controller/no_such_module.py") and not _exists("no_such_module.py")
-    assert not _exists("cli.py") and not _exists("__init__.py")  # a package now; a name of many files
+    assert [p for p in named if not exists(p)] == []

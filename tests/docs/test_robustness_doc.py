@@ -1,6 +1,6 @@
 """docs/robustness.md: the stored rows behind each generated block (docs/sweeps/<sweep>/points.jsonl)
 are the points of the shipped sweep file as it is now, and its table is what the writer makes of them
-(tests/test_docgen.py checks the blocks themselves). Re-running the sweeps takes minutes:
+(tests/docs/test_docgen.py checks the blocks themselves). Re-running the sweeps takes minutes:
 `sotc-cosim sweep NAME --doc docs/robustness.md`."""
 import json
 from pathlib import Path

@@ -1,4 +1,4 @@
-"""Write the stored reference runs that ``tests/test_reference_runs.py`` compares against.
+"""Write the stored reference runs that ``tests/orchestration/test_reference_runs.py`` compares against.
 
     python tests/support/reference_runs.py            # from the repository root, project installed
 
