@@ -7,6 +7,7 @@ FAILED = 1  # the command ran; a run, a point or a check failed, and it says whi
 USAGE = 2  # the request cannot be run as given (argument, scenario, path): one line, nothing written
 SIGNALLED = 128  # + the signal's number (130 SIGINT, 143 SIGTERM, 129 SIGHUP): stopped between two steps,
 # finished results kept (orchestration.run.interrupt)
+PIPE_CLOSED = 141  # 128 + SIGPIPE: the reader of the output went away (`| head`), as a shell tool reports it
 
 
 class UsageError(ValueError):

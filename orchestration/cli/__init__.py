@@ -93,6 +93,9 @@ def main(argv: list[str] | None = None) -> int:
             code = interrupt.exit_code()
         except BuildInterrupted:  # the build child was stopped and cleaned up: no run started
             code, stopped = interrupt.exit_code(), "stopped while building FMUs; nothing ran"
+        except BrokenPipeError:  # the reader of stdout went away (| head): nothing left to say, no error line
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # so the exit's flush is quiet too
+            return exit_codes.PIPE_CLOSED
         except (UsageError, BuildError, OutputError, OSError) as exc:
             if interrupt.requested():
                 code = interrupt.exit_code()

@@ -236,3 +236,21 @@ def test_a_sweep_file_with_the_old_torque_limit_name_is_refused_naming_rho(tmp_p
     line = _one_line_error(capsys.readouterr().err)
     assert "'tau_max' was renamed 'rho'" in line
     assert sorted(p.name for p in tmp_path.iterdir()) == ["old.toml"]
+
+
+def test_a_reader_that_went_away_ends_the_command_quietly_with_141():
+    """`sotc-cosim scenarios | head` once ended in "error: [Errno 32] Broken pipe" and exit 1: the reader of
+    stdout going away is no error of the command. Here the pipe's read end is closed before the command
+    writes, so its first line meets a closed pipe whatever the timing."""
+    import os
+    import subprocess
+    import sys
+
+    read, write = os.pipe()
+    os.close(read)
+    try:
+        proc = subprocess.run([sys.executable, "-c", "from orchestration.cli import console; console()", "scenarios"],
+                              stdout=write, stderr=subprocess.PIPE, text=True, timeout=120)
+    finally:
+        os.close(write)
+    assert (proc.returncode, proc.stderr) == (141, "")
