@@ -17,7 +17,7 @@ def _job():
 def test_the_job_names_modules_and_tests_that_exist():
     job = _job()
     assert set(Path(m).stem for m in job.MODULES) == {"saturation", "dynamics", "kinematics", "trajectory",
-                                                      "sotc_math", "statistics", "metrics"}
+                                                      "sotc_math", "sotc_math_interpreted", "statistics", "metrics"}
     for module, tests in job.MODULES.items():
         assert (ROOT / module).is_file(), module
         assert all((ROOT / job.UNIT / t).is_file() for t in tests), tests
