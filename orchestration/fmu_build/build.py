@@ -42,7 +42,7 @@ class FmuSource:
 
 # the packages an FMU may bundle; only the modules a script imports go in (packaging.import_closure), so a
 # plant FMU carries no controller code
-BUNDLED = ("fmi_slave", "fmu_numerics", "fmu_plant", "fmu_controller")
+BUNDLED = ("fmi_slave", *compiled.CORE_PACKAGES)
 FMU_SOURCES: dict[str, FmuSource] = {
     s.model: s
     for s in (

@@ -48,7 +48,12 @@ from pathlib import Path
 
 SWITCH = "SOTC_COSIM_COMPILE"  # "0": never compile the cores; unset or "1": compile them where possible
 CORE_PACKAGES = ("fmu_numerics", "fmu_plant", "fmu_controller")  # where the hot modules live
-_CIMPORT = re.compile(r"^from\s+([\w.]+)\s+cimport", re.M)
+_CIMPORT = re.compile(r"^\s*(?:from\s+([\w.]+)\s+cimport|cimport\s+([\w.]+))", re.M)
+
+
+def cimports(pxd_text: str) -> set[str]:
+    """The dotted modules a ``.pxd`` cimports (``from a.b cimport f`` and ``cimport a.b``)."""
+    return {a or b for a, b in _CIMPORT.findall(pxd_text)}
 
 
 def _hot_modules(root: Path) -> tuple[str, ...]:
@@ -62,7 +67,7 @@ def _hot_modules(root: Path) -> tuple[str, ...]:
         if rel in path:
             raise ValueError(f"the .pxd files cimport one another in a cycle: {' -> '.join(path + (rel,))}")
         if rel not in order:
-            for dotted in _CIMPORT.findall(pxds[rel].read_text()):
+            for dotted in sorted(cimports(pxds[rel].read_text())):
                 if (needed := dotted.replace(".", "/") + ".py") in pxds:
                     visit(needed, path + (rel,))
             order.append(rel)

@@ -51,7 +51,7 @@ from orchestration.fmu_build import compiled, shim
 from orchestration.outputs import atomic_file
 
 # top-level packages renamed into <stem>_lib
-BUNDLED = ("fmi_slave", "fmi3_slave", "fmu_numerics", "fmu_plant", "fmu_controller", "pythonfmu", "pythonfmu3")
+BUNDLED = ("fmi_slave", "fmi3_slave", *compiled.CORE_PACKAGES, "pythonfmu", "pythonfmu3")
 EXPORTERS = {2: "pythonfmu", 3: "pythonfmu3"}  # FMI version -> the package whose binary an FMU carries
 DISTRIBUTION = "sotc-cosim"
 # CPython versions the project's test suite runs the built FMUs on (requires-python >= 3.11)

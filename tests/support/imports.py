@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import ast
-import re
 import sys
 from pathlib import Path
+
+from orchestration.fmu_build.compiled import cimports
 
 ROOT = Path(__file__).resolve().parents[2]
 PACKAGES = ("fmi_slave", "fmi3_slave", "fmu_numerics", "fmu_plant", "fmu_controller", "orchestration")
@@ -50,13 +51,10 @@ def imported_names(path: Path, module: str) -> set[str]:
     return names
 
 
-_CIMPORT = re.compile(r"^\s*(?:from\s+([\w.]+)\s+cimport|cimport\s+([\w.]+))", re.M)
-
-
 def cimported_names(path: Path) -> set[str]:
     """What the ``.pxd`` beside a module cimports (the compiled build's imports; none without a ``.pxd``)."""
     pxd = path.with_suffix(".pxd")
-    return {a or b for a, b in _CIMPORT.findall(pxd.read_text())} if pxd.is_file() else set()
+    return cimports(pxd.read_text()) if pxd.is_file() else set()
 
 
 def graph(root: Path = ROOT) -> dict[str, set[str]]:
