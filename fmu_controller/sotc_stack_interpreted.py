@@ -15,7 +15,8 @@ body runs once on those arrays:
   ``omega4``'s order.
 
 Only the interpreted ``sotc_stack`` imports this module (sotc_math's compiled functions take doubles);
-``tests/unit/test_elementary_interpreted.py`` compares it with the loop on hypothesis-drawn rows.
+``tests/unit/test_elementary_interpreted.py`` compares the replay, and ``tests/unit/test_interpreted_paths.py``
+the CL sums, with the loops on hypothesis-drawn rows.
 """
 from __future__ import annotations
 
