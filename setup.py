@@ -7,8 +7,8 @@ in-process studies (the pure loop of tuning, the fair evaluation, the docs' tabl
 get the bits of the ``.py``. The set is all or nothing (the modules cimport one another, so one of them
 as a ``.py`` would break the imports of the others): a failed compile leaves every module Python.
 The FMUs cannot load these (their bundles' modules carry another name), so the install also compiles the
-cores of the default scenario's FMUs into the user's private cache, where the first ``sotc-cosim run``
-takes them from (``compile_fmu_cores``).
+FMUs' cores (each once, for every FMU that carries it) into the user's private cache, where the first
+``sotc-cosim run`` takes them from (``compile_fmu_cores``).
 An editable install (``pip install -e``) and ``SOTC_COSIM_COMPILE=0`` compile nothing, so the ``.py``
 being edited is always what runs.
 """
@@ -52,16 +52,14 @@ class OptionalBuildExt(build_ext):
 
 
 def compile_fmu_cores() -> None:
-    """The cores of the FMUs the first ``sotc-cosim run`` builds (the default scenario's), compiled now
-    into the user's private cache under their bundles' names (``build.compile_ahead``): that run takes
-    them from the cache. Any failure leaves them to that run."""
+    """The cores of every FMU, compiled now into the user's private cache under the name their bundles are
+    compiled with (``build.compile_ahead``): the first build of any FMU takes them from the cache. Any
+    failure leaves them to that build."""
     sys.path.insert(0, str(HERE))
     try:
-        from orchestration.cli.options import DEFAULT_SCENARIO
         from orchestration.fmu_build.build import compile_ahead
-        from orchestration.run.scenario import load_scenario
 
-        compile_ahead(sorted({i.fmu for i in load_scenario(DEFAULT_SCENARIO).instances.values()}))
+        compile_ahead()
     except Exception as exc:  # noqa: BLE001 - the install goes on; the first run compiles them
         print(f"sotc-cosim: the FMUs' cores are left to the first run ({exc})", file=sys.stderr)
     finally:

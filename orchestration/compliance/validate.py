@@ -238,13 +238,13 @@ def _python_bundle(path: Path) -> dict[str, bytes]:
 
 def _digest_problems(path: Path, stem: str) -> list[str]:
     """The module names must carry the digest of the bundled content (one name, one content)."""
-    from orchestration.fmu_build.packaging import bundle_digest, digested
+    from orchestration.fmu_build.packaging import bundle_digest, bundle_stem, digested
 
-    model, _, named = stem.rpartition("_")
+    model, _, named = stem.removeprefix("sotc_").rpartition("_")
     with zipfile.ZipFile(path) as z:
         every = {n[len("resources/"):]: z.read(n) for n in z.namelist() if n.startswith("resources/") and not n.endswith("/")}
     files = {n: data for n, data in every.items() if digested(n)}
-    actual = bundle_digest(files, stem, model.removeprefix("sotc_"))[:12]
+    actual = bundle_stem(model, bundle_digest(files, stem, model)).rpartition("_")[2]
     problems = [] if actual == named else [
         f"the bundled code has digest {actual}, but its module names say {named}: changed after the build"]
     return problems + _bytecode_problems(every)

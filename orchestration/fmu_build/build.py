@@ -110,40 +110,41 @@ def compiles() -> bool:
     return compiled.requested() and compiled.unavailable() is None
 
 
-def _build_one(source: FmuSource, out_dir: Path, fmi: int = 2) -> tuple[Path, list[str], bool]:
+def _build_one(source: FmuSource, out_dir: Path, fmi: int = 2) -> tuple[Path, list[str], int]:
     """Runs in the child process only."""
     with tempfile.TemporaryDirectory(prefix=owner_prefix("sotc_stage_")) as tmp:
         digest = source_digest(source, fmi)
         script = PACKAGE_ROOT / source.script
         if fmi == 3:
             script = fmi3.write_script(source.model, script, PACKAGE_ROOT, Path(tmp))
-        built, cores, from_cache = packaging.package_fmu(
+        built, cores, reused = packaging.package_fmu(
             source.model, script, {pkg: PACKAGE_ROOT / pkg for pkg in packages_of(source, fmi)},
             [PACKAGE_ROOT / e for e in source.equations], fmu_path(source.model, out_dir), Path(tmp), compiles(), fmi)
     atomic_write(out_dir / f"{source.model}.sources.sha256", f"{digest}\n{file_digest(built)}\n")
-    return built, cores, from_cache
+    return built, cores, reused
 
 
-def cores_made(cores: list[str], from_cache: bool) -> str:
-    """What a build did for an FMU's hot cores: compiled them, took them from the private cache, or
-    kept them Python."""
+def cores_made(cores: list[str], reused: int) -> str:
+    """What a build did for an FMU's hot cores: took ``reused`` of them from the private cache and compiled
+    the others, or kept them Python."""
     if not cores:
         return "Python"
-    return f"{len(cores)} core{'s' if len(cores) > 1 else ''} {'from the cache' if from_cache else 'compiled'}"
+    head = f"{len(cores)} core{'s' if len(cores) > 1 else ''}"
+    if reused in (0, len(cores)):
+        return f"{head} {'from the cache' if reused else 'compiled'}"
+    return f"{head}: {reused} from the cache, {len(cores) - reused} compiled"
 
 
-def compile_ahead(models: list[str]) -> None:
-    """Compile the hot cores of these FMUs' bundles (FMI 2.0 and 3.0 bundles carry the same) into the
-    private cache without building the FMUs, one line each on stderr: ``pip install .`` calls it for the
-    default scenario's FMUs (setup.py), so that the first ``run`` takes their cores from the cache."""
+def compile_ahead() -> None:
+    """Compile every hot core into the private cache, as every FMU's bundle carries it (FMI 2.0 and 3.0
+    alike), without building an FMU, with a line on stderr: ``pip install .`` calls it (setup.py), so that
+    no FMU's first build compiles."""
     if not compiles():
         return
-    for model in models:
-        source, started = FMU_SOURCES[model], time.monotonic()
-        with tempfile.TemporaryDirectory(prefix=owner_prefix("sotc_stage_")) as tmp:
-            cores = packaging.compile_cores_ahead(model, PACKAGE_ROOT / source.script,
-                                                  {pkg: PACKAGE_ROOT / pkg for pkg in source.packages}, Path(tmp))
-        _to_stderr(f"sotc-cosim: {model}'s {len(cores)} cores in the cache ({time.monotonic() - started:.0f} s)")
+    started = time.monotonic()
+    with tempfile.TemporaryDirectory(prefix=owner_prefix("sotc_stage_")) as tmp:
+        cores = packaging.compile_cores_ahead({pkg: PACKAGE_ROOT / pkg for pkg in compiled.CORE_PACKAGES}, Path(tmp))
+    _to_stderr(f"sotc-cosim: the FMUs' {len(cores)} cores in the cache ({time.monotonic() - started:.0f} s)")
 
 
 def build_fmus(models: list[str] | None = None, out_dir: Path = DEFAULT_FMU_DIR, fmi: int = 2,
@@ -194,8 +195,8 @@ def cores_note() -> str:
     """What a build here makes of the hot cores, and why they stay Python when they do."""
     why = python_only_reason()
     return f"hot cores stay Python: {why}" if why else \
-        (f"hot cores compiled with Cython for {compiled.target()} (a C compile per FMU; "
-         "cores compiled before are taken from the private cache)")
+        (f"hot cores compiled with Cython for {compiled.target()} (each compiled once, "
+         "then taken from the private cache by every FMU that carries it)")
 
 
 def kept_in_other_mode(models: list[str], out_dir: Path, fmi: int, current: set[str]) -> list[str]:
@@ -244,9 +245,9 @@ def main(argv: list[str] | None = None) -> int:
             for i, model in enumerate(models, 1):
                 print(f"[{i}/{len(models)}] {model} ...", flush=True)
                 started = time.monotonic()
-                built, cores, from_cache = _build_one(FMU_SOURCES[model], args.out, args.fmi)
+                built, cores, reused = _build_one(FMU_SOURCES[model], args.out, args.fmi)
                 print(f"[{i}/{len(models)}] {model}: {built.name} in {time.monotonic() - started:.0f} s "
-                      f"({cores_made(cores, from_cache)})", flush=True)
+                      f"({cores_made(cores, reused)})", flush=True)
             print(f"built {len(models)} FMU{'s' if len(models) > 1 else ''} in {time.monotonic() - begun:.0f} s",
                   flush=True)
     except Stopped as exc:

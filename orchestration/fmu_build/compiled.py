@@ -18,18 +18,19 @@ in one process each run their own code (tests/fmu/test_compiled_cores.py). The c
 pure-Python outputs bit for bit (same test; ``-ffp-contract=off``; the elementary functions are
 ``fmu_numerics/elementary.py``'s own, libm's only sqrt, which IEEE 754 rounds correctly everywhere).
 
-A bundle's extensions are compiled once per content: they are kept in the user's private cache
-(``private_folder(*verified.CORES)/<key>``, with a manifest of their SHA-256: ``orchestration.verified``,
-bounded with the other caches),
-keyed by the SHA-256 of the modules and ``.pxd`` files compiled (the bundle's placeholder name in them),
-the compile script and flags, Python's build configuration, Cython's and setuptools' versions, the C
-compiler's path and ``--version``, and the environment variables setuptools reads. A later build of the
-same bundle (another folder, FMI 3, a change elsewhere in the sources) copies them, each checked against
-the manifest as it is copied; a cache folder that differs is removed and the cores compiled again.
-Builds running at once take turns on the cache (a lock file in it), so a bundle is compiled once for all.
-``pip install .`` fills the cache for the default scenario's FMUs (setup.py: ``build.compile_ahead``, the same
-modules written as their builds stage them), so the first ``run`` compiles nothing; the build says which
-FMUs' cores came from the cache.
+Each extension is compiled once per content, whichever bundle carries it: every bundle is compiled under
+one placeholder stem (``packaging.placeholder``), so a module stages the same text in every FMU. The
+extensions are kept in the user's private cache (``private_folder(*verified.CORES)/<key>``, a folder per
+module with a manifest of its SHA-256: ``orchestration.verified``, bounded with the other caches), keyed by
+the SHA-256 of the module and of the ``.pxd`` files it reads (its own and those they cimport; the
+placeholder's name in them), the compile script and flags, Python's build configuration, Cython's and
+setuptools' versions, the C compiler's path and ``--version``, and the environment variables setuptools
+reads. A later build of any bundle that carries the module (another FMU, another folder, FMI 3, a change
+elsewhere in the sources) copies it, checked against the manifest as it is copied; a cache folder that
+differs is removed and the module compiled again. Builds running at once take turns on the cache (a lock
+file in it), so a module is compiled once for all. ``pip install .`` fills the cache with every hot module
+(setup.py: ``build.compile_ahead``, written as the builds stage them), so no FMU's first build compiles
+anything; the build says how many of an FMU's cores came from the cache.
 """
 from __future__ import annotations
 
@@ -183,26 +184,29 @@ def compile_bundle(resources: Path, lib: str, pxd: dict[str, str]) -> list[str]:
     return build_cores(resources, lib, pxd)[0]
 
 
-def build_cores(resources: Path, lib: str, pxd: dict[str, str]) -> tuple[list[str], bool]:
-    """``compile_bundle``, and whether the extensions were taken from the private cache (True) or
-    compiled here (False), which the build says."""
+def build_cores(resources: Path, lib: str, pxd: dict[str, str]) -> tuple[list[str], int]:
+    """``compile_bundle``, and how many of the extensions were taken from the private cache (the others
+    were compiled here, in one compile), which the build says. Each module has a cache folder of its own,
+    so a core that several bundles carry is compiled once for all of them."""
     present = [rel for rel in HOT if (resources / lib / rel).is_file()]
-    if not present:
-        return [], False
-    cache = cached(resources, lib, present, pxd)
-    if cache is None:
-        _compile(resources, lib, present, pxd)
-        return present, False
+    folders = {rel: cached(resources, lib, rel, pxd) for rel in present}
+    if not present or None in folders.values():
+        if present:
+            _compile(resources, lib, present, pxd)
+        return present, 0
     from orchestration import verified
 
-    with _one_compiler(cache.parent):  # a concurrent build of the same bundle finds it compiled
-        if verified.hold(cache) and _reuse(cache, resources / lib, present):
-            return present, True
-        _compile(resources, lib, present, pxd)
-        _keep(cache, resources / lib, present)
-        verified.hold(cache)  # not trimmed away by the trim it may call for
-        verified.trim()
-    return present, False
+    parent = next(iter(folders.values())).parent
+    with _one_compiler(parent):  # a concurrent build of the same cores finds them compiled
+        missing = [rel for rel in present
+                   if not (verified.hold(folders[rel]) and _reuse(folders[rel], resources / lib, rel))]
+        if missing:
+            _compile(resources, lib, missing, pxd)
+            for rel in missing:
+                _keep(folders[rel], resources / lib, rel)
+                verified.hold(folders[rel])  # not trimmed away by the trim it may call for
+            verified.trim()
+    return present, len(present) - len(missing)
 
 
 @contextlib.contextmanager
@@ -273,11 +277,24 @@ def _toolchain() -> list[str]:
             *(f"{k}={os.environ.get(k, '')}" for k in _BUILD_ENV)]
 
 
-def cached(resources: Path, lib: str, present: list[str], pxd: dict[str, str]) -> Path | None:
-    """The private cache folder of the extensions compiled from these modules (paths under
-    ``resources/lib``; ``lib``, the package name the extensions carry, is part of the key), ``pxd`` files
-    and toolchain; None where no private cache can be made or the toolchain cannot be named (the cores
-    are then compiled every time)."""
+def _declared_for(rel: str, lib: str, pxd: dict[str, str]) -> list[str]:
+    """The ``.pxd`` files (paths under ``lib``) Cython reads to compile the module ``rel``: its own and those
+    its declarations cimport, directly or through one another."""
+    found: list[str] = []
+    todo = [declarations(rel)]
+    while todo:
+        name = todo.pop()
+        if name in pxd and name not in found:
+            found.append(name)
+            todo += [d.removeprefix(f"{lib}.").replace(".", "/") + ".pxd" for d in cimports(pxd[name])]
+    return sorted(found)
+
+
+def cached(resources: Path, lib: str, rel: str, pxd: dict[str, str]) -> Path | None:
+    """The private cache folder of the extension compiled from the module ``rel`` (a path under
+    ``resources/lib``; ``lib``, the package name the extension carries, is part of the key), the ``pxd``
+    files it reads and the toolchain; None where no private cache can be made or the toolchain cannot be
+    named (the cores are then compiled every time)."""
     from importlib import metadata
 
     from orchestration.verified import CORES
@@ -290,50 +307,48 @@ def cached(resources: Path, lib: str, present: list[str], pxd: dict[str, str]) -
     h = hashlib.sha256()
     for part in [*toolchain, lib]:
         h.update(part.encode() + b"\0")
-    for rel in present:
-        h.update(rel.encode() + b"\0" + (resources / lib / rel).read_bytes() + b"\0")
-    for rel, text in sorted(pxd.items()):
-        h.update(rel.encode() + b"\0" + text.encode() + b"\0")
+    h.update(rel.encode() + b"\0" + (resources / lib / rel).read_bytes() + b"\0")
+    for name in _declared_for(rel, lib, pxd):
+        h.update(name.encode() + b"\0" + pxd[name].encode() + b"\0")
     try:
         return private_folder(*CORES) / h.hexdigest()
     except OutputError:
         return None
 
 
-def _reuse(cache: Path, lib_dir: Path, present: list[str]) -> bool:
-    """Copy the cached extensions beside their modules, each checked against the cache's manifest as it
-    is copied; False (nothing copied, a damaged cache folder removed) when any differs or is missing."""
+def _reuse(cache: Path, lib_dir: Path, rel: str) -> bool:
+    """Copy the cached extension of the module ``rel`` beside it, checked against the cache's manifest as
+    it is copied; False (nothing copied, a damaged cache folder removed) when it differs or is missing."""
     from orchestration import verified
 
-    names = sorted(_extension(rel) for rel in present)
+    name = _extension(rel)
     manifest = verified.recorded(cache)
     if manifest is None:
         return False
     try:
-        if sorted(manifest) != names:
+        if sorted(manifest) != [name]:
             raise ValueError(cache)
-        for name in names:
-            data = (cache / name).read_bytes()
-            if hashlib.sha256(data).hexdigest() != manifest[name]:
-                raise ValueError(cache / name)
-            (lib_dir / name).write_bytes(data)
+        data = (cache / name).read_bytes()
+        if hashlib.sha256(data).hexdigest() != manifest[name]:
+            raise ValueError(cache / name)
+        (lib_dir / name).parent.mkdir(parents=True, exist_ok=True)
+        (lib_dir / name).write_bytes(data)
     except (OSError, ValueError):
-        for name in names:
-            (lib_dir / name).unlink(missing_ok=True)
+        (lib_dir / name).unlink(missing_ok=True)
         verified.discard(cache)
         return False
     return True
 
 
-def _keep(cache: Path, lib_dir: Path, present: list[str]) -> None:
-    """Store the extensions just compiled in the cache (a failure to store only costs the next build)."""
+def _keep(cache: Path, lib_dir: Path, rel: str) -> None:
+    """Store the extension just compiled from ``rel`` in the cache (a failure to store only costs the next
+    build)."""
     from orchestration import verified
 
     def fill(staging: Path) -> None:
-        for rel in present:
-            target = staging / _extension(rel)
-            target.parent.mkdir(parents=True, exist_ok=True)
-            shutil.copyfile(lib_dir / _extension(rel), target)
+        target = staging / _extension(rel)
+        target.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(lib_dir / _extension(rel), target)
 
     try:
         verified.discard(cache)

@@ -16,7 +16,10 @@ therefore share the first one's copy. So every name an FMU brings is unique to i
     resources/requirements.txt           what the host must have (``pythonfmu deploy -f`` reads it)
     documentation/index.html             ports, parameters, equations, host requirements
 
-with ``<stem> = sotc_<Model>_<first 12 hex digits of the build digest>``. The repository keeps one
+with ``<stem> = sotc_<Model>_<hex digits of the build digest>``, ``STEM_LENGTH`` characters long for
+every model (at least 12 digits), so that while it is staged and compiled a bundle carries one placeholder
+of that length whatever its model (``placeholder``): each hot core is then compiled once for every bundle
+that carries it (``compiled.build_cores``), and renamed into each. The repository keeps one
 copy of every source; the renaming (``import fmu_plant.x`` -> ``import <stem>_lib.fmu_plant.x``)
 happens here, and a check refuses the build if any import of a bundled package escaped it. The
 script first checks the host's packages (``fmi_slave.host_check``), then imports its cores.
@@ -63,18 +66,29 @@ class PackagingError(RuntimeError):
     pass
 
 
+STEM_LENGTH = 48  # characters of every bundle stem whose model name has at most 30
+_MIN_DIGITS = 12  # of the digest, in a stem
+
+
 def bundle_stem(model: str, digest: str) -> str:
-    return f"sotc_{model}_{digest[:12]}"
+    """The name of a bundle's script and the prefix of its packages (``<stem>_lib``)."""
+    return f"sotc_{model}_{digest[:max(_MIN_DIGITS, STEM_LENGTH - len(model) - 6)]}"
 
 
-PLACEHOLDER_DIGEST = "0" * 12  # the stem while staging: the real one is named by the staged content
+def placeholder(model: str) -> str:
+    """The stem a bundle carries while it is staged and compiled, before its content names the real one:
+    as long as the real one, and the same for every model of ``STEM_LENGTH``."""
+    return "sotc_" + "0" * (len(bundle_stem(model, "0" * 64)) - 5)
+
+
+PLACEHOLDER = placeholder("")  # the stem every model's bundle is compiled under (``compile_cores_ahead``)
 
 
 def bundle_digest(files: dict[str, bytes], stem: str, model: str) -> str:
     """SHA-256 of a bundle (path under resources/ -> bytes) with its own stem written as the
     placeholder stem: the digest a bundle's module names must carry (``bundle_stem``), so that one
     module name always stands for one content, whichever FMU brings it first into a process."""
-    neutral = bundle_stem(model, PLACEHOLDER_DIGEST).encode()
+    neutral = placeholder(model).encode()
     h = hashlib.sha256()
     for name in sorted(files, key=lambda n: n.replace(stem, "")):
         h.update(name.replace(stem, neutral.decode()).encode() + b"\0")
@@ -263,17 +277,19 @@ def bundle_closure(script: Path, packages: dict[str, Path]) -> dict[Path, Path]:
     return import_closure([script, Path(packages["fmi_slave"], "host_check.py")], packages)
 
 
-def compile_cores_ahead(model: str, script: Path, packages: dict[str, Path], dest: Path) -> list[str]:
-    """The hot cores ``package_fmu`` compiles for this model's bundle, compiled now into the private cache
-    (or found there), from only those modules written under ``dest`` as ``stage`` writes them (renamed
-    into the placeholder's ``lib``): the bundle's build then takes them from the cache."""
-    lib = f"{bundle_stem(model, PLACEHOLDER_DIGEST)}_lib"
+def compile_cores_ahead(packages: dict[str, Path], dest: Path) -> list[str]:
+    """Every hot core of ``packages`` (the core packages' folders), compiled now into the private cache (or
+    found there) as ``package_fmu`` compiles it for any bundle that carries it: written under ``dest`` as
+    ``stage`` writes it (renamed into the placeholder's ``lib``). Every FMU's build then takes its cores
+    from the cache."""
+    lib = f"{PLACEHOLDER}_lib"
     (dest / lib).mkdir(parents=True)
     (dest / lib / "__init__.py").write_text("")  # the packages Cython names the modules by: lib.fmu_plant.x
-    for rel, src in bundle_closure(script, packages).items():
-        if rel.as_posix() in compiled.HOT or rel.name == "__init__.py":
-            (dest / lib / rel).parent.mkdir(exist_ok=True)
-            (dest / lib / rel).write_text(rename_imports(src.read_text(), lib))
+    for rel in compiled.HOT:
+        top = rel.split("/")[0]
+        for name in ("__init__.py", rel[len(top) + 1:]):
+            (dest / lib / top).mkdir(exist_ok=True)
+            (dest / lib / top / name).write_text(rename_imports((packages[top] / name).read_text(), lib))
     return compiled.compile_bundle(dest, lib, _declarations(packages, dest / lib))
 
 
@@ -427,18 +443,18 @@ def _declarations(packages: dict[str, Path], lib: Path) -> dict[str, str]:
 
 def package_fmu(model: str, script: Path, packages: dict[str, Path], equations: list[Path],
                 dest_file: Path, workdir: Path, compile_cores: bool = False,
-                fmi: int = 2) -> tuple[Path, list[str], bool]:
+                fmi: int = 2) -> tuple[Path, list[str], int]:
     """Stage, describe and zip one FMU into ``dest_file``; return it, the cores compiled into it
-    (``compile_cores``: ``compiled.build_cores``) and whether they came from the private cache. The
+    (``compile_cores``: ``compiled.build_cores``) and how many of them came from the private cache. The
     bundle's module names carry the digest of its own content (``bundle_digest``), the extensions included."""
     resources = workdir / "resources"
-    placeholder = bundle_stem(model, PLACEHOLDER_DIGEST)
-    requirements = stage(model, script, packages, placeholder, resources, fmi)
-    lib = f"{placeholder}_lib"
+    staged_stem = placeholder(model)
+    requirements = stage(model, script, packages, staged_stem, resources, fmi)
+    lib = f"{staged_stem}_lib"
     declared = _declarations(packages, resources / lib)
-    cores, from_cache = compiled.build_cores(resources, lib, declared) if compile_cores else ([], False)
-    stem = bundle_stem(model, bundle_digest(bundled_files(resources), placeholder, model))
-    _rename_bundle(resources, placeholder, stem)
+    cores, reused = compiled.build_cores(resources, lib, declared) if compile_cores else ([], 0)
+    stem = bundle_stem(model, bundle_digest(bundled_files(resources), staged_stem, model))
+    _rename_bundle(resources, staged_stem, stem)
     write_core_digests(resources)
     xml = model_description(resources, stem, model)
     write_bytecode(resources)
@@ -450,4 +466,4 @@ def package_fmu(model: str, script: Path, packages: dict[str, Path], equations: 
     write_fmu(dest_file, model, resources, xml, documentation_html(model, xml, docs, requirements, cores), fmi,
               shim_binary)
     shutil.rmtree(resources)
-    return dest_file, cores, from_cache
+    return dest_file, cores, reused

@@ -15,8 +15,9 @@ from orchestration.fmu_build import build, compiled, packaging
 from orchestration.fmu_build.build import cores_made
 from orchestration.verified import MANIFEST
 
-LIB = "sotc_Model_000000000000_lib"
+LIB = f"{packaging.PLACEHOLDER}_lib"
 MODULE = "fmu_numerics/elementary.py"
+HOT = compiled.HOT  # the real list, for the tests that stage real bundles
 
 
 class FakeCompiler:
@@ -71,26 +72,60 @@ def test_a_bundle_compiles_once_then_comes_from_the_cache(compiler, tmp_path):
 
 
 def test_a_build_says_whether_its_cores_came_from_the_cache(compiler, tmp_path):
-    assert compiled.build_cores(bundle(tmp_path / "a"), LIB, PXD) == ([MODULE], False)
-    assert compiled.build_cores(bundle(tmp_path / "b"), LIB, PXD) == ([MODULE], True)
-    assert cores_made([MODULE] * 3, True) == "3 cores from the cache"
-    assert cores_made([MODULE] * 3, False) == "3 cores compiled"
-    assert cores_made([], False) == "Python"
+    assert compiled.build_cores(bundle(tmp_path / "a"), LIB, PXD) == ([MODULE], 0)
+    assert compiled.build_cores(bundle(tmp_path / "b"), LIB, PXD) == ([MODULE], 1)
+    assert cores_made([MODULE] * 3, 3) == "3 cores from the cache"
+    assert cores_made([MODULE] * 3, 0) == "3 cores compiled"
+    assert cores_made([MODULE] * 3, 2) == "3 cores: 2 from the cache, 1 compiled"
+    assert cores_made([MODULE], 1) == "1 core from the cache"
+    assert cores_made([], 0) == "Python"
 
 
-def test_cores_compiled_ahead_are_the_ones_the_build_takes(compiler, tmp_path, monkeypatch):
-    """What ``pip install .`` compiles (setup.py: ``build.compile_ahead``) is what the FMU's build looks for."""
+@pytest.mark.parametrize("model", ["ArmPlant", "SotcController"])
+def test_cores_compiled_ahead_are_the_ones_every_build_takes(compiler, tmp_path, monkeypatch, model):
+    """What ``pip install .`` compiles (setup.py: ``build.compile_ahead``) is what each FMU's build looks for:
+    the plant's bundle and the controller's alike find every core they carry in the cache."""
+    monkeypatch.setattr(compiled, "HOT", HOT)
     monkeypatch.setattr(build, "compiles", lambda: True)
-    build.compile_ahead(["ArmPlant"])
+    build.compile_ahead()
     assert compiler.calls == 1
-    source = build.FMU_SOURCES["ArmPlant"]
+    source = build.FMU_SOURCES[model]
     packages = {pkg: build.PACKAGE_ROOT / pkg for pkg in source.packages}
-    stem = packaging.bundle_stem("ArmPlant", packaging.PLACEHOLDER_DIGEST)
+    stem = packaging.placeholder(model)
     resources = tmp_path / "resources"
-    packaging.stage("ArmPlant", build.PACKAGE_ROOT / source.script, packages, stem, resources)
+    packaging.stage(model, build.PACKAGE_ROOT / source.script, packages, stem, resources)
     lib = f"{stem}_lib"
-    assert compiled.build_cores(resources, lib, packaging._declarations(packages, resources / lib)) == ([MODULE], True)
+    cores, reused = compiled.build_cores(resources, lib, packaging._declarations(packages, resources / lib))
+    assert cores and reused == len(cores)
     assert compiler.calls == 1
+
+
+def test_a_core_two_bundles_carry_is_compiled_once(compiler, tmp_path, monkeypatch):
+    """The plant's bundle compiles the numerics; the controller's, built next, compiles only what it adds."""
+    monkeypatch.setattr(compiled, "HOT", HOT)
+    built = {}
+    for model in ("ArmPlant", "SotcController"):
+        source = build.FMU_SOURCES[model]
+        packages = {pkg: build.PACKAGE_ROOT / pkg for pkg in source.packages}
+        resources = tmp_path / model / "resources"
+        stem = packaging.placeholder(model)
+        packaging.stage(model, build.PACKAGE_ROOT / source.script, packages, stem, resources)
+        lib = f"{stem}_lib"
+        built[model] = compiled.build_cores(resources, lib, packaging._declarations(packages, resources / lib))
+    plant, controller = built["ArmPlant"], built["SotcController"]
+    assert plant[1] == 0 and "fmu_numerics/elementary.py" in plant[0]
+    assert "fmu_numerics/elementary.py" in controller[0]
+    assert controller[1] == len(set(plant[0]) & set(controller[0])) > 0
+    assert compiler.calls == 2
+
+
+def test_every_model_is_staged_under_one_placeholder_as_long_as_its_stem():
+    for model in build.FMU_SOURCES:
+        assert packaging.placeholder(model) == packaging.PLACEHOLDER
+        assert len(packaging.bundle_stem(model, "f" * 64)) == len(packaging.PLACEHOLDER) == packaging.STEM_LENGTH
+    long_name = "M" * 40  # a name too long for STEM_LENGTH keeps 12 digits, and a placeholder of its length
+    assert packaging.bundle_stem(long_name, "f" * 64) == f"sotc_{long_name}_{'f' * 12}"
+    assert len(packaging.placeholder(long_name)) == len(packaging.bundle_stem(long_name, "0" * 64))
 
 
 @pytest.mark.parametrize("change", ["source", "declarations", "name", "compiler"])
@@ -101,8 +136,8 @@ def test_what_the_extension_is_made_from_is_in_its_key(compiler, tmp_path, monke
         source = "def cos(x):\n    return -x\n"
     elif change == "declarations":
         pxd = {"fmu_numerics/elementary.pxd": "cpdef double cos(double x) noexcept\n"}
-    elif change == "name":  # another model's placeholder: its module names are in the extension
-        lib = "sotc_Other_000000000000_lib"
+    elif change == "name":  # another placeholder: its module names are in the extension
+        lib = f"{packaging.placeholder('M' * 40)}_lib"
     else:
         monkeypatch.setenv("CC", "clang")
     resources = tmp_path / "b" / "resources"
@@ -119,7 +154,7 @@ def test_a_damaged_cache_is_never_copied_and_is_made_again(compiler, tmp_path, d
     first = bundle(tmp_path / "a")
     compiled.compile_bundle(first, LIB, PXD)
     good = extension(first)
-    cache = compiled.cached(first, LIB, [MODULE], PXD)
+    cache = compiled.cached(first, LIB, MODULE, PXD)
     stored = cache / compiled._extension(MODULE)
     if damage == "changed":
         stored.write_bytes(b"ELF planted code")
@@ -141,7 +176,7 @@ def test_a_damaged_cache_is_never_copied_and_is_made_again(compiler, tmp_path, d
 def test_the_cache_is_private(compiler, tmp_path):
     first = bundle(tmp_path / "a")
     compiled.compile_bundle(first, LIB, PXD)
-    cache = compiled.cached(first, LIB, [MODULE], PXD)
+    cache = compiled.cached(first, LIB, MODULE, PXD)
     root = next(p for p in cache.parents if p.name == f"sotc-cosim-{os.getuid()}")
     assert stat.S_IMODE(os.stat(root).st_mode) & 0o077 == 0
 
@@ -154,7 +189,7 @@ def test_a_failed_compile_stores_nothing(compiler, tmp_path, monkeypatch):
     first = bundle(tmp_path / "a")
     with pytest.raises(compiled.CompileError):
         compiled.compile_bundle(first, LIB, PXD)
-    assert not compiled.cached(first, LIB, [MODULE], PXD).exists()
+    assert not compiled.cached(first, LIB, MODULE, PXD).exists()
 
 
 def test_builds_at_once_compile_a_bundle_once(compiler, tmp_path, monkeypatch):
@@ -199,3 +234,16 @@ def test_without_a_version_to_key_on_the_cores_are_compiled_every_time(compiler,
     for name in ("a", "b"):
         assert compiled.compile_bundle(bundle(tmp_path / name), LIB, PXD) == [MODULE]
     assert compiler.calls == 2
+
+
+def test_a_modules_key_takes_the_declarations_it_cimports_and_no_other():
+    """A change in a ``.pxd`` the module cimports (through another) compiles it again; a change in an
+    unrelated one does not."""
+    lib = LIB
+    pxd = {"fmu_controller/sotc.pxd": f"from {lib}.fmu_controller.sotc_math cimport solve\n",
+           "fmu_controller/sotc_math.pxd": f"from {lib}.fmu_numerics.elementary cimport tanh\n",
+           "fmu_numerics/elementary.pxd": "cpdef double tanh(double x)\n",
+           "fmu_plant/dynamics.pxd": "cpdef double mass(double x)\n"}
+    assert compiled._declared_for("fmu_controller/sotc.py", lib, pxd) == [
+        "fmu_controller/sotc.pxd", "fmu_controller/sotc_math.pxd", "fmu_numerics/elementary.pxd"]
+    assert compiled._declared_for("fmu_plant/dynamics.py", lib, pxd) == ["fmu_plant/dynamics.pxd"]
