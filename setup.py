@@ -53,13 +53,13 @@ class OptionalBuildExt(build_ext):
 
 def compile_fmu_cores() -> None:
     """The cores of every FMU, compiled now into the user's private cache under the name their bundles are
-    compiled with (``build.compile_ahead``): the first build of any FMU takes them from the cache. Any
+    compiled with (``packaging.compile_ahead``): the first build of any FMU takes them from the cache. Any
     failure leaves them to that build."""
     sys.path.insert(0, str(HERE))
     try:
-        from orchestration.fmu_build.build import compile_ahead
+        from orchestration.fmu_build.packaging import compile_ahead
 
-        compile_ahead()
+        compile_ahead(HERE)
     except Exception as exc:  # noqa: BLE001 - the install goes on; the first run compiles them
         print(f"sotc-cosim: the FMUs' cores are left to the first run ({exc})", file=sys.stderr)
     finally:

@@ -135,18 +135,6 @@ def cores_made(cores: list[str], reused: int) -> str:
     return f"{head}: {reused} from the cache, {len(cores) - reused} compiled"
 
 
-def compile_ahead() -> None:
-    """Compile every hot core into the private cache, as every FMU's bundle carries it (FMI 2.0 and 3.0
-    alike), without building an FMU, with a line on stderr: ``pip install .`` calls it (setup.py), so that
-    no FMU's first build compiles."""
-    if not compiles():
-        return
-    started = time.monotonic()
-    with tempfile.TemporaryDirectory(prefix=owner_prefix("sotc_stage_")) as tmp:
-        cores = packaging.compile_cores_ahead({pkg: PACKAGE_ROOT / pkg for pkg in compiled.CORE_PACKAGES}, Path(tmp))
-    _to_stderr(f"sotc-cosim: the FMUs' {len(cores)} cores in the cache ({time.monotonic() - started:.0f} s)")
-
-
 def build_fmus(models: list[str] | None = None, out_dir: Path = DEFAULT_FMU_DIR, fmi: int = 2,
                report: Callable[[str], None] | None = None) -> list[Path]:
     """Build the named FMUs (all by default) into ``out_dir`` in a child process, for FMI 2.0 or 3.0;

@@ -293,6 +293,25 @@ def compile_cores_ahead(packages: dict[str, Path], dest: Path) -> list[str]:
     return compiled.compile_bundle(dest, lib, _declarations(packages, dest / lib))
 
 
+def compile_ahead(root: Path) -> None:
+    """Compile every hot core of the project at ``root`` into the private cache, as every FMU's bundle
+    carries it (FMI 2.0 and 3.0 alike), without building an FMU, with a line on stderr: ``pip install .``
+    calls it (setup.py, where only setuptools and Cython are installed), so that no FMU's first build
+    compiles."""
+    import tempfile
+    import time
+
+    from orchestration.scratch import owner_prefix
+
+    if not compiled.requested() or compiled.unavailable() is not None:
+        return
+    started = time.monotonic()
+    with tempfile.TemporaryDirectory(prefix=owner_prefix("sotc_stage_")) as tmp:
+        cores = compile_cores_ahead({pkg: root / pkg for pkg in compiled.CORE_PACKAGES}, Path(tmp))
+    print(f"sotc-cosim: the FMUs' {len(cores)} cores in the cache ({time.monotonic() - started:.0f} s)",
+          file=sys.stderr, flush=True)
+
+
 def import_closure(starts: list[Path], packages: dict[str, Path]) -> dict[Path, Path]:
     """Every module of ``packages`` the files ``starts`` import, directly or through each other, plus
     the ``__init__.py`` of each package used: relative path under the bundle -> source file."""

@@ -83,11 +83,12 @@ def test_a_build_says_whether_its_cores_came_from_the_cache(compiler, tmp_path):
 
 @pytest.mark.parametrize("model", ["ArmPlant", "SotcController"])
 def test_cores_compiled_ahead_are_the_ones_every_build_takes(compiler, tmp_path, monkeypatch, model):
-    """What ``pip install .`` compiles (setup.py: ``build.compile_ahead``) is what each FMU's build looks for:
+    """What ``pip install .`` compiles (setup.py: ``packaging.compile_ahead``) is what each FMU's build looks for:
     the plant's bundle and the controller's alike find every core they carry in the cache."""
     monkeypatch.setattr(compiled, "HOT", HOT)
-    monkeypatch.setattr(build, "compiles", lambda: True)
-    build.compile_ahead()
+    monkeypatch.setattr(compiled, "unavailable", lambda: None)
+    monkeypatch.setenv(compiled.SWITCH, "1")
+    packaging.compile_ahead(build.PACKAGE_ROOT)
     assert compiler.calls == 1
     source = build.FMU_SOURCES[model]
     packages = {pkg: build.PACKAGE_ROOT / pkg for pkg in source.packages}

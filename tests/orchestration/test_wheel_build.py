@@ -53,3 +53,17 @@ def test_one_failed_extension_leaves_every_module_python(build_ext_class, tmp_pa
     assert _build(build_ext_class, tmp_path / "bad", {"a_good": GOOD, "b_bad": "this is not C;\n"}, monkeypatch) == []
     assert "the cores stay Python (b_bad" in capsys.readouterr().err
     assert ahead == ["compiled"]
+
+
+def test_the_install_compiles_the_fmu_cores_with_the_standard_library_alone():
+    """pip builds the wheel where only [build-system]'s setuptools, wheel and Cython are installed: the FMU
+    cores' compile (packaging.compile_ahead) must import nothing else, numpy included. Run with ``-I -S``
+    (no site-packages), so a third-party import fails here as it would there."""
+    import subprocess
+
+    code = ("import sys; sys.path.insert(0, sys.argv[1]); from orchestration.fmu_build.packaging import compile_ahead; "
+            "print(sorted(m for m in sys.modules if m.split('.')[0] in ('numpy', 'jsonschema', 'Cython')))")
+    out = subprocess.run([sys.executable, "-I", "-S", "-c", code, str(REPO)], capture_output=True, text=True,
+                         timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "[]"
