@@ -9,10 +9,13 @@ as a ``.py`` would break the imports of the others): a failed compile leaves eve
 The FMUs cannot load these (their bundles' modules carry another name), so the install also compiles the
 FMUs' cores (each once, for every FMU that carries it) into the user's private cache, where the first
 ``sotc-cosim run`` takes them from (``compile_fmu_cores``).
+Each of the package's extensions is compiled once per content too: kept in the same private cache as the
+FMUs' (``compiled.cached``, keyed by the module, the ``.pxd`` files it reads, the toolchain and this build's
+flags), so building the wheel again from the same sources (a reinstall, the test suite's shipped wheel)
+copies them instead, and skips Cython when every one is there.
 An editable install (``pip install -e``) and ``SOTC_COSIM_COMPILE=0`` compile nothing, so the ``.py``
 being edited is always what runs.
 """
-import importlib.util
 import os
 import sys
 from pathlib import Path
@@ -21,9 +24,27 @@ from setuptools import Extension, setup
 from setuptools.command.build_ext import build_ext
 
 HERE = Path(__file__).resolve().parent
-_spec = importlib.util.spec_from_file_location("_sotc_compiled", HERE / "orchestration" / "fmu_build" / "compiled.py")
-compiled = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(compiled)
+# the project's build modules, importable here: the build environment has only setuptools, wheel and Cython, and
+# orchestration.fmu_build needs no more (tests/orchestration/test_wheel_build.py)
+sys.path.insert(0, str(HERE))
+from orchestration import verified  # noqa: E402
+from orchestration.fmu_build import compiled, packaging  # noqa: E402
+
+
+def cache_folder(rel: str):
+    """The private cache folder of the package's extension of the hot module ``rel`` (None: not a hot module, or
+    no cache here)."""
+    if rel not in compiled.HOT:
+        return None
+    try:
+        pxd = {compiled.declarations(r): (HERE / compiled.declarations(r)).read_text() for r in compiled.HOT}
+        return compiled.cached(HERE, "", rel, pxd, ("package", os.environ.get("CFLAGS", ""), compiled.CFLAGS))
+    except OSError:  # a file that cannot be read: the cache is only a shortcut
+        return None
+
+
+def _module(ext) -> str:
+    return ext.name.replace(".", "/") + ".py"
 
 
 class OptionalBuildExt(build_ext):
@@ -46,7 +67,12 @@ class OptionalBuildExt(build_ext):
         if self.failed:
             return
         try:
+            folder = cache_folder(_module(ext))
+            if folder is not None and verified.hold(folder) and compiled.take(folder, Path(self.build_lib), _module(ext)):
+                return
             super().build_extension(ext)
+            if folder is not None:
+                compiled.keep(folder, Path(self.build_lib), _module(ext))
         except Exception as exc:  # no compiler, no headers: no module is compiled
             self.failed = f"{ext.name}: {exc}"
 
@@ -55,15 +81,10 @@ def compile_fmu_cores() -> None:
     """The cores of every FMU, compiled now into the user's private cache under the name their bundles are
     compiled with (``packaging.compile_ahead``): the first build of any FMU takes them from the cache. Any
     failure leaves them to that build."""
-    sys.path.insert(0, str(HERE))
     try:
-        from orchestration.fmu_build.packaging import compile_ahead
-
-        compile_ahead(HERE)
+        packaging.compile_ahead(HERE)
     except Exception as exc:  # noqa: BLE001 - the install goes on; the first run compiles them
         print(f"sotc-cosim: the FMUs' cores are left to the first run ({exc})", file=sys.stderr)
-    finally:
-        sys.path.remove(str(HERE))
 
 
 def hot_extensions() -> list:
@@ -76,6 +97,8 @@ def hot_extensions() -> list:
     flags = compiled.CFLAGS.split()
     modules = [Extension(rel[:-3].replace("/", "."), [rel], extra_compile_args=flags)
                for rel in compiled.HOT]
+    if all(folder is not None and folder.is_dir() for folder in map(cache_folder, compiled.HOT)):
+        return modules  # every one is in the cache: build_extension copies them, nothing to cythonize
     # Cython and the C compiler on every core (as the FMUs' compile does: compiled._SCRIPT)
     try:
         return cythonize(modules, build_dir="build/cython", quiet=True, nthreads=os.cpu_count() or 1,

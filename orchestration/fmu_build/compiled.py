@@ -200,11 +200,11 @@ def build_cores(resources: Path, lib: str, pxd: dict[str, str]) -> tuple[list[st
     parent = next(iter(folders.values())).parent
     with _one_compiler(parent):  # a concurrent build of the same cores finds them compiled
         missing = [rel for rel in present
-                   if not (verified.hold(folders[rel]) and _reuse(folders[rel], resources / lib, rel))]
+                   if not (verified.hold(folders[rel]) and take(folders[rel], resources / lib, rel))]
         if missing:
             _compile(resources, lib, missing, pxd)
             for rel in missing:
-                _keep(folders[rel], resources / lib, rel)
+                keep(folders[rel], resources / lib, rel)
                 verified.hold(folders[rel])  # not trimmed away by the trim it may call for
             verified.trim()
     return present, len(present) - len(missing)
@@ -228,7 +228,6 @@ def _compile(resources: Path, lib: str, present: list[str], pxd: dict[str, str])
     staged = [resources / lib / rel for rel in pxd]
     for path, text in zip(staged, pxd.values()):
         path.write_text(text)
-    # imported here: setup.py loads this file alone (no package around it) for the wheel's extensions
     from orchestration.fmu_build.child import run_compiler
     from orchestration.scratch import owner_prefix
 
@@ -291,11 +290,12 @@ def _declared_for(rel: str, lib: str, pxd: dict[str, str]) -> list[str]:
     return sorted(found)
 
 
-def cached(resources: Path, lib: str, rel: str, pxd: dict[str, str]) -> Path | None:
+def cached(resources: Path, lib: str, rel: str, pxd: dict[str, str], extra: tuple[str, ...] = ()) -> Path | None:
     """The private cache folder of the extension compiled from the module ``rel`` (a path under
     ``resources/lib``; ``lib``, the package name the extension carries, is part of the key), the ``pxd``
-    files it reads and the toolchain; None where no private cache can be made or the toolchain cannot be
-    named (the cores are then compiled every time)."""
+    files it reads, the toolchain and ``extra`` (what else the compile depends on: setup.py's own flags); None
+    where no private cache can be made or the toolchain cannot be named (the cores are then compiled every
+    time)."""
     from importlib import metadata
 
     from orchestration.verified import CORES
@@ -306,7 +306,7 @@ def cached(resources: Path, lib: str, rel: str, pxd: dict[str, str]) -> Path | N
     except metadata.PackageNotFoundError:  # Cython or setuptools without package metadata: no version to key on
         return None
     h = hashlib.sha256()
-    for part in [*toolchain, lib]:
+    for part in [*toolchain, lib, *extra]:
         h.update(part.encode() + b"\0")
     h.update(rel.encode() + b"\0" + (resources / lib / rel).read_bytes() + b"\0")
     for name in _declared_for(rel, lib, pxd):
@@ -317,7 +317,7 @@ def cached(resources: Path, lib: str, rel: str, pxd: dict[str, str]) -> Path | N
         return None
 
 
-def _reuse(cache: Path, lib_dir: Path, rel: str) -> bool:
+def take(cache: Path, lib_dir: Path, rel: str) -> bool:
     """Copy the cached extension of the module ``rel`` beside it, checked against the cache's manifest as
     it is copied; False (nothing copied, a damaged cache folder removed) when it differs or is missing."""
     from orchestration import verified
@@ -341,7 +341,7 @@ def _reuse(cache: Path, lib_dir: Path, rel: str) -> bool:
     return True
 
 
-def _keep(cache: Path, lib_dir: Path, rel: str) -> None:
+def keep(cache: Path, lib_dir: Path, rel: str) -> None:
     """Store the extension just compiled from ``rel`` in the cache (a failure to store only costs the next
     build)."""
     from orchestration import verified

@@ -21,6 +21,7 @@ def build_ext_class(monkeypatch):
     monkeypatch.setattr(setuptools, "setup", lambda **kw: taken.update(kw))
     monkeypatch.setenv(compiled.SWITCH, "0")  # no hot extensions are cythonized for this
     monkeypatch.setattr(sys, "argv", ["setup.py"])
+    monkeypatch.setattr(sys, "path", list(sys.path))  # setup.py puts its folder first: not for the other tests
     runpy.run_path(str(REPO / "setup.py"), run_name="setup")
     return taken["cmdclass"]["build_ext"]
 
@@ -55,13 +56,31 @@ def test_one_failed_extension_leaves_every_module_python(build_ext_class, tmp_pa
     assert ahead == ["compiled"]
 
 
+def test_a_wheel_built_again_takes_its_extensions_from_the_cache(build_ext_class, tmp_path, monkeypatch):
+    """setup.py keeps each extension it compiles in the private cache (``cache_folder``: its key) and takes it from
+    there the next time: the second build's C source no longer compiles, and the module is still there, the
+    same bytes."""
+    reason = compiled.unavailable()
+    if reason:
+        pytest.skip(f"cannot compile: {reason}")
+    monkeypatch.setitem(build_ext_class.run.__globals__, "compile_fmu_cores", lambda: None)
+    (tmp_path / "caches").mkdir()
+    monkeypatch.setitem(build_ext_class.run.__globals__, "cache_folder", lambda rel: tmp_path / "caches" / rel)
+    assert _build(build_ext_class, tmp_path / "first", {"a_good": GOOD}, monkeypatch) == ["a_good"]
+    assert _build(build_ext_class, tmp_path / "again", {"a_good": "this is not C;\n"}, monkeypatch) == ["a_good"]
+    (first,), (again,) = ((tmp_path / b / "lib").glob("a_good.*") for b in ("first", "again"))
+    assert again.read_bytes() == first.read_bytes()
+
+
 def test_the_install_compiles_the_fmu_cores_with_the_standard_library_alone():
-    """pip builds the wheel where only [build-system]'s setuptools, wheel and Cython are installed: the FMU
-    cores' compile (packaging.compile_ahead) must import nothing else, numpy included. Run with ``-I -S``
+    """pip builds the wheel where only [build-system]'s setuptools, wheel and Cython are installed: what setup.py
+    imports of the project (the FMU cores' compile, packaging.compile_ahead, and the core cache) must import
+    nothing else, numpy included. Run with ``-I -S``
     (no site-packages), so a third-party import fails here as it would there."""
     import subprocess
 
-    code = ("import sys; sys.path.insert(0, sys.argv[1]); from orchestration.fmu_build.packaging import compile_ahead; "
+    code = ("import sys; sys.path.insert(0, sys.argv[1]); from orchestration import verified; "
+            "from orchestration.fmu_build import compiled, packaging; "
             "print(sorted(m for m in sys.modules if m.split('.')[0] in ('numpy', 'jsonschema', 'Cython')))")
     out = subprocess.run([sys.executable, "-I", "-S", "-c", code, str(REPO)], capture_output=True, text=True,
                          timeout=120)
