@@ -30,7 +30,7 @@ from orchestration.bench.speed import MEASUREMENT as SPEED_MEASUREMENT
 from orchestration.bench.speed import stored_block
 from orchestration.bench import exchange
 from orchestration.markdown import block_pattern, number, replace_block, stable, stable_pair, table
-from orchestration.reports import fair_tables, numerics_tables, optimum_tables, perturbed
+from orchestration.reports import fair_tables, numerics_tables, optimum_tables, perturbed, training_tables
 from orchestration.study.comparison import (
     COMPARED,
     OTC_VARIANTS,
@@ -321,6 +321,7 @@ BLOCKS: dict[str, Block] = {
     "handlings": Block("docs/baselines.md", handlings_table, True),
     "tuning": Block("docs/baselines.md", fair_tables.tuning_table, False),
     "tuning-summary": Block("docs/baselines.md", fair_tables.tuning_summary, False),
+    "training-size": Block("docs/baselines.md", lambda: training_tables.comparison(ROOT), False),
     "nominal-tuned": Block("docs/baselines.md", nominal_tuned_table, True),
     "fair-initial": Block("docs/robustness.md", lambda: fair_tables.summary_table(ROOT, "initial states"), False),
     "fair-perturbed": Block("docs/robustness.md", lambda: fair_tables.summary_table(ROOT, "perturbed"), False),

@@ -129,7 +129,8 @@ def _ratio(v: PairedVerdict) -> str:
 
 
 def summary_table(root: Path, which: str) -> str:
-    """Every configuration on one evaluation set: geometric mean [95 % interval] of each measure."""
+    """Every configuration on one evaluation set, every draw's points together: geometric mean [95 % interval]
+    of each measure."""
     data = stored(root)
     labels = list(data["runs"][VERDICT_HANDLING])
     rows = []
@@ -159,8 +160,8 @@ def _family_text(m: int) -> str:
 
 
 def paired_table(root: Path) -> str:
-    """A against B on the same points: geometric mean of A / B [interval], the sign count, the verdict;
-    the family is every verdict of the table."""
+    """A against B on the same points of each draw: geometric mean of A / B [interval], the sign count, the
+    verdict; each draw's verdicts are one family."""
     data = stored(root)
     pairs = _pairs(data["seeds"])
     m = len(SETS) * len(HANDLINGS) * len(pairs) * len(MEASURES)
@@ -169,73 +170,96 @@ def paired_table(root: Path) -> str:
         for h in HANDLINGS:
             handling = LIMIT_HANDLINGS[h]
             for a, b in pairs:
-                cells = []
-                for name in MEASURES:
-                    v = paired(measure(data, handling, a, which, name), measure(data, handling, b, which, name), m)
-                    cells += [_ratio(v), v.said]
-                rows.append([which, handling, f"{a} vs {b}", *cells])
-    header = ["set", "limit handling", "A vs B"] + [c for name in MEASURES for c in (f"{name}: A / B", f"{name}: A is")]
-    return f"Family: the {m} verdicts of this table, {_family_text(m)}.\n\n" + table(header, rows)
+                for d in data["draws"]:
+                    cells = []
+                    for name in MEASURES:
+                        v = paired(measure(data, handling, a, which, name, d), measure(data, handling, b, which, name, d), m)
+                        cells += [_ratio(v), v.said]
+                    rows.append([which, handling, f"{a} vs {b}", d, *cells])
+    header = ["set", "limit handling", "A vs B", "draw"] + [c for name in MEASURES for c in (f"{name}: A / B", f"{name}: A is")]
+    return (f"Family: on each draw, the {m} verdicts of that draw, {_family_text(m)}.\n\n"
+            + table(header, rows))
 
 
-def _across(verdicts: dict, what: str) -> str:
-    """One verdict stated across the tuning seeds ("marginal" for the seeds whose bound is within 1 % of 1), or
-    "depends on the tuning seed", with every seed's verdict and ratio."""
+def _agreed(verdicts: dict) -> str | None:
+    """The verdict every one of ``verdicts`` gives clear of the marginal band (a bound within 1 % of 1: a new
+    draw of the tuning seeds turned such verdicts); None where they differ or one is marginal."""
     said = {v.verdict for v in verdicts.values()}
-    per = "; ".join(f"seed {s}: {v.said}, {_ratio(v)}" for s, v in verdicts.items())
-    marginal = [str(s) for s, v in verdicts.items() if v.marginal]
-    if len(said) > 1:
-        return f"{what} depends on the tuning seed (A / B {per})"
-    if marginal:  # a bound within 1 % of 1: a new draw of the tuning seeds turned such verdicts
-        return (f"{what} marginal: {said.pop()} for every tuning seed, but within 1 % of 1 for seed "
-                f"{', '.join(marginal)}, so a new tuning draw may not give it (A / B {per})")
-    return f"{what} {said.pop()} for every tuning seed (A / B {per})"
+    return None if len(said) > 1 or any(v.marginal for v in verdicts.values()) else said.pop()
+
+
+def _seeds_cell(verdicts: dict) -> str:
+    """One draw's verdicts over the tuning seeds: how many seeds say what, and the range of A / B."""
+    counts: dict[str, int] = {}
+    for v in verdicts.values():
+        counts[v.said] = counts.get(v.said, 0) + 1
+    ratios = [v.ratio.value for v in verdicts.values()]
+    if len(verdicts) == 1:  # the nominal design: one verdict
+        return f"{next(iter(counts))}; A / B {number(ratios[0], '.3g')}"
+    said = ", ".join(f"{text} {n}" for text, n in sorted(counts.items(), key=lambda c: -c[1]))
+    return f"{said} of {len(verdicts)} seeds; A / B {number(min(ratios), '.3g')}-{number(max(ratios), '.3g')}"
+
+
+def _every(verdicts: dict) -> str:
+    """What every draw and tuning seed gives, or why nothing is stated."""
+    agreed = _agreed(verdicts)
+    if agreed is not None:
+        return f"**{agreed}**"
+    return "marginal" if len({v.verdict for v in verdicts.values()}) == 1 else "depends on the draw or seed"
 
 
 def readme_family(seeds: list) -> int:
-    """The verdicts stated together (docs/robustness.md, "The verdict"): the tuned SOTC against each tuned baseline per measure,
-    set and seed, and learning on against off at each SOTC design per set."""
+    """The verdicts stated together on one draw of the held-out points (docs/robustness.md, "The verdict"): the tuned
+    SOTC against each tuned baseline per measure, set and seed, and learning on against off at each SOTC design per
+    set. A verdict stated for every draw is the conjunction of the draws' families, so it errs less often than one."""
     return len(SETS) * (len(seeds) * len(BASELINES) * len(MEASURES) + 1 + len(seeds))
 
 
 def _verdicts(data: dict) -> tuple[dict, int, dict]:
-    """The family's verdicts in the stored runs ``data``, each per tuning seed: {(set, baseline, measure): {seed:
-    PairedVerdict}} for the tuned SOTC against each tuned baseline, and {set: (nominal, {seed: ...})} for
-    learning on against off."""
-    seeds = data["seeds"]
+    """The family's verdicts in the stored runs ``data``, each per (draw, tuning seed): {(set, baseline, measure):
+    {(draw, seed): PairedVerdict}} for the tuned SOTC against each tuned baseline, and {(set, design): {(draw,
+    seed): ...}} for learning on against off (the nominal design: seed None)."""
+    seeds, draws = data["seeds"], data["draws"]
     m = readme_family(seeds)
 
-    def v(a, b, which, name):
-        return paired(measure(data, VERDICT_HANDLING, a, which, name), measure(data, VERDICT_HANDLING, b, which, name), m)
+    def v(a, b, which, name, draw):
+        return paired(measure(data, VERDICT_HANDLING, a, which, name, draw),
+                      measure(data, VERDICT_HANDLING, b, which, name, draw), m)
 
-    against = {(which, f, name): {s: v(tuned_label(SOTC, s), tuned_label(f, s), which, name) for s in seeds}
+    against = {(which, f, name): {(d, s): v(tuned_label(SOTC, s), tuned_label(f, s), which, name, d)
+                                  for d in draws for s in seeds}
                for which in SETS for f in BASELINES for name in MEASURES}
     sotc = LABELS[SOTC]
-    learning = {which: (v(f"{sotc} nominal", f"{sotc} nominal, learning off", which, "tail"),
-                        {s: v(tuned_label(SOTC, s), f"{tuned_label(SOTC, s)}, learning off", which, "tail") for s in seeds})
-                for which in SETS}
+    learning = {}
+    for which in SETS:
+        learning[which, "nominal"] = {(d, None): v(f"{sotc} nominal", f"{sotc} nominal, learning off", which, "tail", d)
+                                      for d in draws}
+        learning[which, "tuned"] = {(d, s): v(tuned_label(SOTC, s), f"{tuned_label(SOTC, s)}, learning off", which,
+                                              "tail", d) for d in draws for s in seeds}
     return against, m, learning
 
 
+def _by_draw(verdicts: dict, draws: list) -> list[str]:
+    return [_seeds_cell({k: v for k, v in verdicts.items() if k[0] == d}) for d in draws]
+
+
 def verdict(root: Path) -> str:
-    """The verdict's sentences (docs/robustness.md): the tuned SOTC against each tuned baseline, and what learning adds."""
+    """The verdict (docs/robustness.md): the tuned SOTC against each tuned baseline, and what learning adds, on
+    each draw of the held-out points, and what every draw and tuning seed gives."""
     data = stored(root)
     against, m, learning = _verdicts(data)
-    lines = [f"Family: the {m} verdicts below, {_family_text(m)}; a verdict holds only where every tuning seed "
-             "gives it, and is marked marginal where a corrected bound lies within 1 % of 1. The tuning criterion "
-             "is the MSE; the tail verdicts judge what no search was tuned for."]
-    for which in SETS:
-        parts = [f"against {LABELS[f]} tuned: " + ", ".join(_across(against[which, f, name], NOT_TUNED_FOR.get(name, name))
-                                                            for name in MEASURES) for f in BASELINES]
-        lines.append(f"On the {which} set ({data['n_points']} points never used for tuning, {data['stop_time']:g} s, "
-                     f"all under {VERDICT_HANDLING}), the tuned SOTC (A), each seed against the same seed of B, is "
-                     + "; ".join(parts) + ".")
-    for which in SETS:
-        nominal, tuned = learning[which]
-        lines.append(f"What the critic's learning adds on the {which} set (post-transient error, not tuned for; "
-                     f"learning on (A) against off): at the nominal design {nominal.said} (A / B {_ratio(nominal)}); "
-                     f"{_across(tuned, 'at the tuned designs')}.")
-    return "\n".join(f"- {line}" for line in lines)
+    draws = data["draws"]
+    head = (f"Family: on each draw, the {m} verdicts of that draw, {_family_text(m)}. Each draw is {data['n_points']} points per set never "
+            f"used for tuning, {data['stop_time']:g} s each, all under {VERDICT_HANDLING}; A is the tuned SOTC, each "
+            "seed against the same seed of B. A verdict holds only where every draw and every tuning seed gives it, "
+            "clear of the marginal band (a corrected bound within 1 % of 1). The tuning criterion is the MSE; the tail "
+            "verdicts judge what no search was tuned for.")
+    header = ["set", "A vs B", "measure", *(f"draw {d}" for d in draws), "every draw and seed"]
+    rows = [[which, f"SOTC vs {LABELS[f]} tuned", NOT_TUNED_FOR.get(name, name), *_by_draw(per, draws), _every(per)]
+            for (which, f, name), per in against.items()]
+    rows += [[which, f"learning on vs off, {design} design{'s' if design == 'tuned' else ''}", NOT_TUNED_FOR["tail"],
+              *_by_draw(per, draws), _every(per)] for (which, design), per in learning.items()]
+    return head + "\n\n" + table(header, rows)
 
 
 def _converged_text(still: list[str]) -> str:
@@ -255,21 +279,21 @@ def headline(root: Path) -> str:
     against, m, _ = _verdicts(data)
     held = []
     for (which, f, name), per in against.items():
-        said = {v.verdict for v in per.values()}
-        if name in NOT_TUNED_FOR or len(said) > 1 or said == {"not distinguishable"} or any(v.marginal for v in per.values()):
+        said = _agreed(per)
+        if name in NOT_TUNED_FOR or said in (None, "not distinguishable"):
             continue
         ratios = [v.ratio.value for v in per.values()]
-        held.append(f"{said.pop()} than {LABELS[f]} on the {which} set ({name}, A / B {number(min(ratios), '.3g')} "
-                    f"to {number(max(ratios), '.3g')} over the seeds)")
+        held.append(f"{said} than {LABELS[f]} on the {which} set ({name}, A / B {number(min(ratios), '.3g')} "
+                    f"to {number(max(ratios), '.3g')} over {len(data['draws'])} draws x {len(data['seeds'])} seeds)")
     tuning = stored_tuning()
     converged = _converged_text(unconverged(tuning))
     trials = (f"{tuning['budget']} TPE then {tuning['polish']} CMA-ES trials" if tuning.get("polish")
               else f"{tuning['budget']} trials")
     lines = [f"Tuned for the MSE by one protocol (seeds {', '.join(map(str, data['seeds']))}, {trials} "
              f"per search, {converged}),",
-             f"judged under {VERDICT_HANDLING} on {data['n_points']} points per set that no search saw, {m} paired "
-             "verdicts corrected together. What every seed gives:", ""]
+             f"judged under {VERDICT_HANDLING} on {len(data['draws'])} independent draws of {data['n_points']} points per "
+             f"set that no search saw, {m} paired verdicts corrected together on each draw. What every draw and seed gives:", ""]
     lines += [f"- the tuned SOTC is {h}" for h in held] or [
-        "- no MSE verdict of the tuned SOTC against a tuned baseline (each depends on the seed or is marginal)"]
-    return "\n".join(lines + ["", "Every other comparison is not distinguishable, depends on the tuning seed, is marginal or judges what no search "
-                               "was tuned for: [docs/robustness.md](docs/robustness.md#the-verdict)."])
+        "- no MSE verdict of the tuned SOTC against a tuned baseline (each depends on the draw or seed, or is marginal)"]
+    return "\n".join(lines + ["", "Every other comparison is not distinguishable, depends on the draw or the tuning seed, is marginal "
+                               "or judges what no search was tuned for: [docs/robustness.md](docs/robustness.md#the-verdict)."])

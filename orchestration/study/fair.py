@@ -3,9 +3,9 @@
 The tuning (``orchestration.study.tuning``) ran on its training set, one search per seed. Here each
 controller runs, at its nominal design and at each tuning seed's best design under each limit
 handling (the SOTC also with its critic's learning off, alpha1 = alpha2 = 1e-9, at each of those
-designs), on two held-out sets of ``N_POINTS`` seeded points (``evaluation_points``,
-``orchestration.study.points``: seed ``EVAL_SEED``, noise seeds 1..``N_POINTS``; the training set's
-seeds differ):
+designs), on two held-out sets of ``N_POINTS`` seeded points, drawn ``len(DRAWS)`` times independently
+(``evaluation_points``, ``orchestration.study.points``: generator seed ``draw``, noise seeds from
+``1 + N_POINTS * k`` for the k-th draw; the training set's seeds differ from all of them):
 
 * ``initial states``: the paper's plant, initial angles drawn uniformly over the workspace
   (phi1 in [-pi, pi], phi2 in [-2.5, 2.5] rad), at rest;
@@ -17,7 +17,9 @@ seeds differ):
 Each run lasts ``EVAL_STOP_TIME`` in the pure loop (the FMU run sample for sample:
 tests/fmu/test_pure_loop_perturbed.py). Measures, stated before the runs: Table 1's MSE_1 + MSE_2
 (eq. (50)) over the run, and the post-transient error max_i max |e_i| over its last half. The
-statistics are ``orchestration.study.statistics``.
+statistics are ``orchestration.study.statistics``; each verdict is taken on each draw apart, and what
+the README states is what every draw gives (``orchestration.reports.fair_tables``). Why 3 draws of 128:
+with 16 points one README verdict held on 2 of 4 draws (issue 52), with 128 on every one.
 
 ``python -m orchestration.study.fair`` runs everything and stores ``docs/fair/evaluation.json`` (with
 each configuration's parameters, so ``--reuse`` keeps the runs of those that did not change, and
@@ -41,17 +43,17 @@ from orchestration.study import points
 from orchestration.study.sotc_study import NO_LEARNING
 from orchestration.study.tuning import CONTROLLERS, HANDLINGS, nominal_parameters, stored as stored_tuning, tuned_parameters
 
-N_POINTS = 16
-EVAL_SEED = 7
+N_POINTS = 128  # per set and draw
+DRAWS = (7, 8, 9)  # generator seeds of the held-out draws (7: the one shipped before issue 52)
 EVAL_STOP_TIME = 20.0
 SETS = points.KINDS
 MEASURES = {"mse": "MSE_1 + MSE_2 over the run [rad^2]", "tail": "max |e| over the last half [rad]"}
 STORE = Path("docs") / "fair" / "evaluation.json"
 
 
-def evaluation_points(which: str) -> list[dict[str, Any]]:
-    """``N_POINTS`` seeded points of one held-out set (see the module docstring)."""
-    return points.draw_points(EVAL_SEED, which, N_POINTS, 1)
+def evaluation_points(which: str, draw: int = DRAWS[0]) -> list[dict[str, Any]]:
+    """``N_POINTS`` seeded points of one held-out set in one draw (see the module docstring)."""
+    return points.draw_points(draw, which, N_POINTS, 1 + N_POINTS * DRAWS.index(draw))
 
 
 def tuned_label(fmu: str, seed: int) -> str:
@@ -79,8 +81,8 @@ def run_point(fmu: str, params: dict[str, float], point: dict[str, Any]) -> dict
 
 
 def _job(job: tuple) -> tuple:
-    handling, label, fmu, params, which, i = job
-    return handling, label, which, i, run_point(fmu, params, evaluation_points(which)[i])
+    handling, label, fmu, params, which, i, point = job
+    return handling, label, which, i, run_point(fmu, params, point)
 
 
 def evaluate(workers: int = 2, controllers=CONTROLLERS, previous: dict[str, Any] | None = None) -> dict[str, Any]:
@@ -88,9 +90,11 @@ def evaluate(workers: int = 2, controllers=CONTROLLERS, previous: dict[str, Any]
     parameters equal those it has in ``previous`` (a stored evaluation) are taken from there, and its
     other configurations are kept: an evaluation can go in stages, each controller as soon as its tuning
     searches are finished."""
-    old = previous if previous and "configurations" in previous else {"configurations": {}, "runs": {}}
+    same = previous and previous.get("draws") == list(DRAWS) and previous.get("n_points") == N_POINTS
+    old = previous if same and "configurations" in previous else {"configurations": {}, "runs": {}}
     runs: dict[str, Any] = {}
     params_of: dict[str, Any] = {}
+    drawn = {which: [p for d in DRAWS for p in evaluation_points(which, d)] for which in SETS}
     jobs = []
     for h in HANDLINGS:
         handling = LIMIT_HANDLINGS[h]
@@ -99,27 +103,36 @@ def evaluate(workers: int = 2, controllers=CONTROLLERS, previous: dict[str, Any]
             if old["configurations"].get(handling, {}).get(label) == params:
                 runs.setdefault(handling, {})[label] = old["runs"][handling][label]
                 continue
-            runs.setdefault(handling, {})[label] = {which: [None] * N_POINTS for which in SETS}
-            jobs += [(handling, label, fmu, params, which, i) for which in SETS for i in range(N_POINTS)]
+            runs.setdefault(handling, {})[label] = {which: {name: [None] * len(drawn[which]) for name in MEASURES}
+                                                    for which in SETS}
+            jobs += [(handling, label, fmu, params, which, i, p) for which in SETS for i, p in enumerate(drawn[which])]
     with ProcessPoolExecutor(max_workers=workers) as pool:
-        for handling, label, which, i, m in pool.map(_job, jobs, chunksize=8):
-            runs[handling][label][which][i] = m
+        for handling, label, which, i, m in pool.map(_job, jobs, chunksize=32):
+            for name in MEASURES:
+                runs[handling][label][which][name][i] = m[name]
     others = {LABELS[f] for f in CONTROLLERS if f not in controllers}
     for handling, stored_runs in old["runs"].items():  # a stage: the other controllers' runs stay
         for label, cell in stored_runs.items():
             if label.split()[0] in others:
                 runs.setdefault(handling, {})[label] = cell
                 params_of.setdefault(handling, {})[label] = old["configurations"][handling][label]
-    return {"n_points": N_POINTS, "seed": EVAL_SEED, "stop_time": EVAL_STOP_TIME, "seeds": stored_tuning()["seeds"],
-            "points": {which: evaluation_points(which) for which in SETS}, "configurations": params_of, "runs": runs}
+    return {"n_points": N_POINTS, "draws": list(DRAWS), "stop_time": EVAL_STOP_TIME, "seeds": stored_tuning()["seeds"],
+            "points": {str(d): {which: evaluation_points(which, d) for which in SETS} for d in DRAWS},
+            "configurations": params_of, "runs": runs}
 
 
 def stored(root: Path) -> dict[str, Any]:
     return json.loads((root / STORE).read_text())
 
 
-def measure(data: dict[str, Any], handling: str, label: str, which: str, name: str) -> list[float | None]:
-    return [m[name] for m in data["runs"][handling][label][which]]
+def measure(data: dict[str, Any], handling: str, label: str, which: str, name: str,
+            draw: int | None = None) -> list[float | None]:
+    """One measure of one configuration on one set: over every draw in turn, or on the draw ``draw``."""
+    values = data["runs"][handling][label][which][name]
+    if draw is None:
+        return values
+    k, n = data["draws"].index(draw), data["n_points"]
+    return values[k * n:(k + 1) * n]
 
 
 def plot(data: dict[str, Any], root: Path) -> list[Path]:
@@ -139,7 +152,7 @@ def plot(data: dict[str, Any], root: Path) -> list[Path]:
                 ax.set_xscale("log")
                 ax.set_title(f"{LIMIT_HANDLINGS[h]}")
                 ax.set_xlabel(title)
-            fig.suptitle(f"{which}: {N_POINTS} seeded points, {EVAL_STOP_TIME:g} s each")
+            fig.suptitle(f"{which}: {len(DRAWS)} draws of {N_POINTS} seeded points, {EVAL_STOP_TIME:g} s each")
             fig.tight_layout()
             paths.append(save_figure(fig, root / STORE.parent / f"{which.replace(' ', '_')}-{name}.png", 80))
     return paths
@@ -161,7 +174,7 @@ def main(argv: list[str] | None = None) -> int:
         previous = stored(args.root) if args.reuse and (args.root / STORE).is_file() else None
         data = evaluate(args.workers, args.controllers, previous)
         (args.root / STORE.parent).mkdir(parents=True, exist_ok=True)
-        atomic_write(args.root / STORE, json.dumps(data, indent=1) + "\n")
+        atomic_write(args.root / STORE, json.dumps(data, separators=(",", ":")) + "\n")
     for path in [args.root / STORE, *plot(data, args.root)]:
         print(path)
     return 0

@@ -1,6 +1,7 @@
 """The stored tuning search and fair evaluation are what the code produces: the protocol (training and
 evaluation points, the store's shape) exactly, and a sample of the runs re-run here (the whole store is
 `sotc-cosim tune --out orchestration/study/tuned.json` and `python -m orchestration.study.fair`, an hour)."""
+import contextlib
 import math
 from pathlib import Path
 
@@ -65,30 +66,68 @@ def test_a_stored_best_trial_is_what_the_loop_gives(fmu):
     assert math.isclose(again, r["criterion"][r["best"]], rel_tol=REL)
 
 
-def test_the_training_points_are_none_of_the_held_out_points():
-    held_out = [p["phi0"] for which in fair.SETS for p in fair.evaluation_points(which)]
-    training = tuning.training_points()
-    assert not any(p["phi0"] in held_out for p in training)
-    noise = {p["perturbation"]["seed"] for which in fair.SETS for p in fair.evaluation_points(which) if "perturbation" in p}
-    assert not noise & {p["perturbation"]["seed"] for p in training if "perturbation" in p}
+def _held_out() -> list[dict]:
+    return [p for d in fair.DRAWS for which in fair.SETS for p in fair.evaluation_points(which, d)]
+
+
+@pytest.mark.parametrize("training", ["shipped", "larger"])
+def test_the_training_points_are_none_of_the_held_out_points(training):
+    """Not one initial state or noise seed in common, for the shipped training set and for the larger one of
+    the training-size study, across every held-out draw; and the draws' generator seeds are not the training's."""
+    from orchestration.study.training_size import larger_training_set
+
+    with larger_training_set() if training == "larger" else contextlib.nullcontext():
+        points = tuning.training_points()
+    held_out = _held_out()
+    assert not any(p["phi0"] in [q["phi0"] for q in held_out] for p in points)
+    noise = [p["perturbation"]["seed"] for p in held_out if "perturbation" in p]
+    assert len(set(noise)) == len(noise)  # no two held-out points share a noise seed, across draws too
+    assert not set(noise) & {p["perturbation"]["seed"] for p in points if "perturbation" in p}
+    assert tuning.TRAINING_SEED not in fair.DRAWS and len(set(fair.DRAWS)) == len(fair.DRAWS) >= 3
 
 
 def test_the_stored_evaluation_points_are_the_seeded_ones():
     data = fair.stored(ROOT)
-    assert data["points"] == {which: fair.evaluation_points(which) for which in fair.SETS}
-    assert len(data["points"]["perturbed"]) == fair.N_POINTS >= 16
+    assert data["draws"] == list(fair.DRAWS)
+    assert data["points"] == {str(d): {which: fair.evaluation_points(which, d) for which in fair.SETS} for d in fair.DRAWS}
+    assert len(data["points"][str(fair.DRAWS[0])]["perturbed"]) == fair.N_POINTS >= 128
     assert data["seeds"] == tuning.stored()["seeds"]
 
 
-@pytest.mark.parametrize("which, index", [("initial states", 3), ("perturbed", 11)])
-def test_a_stored_evaluation_run_is_what_the_loop_gives(which, index):
+@pytest.mark.parametrize("which, draw, index", [("initial states", 7, 3), ("perturbed", 9, 117)])
+def test_a_stored_evaluation_run_is_what_the_loop_gives(which, draw, index):
     data = fair.stored(ROOT)
     seed = data["seeds"][-1]
     label = fair.tuned_label("SotcController", seed)
     fmu, params = fair.configurations(2)[label]
     assert params["limit_handling"] == 2 and label.startswith(LABELS[fmu])
-    again = fair.run_point(fmu, params, fair.evaluation_points(which)[index])
-    stored = data["runs"]["accel"][label][which][index]
+    again = fair.run_point(fmu, params, fair.evaluation_points(which, draw)[index])
+    for name in ("mse", "tail"):
+        stored = fair.measure(data, "accel", label, which, name, draw)[index]
+        assert math.isclose(again[name], stored, rel_tol=REL), name
+    assert again["max_tau_norm"] <= 4.0
+
+
+def test_the_larger_training_set_holds_the_shipped_one():
+    from orchestration.study.training_size import LARGER, larger_training_set
+
+    shipped = tuning.training_points()
+    with larger_training_set():
+        larger = tuning.training_points()
+    assert len(larger) == sum(LARGER.values()) == 4 * len(shipped)
+    assert all(p in larger for p in shipped)
+    assert tuning.training_points() == shipped  # the shipped set is back outside
+
+
+@pytest.mark.parametrize("fmu, which, draw, index", [("CtController", "perturbed", 8, 5),
+                                                     ("SotcController", "initial states", 9, 100)])
+def test_a_stored_run_of_the_training_size_study_is_what_the_loop_gives(fmu, which, draw, index):
+    from orchestration.study import training_size
+
+    data = training_size.stored(ROOT)
+    record = data["records"][f"{fmu} 0"]
+    params = training_size.design_parameters(fmu, record["best_design"])
+    again = fair.run_point(fmu, params, fair.evaluation_points(which, draw)[index])
+    stored = data["runs"][f"{fmu} 0"][str(draw)][which][index]
     for name in ("mse", "tail"):
         assert math.isclose(again[name], stored[name], rel_tol=REL), name
-    assert stored["max_tau_norm"] <= 4.0

@@ -1,5 +1,5 @@
-"""The README's verdict line states only what every tuning seed gives on the tuned-for measure, clear of
-the marginal band; everything else is left to docs/robustness.md."""
+"""The README's verdict line states only what every draw of the held-out points and every tuning seed gives on
+the tuned-for measure, clear of the marginal band; everything else is left to docs/robustness.md."""
 from __future__ import annotations
 
 import pytest
@@ -21,10 +21,10 @@ NEITHER = _v("not distinguishable", 1.0, 0.9, 1.1)
 @pytest.fixture
 def said(monkeypatch):
     def headline(per_pair: dict) -> str:
-        against = {("initial states", f, name): per_pair.get((f, name), {0: NEITHER, 1: NEITHER})
+        against = {("initial states", f, name): per_pair.get((f, name), {(7, 0): NEITHER, (8, 1): NEITHER})
                    for f in fair_tables.BASELINES for name in ("mse", "tail")}
         monkeypatch.setattr(fair_tables, "_verdicts", lambda data: (against, 44, {}))
-        monkeypatch.setattr(fair_tables, "stored", lambda root: {"seeds": [0, 1], "n_points": 16})
+        monkeypatch.setattr(fair_tables, "stored", lambda root: {"seeds": [0, 1], "draws": [7, 8], "n_points": 128})
         monkeypatch.setattr(fair_tables, "stored_tuning", lambda: {"budget": 256})
         return fair_tables.headline(None)
     monkeypatch.setattr(fair_tables, "unconverged", lambda data: [])
@@ -32,20 +32,23 @@ def said(monkeypatch):
 
 
 def test_a_verdict_every_seed_gives_is_stated(said):
-    text = said({("CtController", "mse"): {0: WORSE, 1: _v("worse", 1.1, 1.05, 1.2)}})
-    assert "the tuned SOTC is worse than CT on the initial states set (mse, A / B 1.1 to 1.3 over the seeds)" in text
+    text = said({("CtController", "mse"): {(7, 0): WORSE, (8, 1): _v("worse", 1.1, 1.05, 1.2)}})
+    assert ("the tuned SOTC is worse than CT on the initial states set (mse, A / B 1.1 to 1.3 over 2 draws x 2 seeds)"
+            in text)
+    assert "on 2 independent draws of 128 points per set" in text
     assert "every search converged" in text
 
 
-@pytest.mark.parametrize("per_seed", [{0: BETTER, 1: NEITHER}, {0: WORSE, 1: MARGINAL_WORSE}, {0: NEITHER, 1: NEITHER}],
-                         ids=["depends on the seed", "marginal for one seed", "not distinguishable"])
+@pytest.mark.parametrize("per_seed", [{(7, 0): BETTER, (8, 0): NEITHER}, {(7, 0): WORSE, (7, 1): MARGINAL_WORSE},
+                                      {(7, 0): NEITHER, (8, 1): NEITHER}],
+                         ids=["depends on the draw", "marginal for one seed", "not distinguishable"])
 def test_what_not_every_seed_gives_clearly_is_not_stated(said, per_seed):
     text = said({("CtController", "mse"): per_seed})
     assert "the tuned SOTC is" not in text and "no MSE verdict" in text
 
 
 def test_the_tail_is_never_a_headline(said):
-    text = said({("LqrController", "tail"): {0: WORSE, 1: WORSE}})
+    text = said({("LqrController", "tail"): {(7, 0): WORSE, (8, 1): WORSE}})
     assert "tail" not in text.split("Every other")[0] and "no MSE verdict" in text
 
 
