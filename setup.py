@@ -70,6 +70,8 @@ class OptionalBuildExt(build_ext):
             folder = cache_folder(_module(ext))
             if folder is not None and verified.hold(folder) and compiled.take(folder, Path(self.build_lib), _module(ext)):
                 return
+            if ext.sources[0].endswith(".py"):  # counted as cached, but gone or damaged since: Cython first
+                ext.sources = _cythonized([ext])[0].sources
             super().build_extension(ext)
             if folder is not None:
                 compiled.keep(folder, Path(self.build_lib), _module(ext))
@@ -91,21 +93,29 @@ def hot_extensions() -> list:
     if not compiled.requested():
         return []
     try:
-        from Cython.Build import cythonize
+        import Cython  # noqa: F401 - the cores are compiled only where it is installed
     except ImportError:
         return []
     flags = compiled.CFLAGS.split()
     modules = [Extension(rel[:-3].replace("/", "."), [rel], extra_compile_args=flags)
                for rel in compiled.HOT]
-    if all(folder is not None and folder.is_dir() for folder in map(cache_folder, compiled.HOT)):
+    # held (not trimmed by another process) until this build ends
+    if all(folder is not None and verified.hold(folder) for folder in map(cache_folder, compiled.HOT)):
         return modules  # every one is in the cache: build_extension copies them, nothing to cythonize
-    # Cython and the C compiler on every core (as the FMUs' compile does: compiled._SCRIPT)
     try:
-        return cythonize(modules, build_dir="build/cython", quiet=True, nthreads=os.cpu_count() or 1,
-                         compiler_directives=compiled.DIRECTIVES)
+        return _cythonized(modules)
     except Exception as exc:  # noqa: BLE001 - Cython refused a module: every core stays Python
         print(f"sotc-cosim: the cores stay Python ({exc})", file=sys.stderr)
         return []
+
+
+def _cythonized(modules: list) -> list:
+    """The extensions of these modules' C, with the cores' own directives (as the FMUs' compile does:
+    compiled._SCRIPT), Cython on every core."""
+    from Cython.Build import cythonize
+
+    return cythonize(modules, build_dir="build/cython", quiet=True, nthreads=os.cpu_count() or 1,
+                     compiler_directives=compiled.DIRECTIVES)
 
 
 setup(ext_modules=hot_extensions(), cmdclass={"build_ext": OptionalBuildExt})

@@ -72,6 +72,36 @@ def test_a_wheel_built_again_takes_its_extensions_from_the_cache(build_ext_class
     assert again.read_bytes() == first.read_bytes()
 
 
+def test_a_module_counted_as_cached_but_gone_is_cythonized_with_the_cores_directives(build_ext_class, tmp_path,
+                                                                                      monkeypatch):
+    """Every module was in the cache when setup.py looked (so nothing was cythonized), but one is damaged by the
+    time it is built: it goes through setup.py's own Cython step (the cores' directives), not setuptools' default
+    handling of a ``.py`` source."""
+    reason = compiled.unavailable()
+    if reason:
+        pytest.skip(f"cannot compile: {reason}")
+    glob = build_ext_class.run.__globals__
+    monkeypatch.setitem(glob, "compile_fmu_cores", lambda: None)
+    (tmp_path / "cache" / "a_good.py").mkdir(parents=True)  # there, but without a manifest: not taken
+    monkeypatch.setitem(glob, "cache_folder", lambda rel: tmp_path / "cache" / rel)
+    asked = []
+
+    def cythonized(modules):
+        asked.extend(m.sources for m in modules)
+        (tmp_path / "b" / "a_good.c").write_text(GOOD)
+        return [Extension(m.name, ["a_good.c"]) for m in modules]
+
+    monkeypatch.setitem(glob, "_cythonized", cythonized)
+    (tmp_path / "b").mkdir()
+    monkeypatch.chdir(tmp_path / "b")
+    cmd = build_ext_class(Distribution({"name": "t", "ext_modules": [Extension("a_good", ["a_good.py"])]}))
+    cmd.build_lib, cmd.build_temp = str(tmp_path / "b" / "lib"), str(tmp_path / "b" / "tmp")
+    cmd.ensure_finalized()
+    cmd.run()
+    assert cmd.failed is None and asked == [["a_good.py"]]
+    assert [p.name.split(".")[0] for p in (tmp_path / "b" / "lib").glob("*.so")] == ["a_good"]
+
+
 def test_the_install_compiles_the_fmu_cores_with_the_standard_library_alone():
     """pip builds the wheel where only [build-system]'s setuptools, wheel and Cython are installed: what setup.py
     imports of the project (the FMU cores' compile, packaging.compile_ahead, and the core cache) must import
