@@ -35,6 +35,7 @@ anything; the build says how many of an FMU's cores came from the cache.
 from __future__ import annotations
 
 import contextlib
+import functools
 import hashlib
 import importlib.machinery
 import importlib.util
@@ -82,9 +83,9 @@ HOT = _hot_modules(Path(__file__).resolve().parents[2])
 # names stay plain bytes (renamed); no fused multiply-add, so the compiled cores round as the .py does; -O1:
 # the cores run as fast as at -O2 (a 100 s pure-loop run, docs/performance.md) for 43 % less compile time
 CFLAGS = "-O1 -g0 -fvisibility=hidden -DCYTHON_COMPRESS_STRINGS=0 -ffp-contract=off"
-TIME_LIMIT = 900.0  # s for compiling one bundle
-LOCK_FILE = ".compile.lock"  # in the cache folder: one compile at a time across processes (a build compiles one
-# bundle after the other anyway)
+TIME_LIMIT = 900.0  # s for one compile (the cores a bundle lacks in the cache)
+LOCK_FILE = ".compile.lock"  # in the cache folder: one FMU build's compile at a time across processes (a build
+# compiles one bundle after the other anyway)
 # Cython's directives for every build of the cores (setup.py's too); each module adds its own on its first line
 DIRECTIVES = {"language_level": 3, "annotation_typing": False}
 _SCRIPT = f"""import sys
@@ -213,7 +214,7 @@ def build_cores(resources: Path, lib: str, pxd: dict[str, str]) -> tuple[list[st
 @contextlib.contextmanager
 def _one_compiler(folder: Path):
     """Hold the cache's lock (``LOCK_FILE`` beside its folders; released by the kernel when a holder dies):
-    one process at a time looks for a bundle and compiles it if it is missing."""
+    one process at a time looks for a bundle's cores and compiles those missing."""
     import fcntl
 
     with open(folder / LOCK_FILE, "a") as lock:
@@ -263,7 +264,12 @@ _BUILD_ENV = ("CC", "CXX", "CPPFLAGS", "LDFLAGS", "LDSHARED", "ARCHFLAGS")  # th
 def _toolchain() -> list[str]:
     """Everything but the sources an extension's bytes depend on: the compile script and flags, this
     Python and its build configuration, Cython, setuptools, the C compiler (its path and what it says
-    its version is) and the environment the compiler reads."""
+    its version is) and the environment the compiler reads; asked once per process and environment."""
+    return _toolchain_in(tuple(os.environ.get(k, "") for k in (*_BUILD_ENV, "PATH")))
+
+
+@functools.lru_cache(maxsize=4)
+def _toolchain_in(environment: tuple[str, ...]) -> list[str]:
     from importlib import metadata
 
     compiler = (os.environ.get("CC") or compiler_name()).split()[0]
@@ -286,8 +292,24 @@ def _declared_for(rel: str, lib: str, pxd: dict[str, str]) -> list[str]:
         name = todo.pop()
         if name in pxd and name not in found:
             found.append(name)
-            todo += [d.removeprefix(f"{lib}.").replace(".", "/") + ".pxd" for d in cimports(pxd[name])]
+            todo += _cimported(name, lib, pxd)
     return sorted(found)
+
+
+def _cimported(name: str, lib: str, pxd: dict[str, str]) -> list[str]:
+    """The ``.pxd`` files the declarations ``name`` cimport: ``from a.b cimport f`` reads ``a/b.pxd``; ``from a
+    cimport b`` reads ``a/b.pxd`` (every ``.pxd`` of the package ``a`` is taken: the names are not parsed); a
+    relative module is found from ``name``'s own package."""
+    out = []
+    for dotted in cimports(pxd[name]):
+        bare = dotted.lstrip(".")
+        if bare != dotted:  # relative: one dot is name's own package
+            base = Path(name).parents[len(dotted) - len(bare) - 1].as_posix()
+            path = "/".join(p for p in (base if base != "." else "", bare.replace(".", "/")) if p)
+        else:
+            path = dotted.removeprefix(f"{lib}.").replace(".", "/")
+        out += [f"{path}.pxd"] if f"{path}.pxd" in pxd else [k for k in pxd if k.startswith(f"{path}/")]
+    return out
 
 
 def cached(resources: Path, lib: str, rel: str, pxd: dict[str, str], extra: tuple[str, ...] = ()) -> Path | None:

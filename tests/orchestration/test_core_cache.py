@@ -248,3 +248,17 @@ def test_a_modules_key_takes_the_declarations_it_cimports_and_no_other():
     assert compiled._declared_for("fmu_controller/sotc.py", lib, pxd) == [
         "fmu_controller/sotc.pxd", "fmu_controller/sotc_math.pxd", "fmu_numerics/elementary.pxd"]
     assert compiled._declared_for("fmu_plant/dynamics.py", lib, pxd) == ["fmu_plant/dynamics.pxd"]
+
+
+def test_every_cimport_form_puts_the_declarations_it_reads_in_the_key():
+    """``from package cimport module`` and relative cimports read a ``.pxd`` too: a change in it must change the key."""
+    lib = LIB
+    pxd = {"fmu_controller/sotc.pxd": f"from {lib}.fmu_numerics cimport elementary\n",
+           "fmu_controller/sotc_zv.pxd": "from .saturation cimport clip\n",
+           "fmu_controller/saturation.pxd": "from ..fmu_numerics.fixed_linalg cimport dot\n",
+           "fmu_numerics/elementary.pxd": "cpdef double tanh(double x)\n",
+           "fmu_numerics/fixed_linalg.pxd": "cpdef double dot(double x)\n"}
+    assert compiled._declared_for("fmu_controller/sotc.py", lib, pxd) == [
+        "fmu_controller/sotc.pxd", "fmu_numerics/elementary.pxd", "fmu_numerics/fixed_linalg.pxd"]
+    assert compiled._declared_for("fmu_controller/sotc_zv.py", lib, pxd) == [
+        "fmu_controller/saturation.pxd", "fmu_controller/sotc_zv.pxd", "fmu_numerics/fixed_linalg.pxd"]
