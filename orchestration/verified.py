@@ -10,7 +10,7 @@ changed, truncated, planted or missing) is never used: it is moved aside and rem
 The bound: every source change added a compiled-cores folder and every FMU content an unpacked one, for
 good (115 MB for 8 models). The caches, under ``outputs.private_root()``:
 
-- ``cores/compiled/<key>``: the compiled cores of a bundle (``fmu_build.compiled``);
+- ``cores/compiled/<key>``: one compiled core, of the FMUs' bundles or of the wheel (``fmu_build.compiled``, setup.py);
 - ``fmus/unpacked/<digest>``: an FMU unpacked once per content (``run.unpacked``);
 - ``fmus/<digest>``: an FMU file sent to a sweep's workers (``sweep.runner``).
 

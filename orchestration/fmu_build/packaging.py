@@ -77,7 +77,7 @@ def bundle_stem(model: str, digest: str) -> str:
 
 def placeholder(model: str) -> str:
     """The stem a bundle carries while it is staged and compiled, before its content names the real one:
-    as long as the real one, and the same for every model of ``STEM_LENGTH``."""
+    as long as the real one, and the same for every model whose name has at most 30 characters (``STEM_LENGTH``)."""
     return "sotc_" + "0" * (len(bundle_stem(model, "0" * 64)) - 5)
 
 

@@ -1,5 +1,5 @@
-"""The generated blocks of the fair comparison: the tuning protocol's result, the paired statistics and
-the verdict sentences, all from the stored runs (``orchestration.study.tuning.TUNED_FILE``,
+"""The generated blocks of the fair comparison: the tuning protocol's result, the paired statistics, the
+verdict table per draw of the held-out points and the README's verdict, all from the stored runs (``orchestration.study.tuning.TUNED_FILE``,
 ``orchestration.study.fair.STORE``) so that tests/docs/test_docgen.py checks them in the ordinary
 suite; tests/docs/test_fair_store.py re-runs a sample of the stored runs.
 

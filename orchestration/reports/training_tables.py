@@ -52,6 +52,13 @@ def comparison(root: Path) -> str:
     pooled = [[LABELS[fmu], which, _cell(geometric_interval([v for d in draws for v in _larger(data, fmu, s, which, d)])),
                _cell(geometric_interval(fair.measure(evaluation, handling, fair.tuned_label(fmu, s), which, "mse")))]
               for fmu in training_size.CONTROLLERS for s in seeds for which in fair.SETS]
+    same = []  # each controller's larger-set design against its shipped design, on the same points
+    for fmu in training_size.CONTROLLERS:
+        for seed in seeds:
+            for which in fair.SETS:
+                per = [paired(_larger(data, fmu, seed, which, d), _shipped(evaluation, handling, fmu, seed, which, d),
+                              len(training_size.CONTROLLERS) * len(seeds) * len(fair.SETS)) for d in draws]
+                same.append([LABELS[fmu], seed, which, *(f"{_cell(v.ratio)}: {v.said}" for v in per)])
     decision = (f"**Adopted**: {'; '.join(moved)} moved beyond the shipped designs' verdict or interval." if moved else
                 "**Not adopted**: on every draw and set the verdict of the SOTC against CT is the same with both training "
                 "sets, and every ratio of the larger set's designs lies inside the shipped designs' interval.")
@@ -66,4 +73,9 @@ def comparison(root: Path) -> str:
         f"stated together, each interval at {100 * level(m):.5g} %:", "",
         table(["seed", "set", "draw", f"tuned on {data['shipped_training_points']} points (shipped)",
                f"tuned on {data['training_points']} points", "ratio outside the shipped interval"], rows), "",
+        "The larger set's design against the shipped one of the same controller and seed, paired on the same "
+        f"points (A: tuned on {data['training_points']}, B: tuned on {data['shipped_training_points']}; on each draw "
+        f"{len(same)} verdicts stated together). One tuning seed: a difference here may be the seed's as much as the "
+        "training set's.", "",
+        table(["controller", "seed", "set", *(f"draw {d}: A / B" for d in draws)], same), "",
         decision])

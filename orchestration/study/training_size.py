@@ -5,7 +5,7 @@ computed-torque controller are tuned again by the same protocol (``protocol.BUDG
 ``protocol.POLISH`` of CMA-ES, the shipped tuning seed ``SEEDS``, the verdict's handling) on ``LARGER``
 training points (drawn as the shipped ones: the same generator seed, so the shipped 8 are among them),
 and each design is judged on every held-out draw of ``orchestration.study.fair``, as the shipped designs
-are there. The generated block of ``docs/baselines.md`` (``orchestration.reports.fair_tables``) sets
+are there. The generated block of ``docs/baselines.md`` (``orchestration.reports.training_tables``) sets
 the two side by side.
 
 ``python -m orchestration.study.training_size [--workers N] [--journal PATH]`` runs the searches (resumable:
