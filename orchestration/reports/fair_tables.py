@@ -8,6 +8,7 @@ interval at the Bonferroni level of that family (``orchestration.study.statistic
 from __future__ import annotations
 
 import math
+from collections import Counter
 
 from pathlib import Path
 
@@ -190,13 +191,11 @@ def _agreed(verdicts: dict) -> str | None:
 
 def _seeds_cell(verdicts: dict) -> str:
     """One draw's verdicts over the tuning seeds: how many seeds say what, and the range of A / B."""
-    counts: dict[str, int] = {}
-    for v in verdicts.values():
-        counts[v.said] = counts.get(v.said, 0) + 1
+    counts = Counter(v.said for v in verdicts.values())
     ratios = [v.ratio.value for v in verdicts.values()]
     if len(verdicts) == 1:  # the nominal design: one verdict
         return f"{next(iter(counts))}; A / B {number(ratios[0], '.3g')}"
-    said = ", ".join(f"{text} {n}" for text, n in sorted(counts.items(), key=lambda c: -c[1]))
+    said = ", ".join(f"{text} {n}" for text, n in counts.most_common())
     return f"{said} of {len(verdicts)} seeds; A / B {number(min(ratios), '.3g')}-{number(max(ratios), '.3g')}"
 
 
