@@ -16,7 +16,7 @@ from fmu_controller.catalog import LABELS
 from fmu_controller.saturation import LIMIT_HANDLINGS
 from orchestration.markdown import number, table
 from orchestration.study.fair import MEASURES, SETS, measure, stored, tuned_label
-from orchestration.study.statistics import Interval, PairedVerdict, geometric_interval, level, paired
+from orchestration.study.statistics import Interval, PairedVerdict, geometric_intervals, level, paired_verdicts
 from orchestration.study.tuning import CONTROLLERS, CONVERGED, HANDLINGS, improvement, still_improving, tpe_improvement, unconverged
 from orchestration.study.tuning import stored as stored_tuning
 
@@ -134,14 +134,11 @@ def summary_table(root: Path, which: str) -> str:
     of each measure."""
     data = stored(root)
     labels = list(data["runs"][VERDICT_HANDLING])
-    rows = []
-    for label in labels:
-        row = [label]
-        for h in HANDLINGS:
-            for name in MEASURES:
-                row.append(_cell(geometric_interval(measure(data, LIMIT_HANDLINGS[h], label, which, name))))
-        rows.append(row)
-    header = ["configuration"] + [f"{LIMIT_HANDLINGS[h]}: {name}" for h in HANDLINGS for name in MEASURES]
+    cells = [(LIMIT_HANDLINGS[h], name) for h in HANDLINGS for name in MEASURES]
+    intervals = iter(geometric_intervals([measure(data, handling, label, which, name)
+                                          for label in labels for handling, name in cells]))
+    rows = [[label, *(_cell(next(intervals)) for _ in cells)] for label in labels]
+    header = ["configuration"] + [f"{handling}: {name}" for handling, name in cells]
     return table(header, rows)
 
 
@@ -166,17 +163,16 @@ def paired_table(root: Path) -> str:
     data = stored(root)
     pairs = _pairs(data["seeds"])
     m = len(SETS) * len(HANDLINGS) * len(pairs) * len(MEASURES)
+    keys = [(which, LIMIT_HANDLINGS[h], a, b, d) for which in SETS for h in HANDLINGS for a, b in pairs
+            for d in data["draws"]]
+    verdicts = iter(paired_verdicts([(measure(data, handling, a, which, name, d), measure(data, handling, b, which, name, d))
+                                     for which, handling, a, b, d in keys for name in MEASURES], m))
     rows = []
-    for which in SETS:
-        for h in HANDLINGS:
-            handling = LIMIT_HANDLINGS[h]
-            for a, b in pairs:
-                for d in data["draws"]:
-                    cells = []
-                    for name in MEASURES:
-                        v = paired(measure(data, handling, a, which, name, d), measure(data, handling, b, which, name, d), m)
-                        cells += [_ratio(v), v.said]
-                    rows.append([which, handling, f"{a} vs {b}", d, *cells])
+    for which, handling, a, b, d in keys:
+        cells = []
+        for v in (next(verdicts) for _ in MEASURES):
+            cells += [_ratio(v), v.said]
+        rows.append([which, handling, f"{a} vs {b}", d, *cells])
     header = ["set", "limit handling", "A vs B", "draw"] + [c for name in MEASURES for c in (f"{name}: A / B", f"{name}: A is")]
     return (f"Family: on each draw, the {m} verdicts of that draw, {_family_text(m)}.\n\n"
             + table(header, rows))
@@ -220,21 +216,24 @@ def _verdicts(data: dict) -> tuple[dict, int, dict]:
     seed): ...}} for learning on against off (the nominal design: seed None)."""
     seeds, draws = data["seeds"], data["draws"]
     m = readme_family(seeds)
-
-    def v(a, b, which, name, draw):
-        return paired(measure(data, VERDICT_HANDLING, a, which, name, draw),
-                      measure(data, VERDICT_HANDLING, b, which, name, draw), m)
-
-    against = {(which, f, name): {(d, s): v(tuned_label(SOTC, s), tuned_label(f, s), which, name, d)
-                                  for d in draws for s in seeds}
-               for which in SETS for f in BASELINES for name in MEASURES}
     sotc = LABELS[SOTC]
-    learning = {}
+    wanted: dict[tuple, dict[tuple, tuple]] = {}  # group -> (draw, seed) -> (A, B, set, measure, draw)
     for which in SETS:
-        learning[which, "nominal"] = {(d, None): v(f"{sotc} nominal", f"{sotc} nominal, learning off", which, "tail", d)
-                                      for d in draws}
-        learning[which, "tuned"] = {(d, s): v(tuned_label(SOTC, s), f"{tuned_label(SOTC, s)}, learning off", which,
-                                              "tail", d) for d in draws for s in seeds}
+        for f in BASELINES:
+            for name in MEASURES:
+                wanted[which, f, name] = {(d, s): (tuned_label(SOTC, s), tuned_label(f, s), which, name, d)
+                                          for d in draws for s in seeds}
+    for which in SETS:
+        wanted[which, "nominal"] = {(d, None): (f"{sotc} nominal", f"{sotc} nominal, learning off", which, "tail", d)
+                                    for d in draws}
+        wanted[which, "tuned"] = {(d, s): (tuned_label(SOTC, s), f"{tuned_label(SOTC, s)}, learning off", which, "tail", d)
+                                  for d in draws for s in seeds}
+    asked = [args for per in wanted.values() for args in per.values()]
+    said = iter(paired_verdicts([(measure(data, VERDICT_HANDLING, a, which, name, d),
+                                  measure(data, VERDICT_HANDLING, b, which, name, d)) for a, b, which, name, d in asked], m))
+    verdicts = {group: {k: next(said) for k in per} for group, per in wanted.items()}
+    against = {g: v for g, v in verdicts.items() if len(g) == 3}
+    learning = {g: v for g, v in verdicts.items() if len(g) == 2}
     return against, m, learning
 
 

@@ -96,8 +96,10 @@ def _kept(values) -> list[float]:
 
 
 def _scipy_bca(sample, confidence: float) -> tuple[float, float]:
-    """BCa interval of the mean of one sample (the paired ratio's: the mean of the log differences)."""
-    res = bootstrap((sample,), np.mean, method="BCa", confidence_level=confidence,
+    """BCa interval of the mean of one sample (the paired ratio's: the mean of the log differences), the mean summed
+    left to right as ours is (numpy's pairwise sum moves BCa's count of resampled means below the sample's, and so
+    the interval, where a resample's mean ties the sample's but for rounding)."""
+    res = bootstrap((sample,), statistics.sequential_mean, method="BCa", confidence_level=confidence,
                     n_resamples=statistics.RESAMPLES, rng=np.random.default_rng(statistics.BOOTSTRAP_SEED))
     return res.confidence_interval.low, res.confidence_interval.high
 
@@ -134,14 +136,43 @@ def test_the_paired_ratio_is_scipys_paired_bca_on_the_points_where_both_ran(seed
 
 @pytest.mark.parametrize("n", [16, 128])
 def test_resampling_the_differences_is_scipys_paired_bootstrap_to_the_bit(n):
-    """statistics._bca resamples the per-point differences (a third of the time): the same interval, bit for
-    bit, as scipy's paired bootstrap of the two samples."""
+    """statistics.bca_intervals resamples the per-point differences: the same interval, bit for bit, as scipy's
+    paired bootstrap of the two samples with the same statistic."""
     g = np.random.default_rng(n)
     a, b = g.normal(size=n), g.normal(0.1, 1.2, size=n)
-    res = bootstrap((a, b), lambda x, y, axis: np.mean(x - y, axis=axis), paired=True, vectorized=True, method="BCa",
-                    confidence_level=0.999, n_resamples=statistics.RESAMPLES,
+    res = bootstrap((a, b), lambda x, y, axis: statistics.sequential_mean(x - y, axis), paired=True, vectorized=True,
+                    method="BCa", confidence_level=0.999, n_resamples=statistics.RESAMPLES,
                     rng=np.random.default_rng(statistics.BOOTSTRAP_SEED))
-    assert statistics._bca((a, b), 0.999) == (res.confidence_interval.low, res.confidence_interval.high)
+    assert statistics.bca_intervals([a - b], 0.999) == [(res.confidence_interval.low, res.confidence_interval.high)]
+
+
+def test_samples_bootstrapped_together_get_the_bits_each_gets_alone():
+    """More samples than one call takes, of two lengths, with nothing to resample in some: each interval is the one
+    its sample gets on its own, bit for bit (so a table's figures do not depend on what else it bootstraps)."""
+    g = np.random.default_rng(11)
+    diffs = [g.normal(size=40) for _ in range(statistics.ROWS + 3)] + [g.normal(size=17), np.full(9, 0.25),
+                                                                       np.array([2.0]), np.array([])]
+    together = statistics.bca_intervals(diffs, 0.99)
+    alone = [statistics.bca_intervals([d], 0.99)[0] for d in diffs]
+    assert together == alone
+    assert together[-3:-1] == [(0.25, 0.25), (2.0, 2.0)] and all(math.isnan(x) for x in together[-1])
+    pairs = [(list(10 ** g.normal(size=12)), list(10 ** g.normal(size=12))) for _ in range(3)] + [([1.0, None], [2.0, 3.0])]
+    assert statistics.paired_verdicts(pairs, 4) == [paired(a, b, 4) for a, b in pairs]
+    values = [a for a, _ in pairs]
+    assert statistics.geometric_intervals(values, 4) == [geometric_interval(v, 4) for v in values]
+
+
+def test_the_sequential_mean_is_the_mean_in_every_layout():
+    """Summed left to right: within rounding of the exact mean (math.fsum), and the same bits for a row in a C- or
+    Fortran-ordered array, a transposed view, or alone."""
+    g = np.random.default_rng(12)
+    x = g.normal(size=(5, 33)) * 10 ** g.uniform(-3, 3, size=(5, 33))
+    rows = [statistics.sequential_mean(r) for r in x]
+    for r, got in zip(x, rows):
+        assert got == pytest.approx(math.fsum(r) / len(r), rel=1e-12, abs=1e-15)
+    for layout in (x, np.asfortranarray(x), x.T.copy().T, np.moveaxis(x.T, 0, 1)):
+        assert list(statistics.sequential_mean(layout)) == rows
+    assert list(statistics.sequential_mean(x.T, axis=0)) == rows
 
 
 @pytest.mark.parametrize("values, n", [([2.0] * 5 + HOSTILE, 5), ([3.0] + HOSTILE, 1), (HOSTILE, 0)])
