@@ -41,18 +41,38 @@ def test_every_shipped_scenario_has_a_reference():
     assert sorted(REFERENCE) == sorted(available_scenarios())
 
 
-@pytest.fixture(params=["default build", "cores in Python"])
-def cores_paths(request, fmu_paths):
-    if request.param == "default build":
+# the scenarios run with the cores in Python too: every FMU a scenario uses, each controller core, the npz's run. The
+# others (paper-literal, -near-literal, -long-pe, -pe-only) change parameters of paper's SOTC core only; the
+# Python build runs each of them in the pure loop under every handling (test_cpu_independence), and its cores
+# give the compiled ones' bits (tests/fmu/test_compiled_cores.py): 28 s of the suite for no other code
+PYTHON_SCENARIOS = ("paper", "paper-ct", "paper-lqr", "paper-otc", "paper-perturbed")
+
+
+CASES = [(name, build) for build in ("default build", "cores in Python") for name in sorted(REFERENCE)
+         if build == "default build" or name in PYTHON_SCENARIOS]
+
+
+@pytest.fixture
+def cores_paths(request, fmu_paths, build):
+    if build == "default build":
         return fmu_paths
     if not compiles():
         pytest.skip("the default build runs its cores in Python here already")
     return request.getfixturevalue("python_fmu_paths")
 
 
+def test_the_python_build_runs_every_fmu_and_controller_of_the_scenarios():
+    from orchestration.run.scenario import load_scenario as load
+
+    def fmus(names):
+        return {i.fmu for n in names for i in load(n).instances.values()}
+
+    assert set(PYTHON_SCENARIOS) <= set(REFERENCE) and fmus(PYTHON_SCENARIOS) == fmus(REFERENCE)
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize("name", sorted(REFERENCE))
-def test_summary_equals_the_reference_run(name, cores_paths):
+@pytest.mark.parametrize("name, build", CASES, ids=[f"{b}-{n}" for n, b in CASES])
+def test_summary_equals_the_reference_run(name, build, cores_paths):
     result = run(load_scenario(name), cores_paths)
     assert not result.failed, result.error
     assert_same(comparable_summary(summarize(result)), REFERENCE[name], name)
