@@ -95,7 +95,7 @@ def install(root: Path) -> Shipped:
     subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(wheels), str(src)],
                    check=True, capture_output=True, text=True)
     env_dir = root / "venv"
-    venv.EnvBuilder(with_pip=True, clear=True).create(env_dir)
+    venv.EnvBuilder(with_pip=False, clear=True).create(env_dir)  # this pip installs into it (--python): 5 s less
     bindir = "Scripts" if sys.platform == "win32" else "bin"
     python = env_dir / bindir / ("python.exe" if sys.platform == "win32" else "python")
     site = Path(subprocess.run([str(python), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
@@ -103,7 +103,8 @@ def install(root: Path) -> Shipped:
     wheel = next(wheels.glob("sotc_cosim-*.whl"))
     # the wheel first: once the .pth below is in place, pip would see the test runner's own copy of
     # sotc-cosim (CI installs it non-editable) as already installed and skip the wheel
-    subprocess.run([str(python), "-m", "pip", "install", "--no-deps", "--no-index", "-q", str(wheel)],
+    subprocess.run([sys.executable, "-m", "pip", "--python", str(python), "install", "--no-deps", "--no-index", "-q",
+                    str(wheel)],
                    check=True, capture_output=True, text=True)
     # the dependencies: this interpreter's site-packages, searched after the venv's own
     (site / "zz_test_dependencies.pth").write_text(sysconfig.get_paths()["purelib"] + "\n")
