@@ -195,6 +195,15 @@ def test_two_values_are_resampled_and_the_default_family_is_one():
     assert (statistics.level(), statistics.level(10)) == (0.95, 0.995)
 
 
+def test_without_a_family_each_interval_is_a_single_verdicts():
+    g = np.random.default_rng(13)
+    a, b = list(10 ** g.normal(size=20)), list(10 ** g.normal(0.3, 1.0, size=20))
+    assert geometric_interval(a) == geometric_interval(a, 1) != geometric_interval(a, 2)
+    assert statistics.geometric_intervals([a]) == [geometric_interval(a, 1)]
+    assert paired(a, b) == paired(a, b, 1) != paired(a, b, 2)
+    assert statistics.paired_verdicts([(a, b)]) == [paired(a, b, 1)]
+
+
 def test_no_usable_value_gives_nan_without_a_warning():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
