@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 import re
+import statistics
 from decimal import ROUND_CEILING, ROUND_FLOOR, Decimal
 from typing import Any, Sequence
 
@@ -58,12 +59,15 @@ def _missing(value: Any) -> bool:
     return value is None or isinstance(value, bool) or not _is_int(value) and not math.isfinite(float(value))
 
 
+MIN_DIGITS = 2  # a figure of which fewer significant digits hold over the perturbed runs is printed as chaotic
+
+
 def stable(value: Any, others: Sequence[Any], spec: str = ".4g") -> str:
     """``value`` to at most ``spec``'s significant digits, and to no more than every one of ``others``
     (the same figure after each perturbation of the initial state, ``comparison.PERTURBATIONS``) shares
-    with it: only the digits that reproduce. A figure whose first digit already moves is printed as
-    'chaotic: ' and the range of all of them; counts that differ as their range; a figure that some runs
-    do not have, as the rule gives it over the runs that have it, and '-' for the others."""
+    with it: only the digits that reproduce. A figure of which fewer than ``MIN_DIGITS`` hold is printed as
+    'chaotic: ' with the median and the range of all the runs; counts that differ as their range; a figure
+    that some runs do not have, as the rule gives it over the runs that have it, and '-' for the others."""
     values = [value, *others]
     present = [v for v in values if not _missing(v)]
     if len(present) < len(values):
@@ -75,11 +79,18 @@ def stable(value: Any, others: Sequence[Any], spec: str = ".4g") -> str:
         low, high = min(values), max(values)
         return number(value) if low == high else f"{number(low)}–{number(high)}"
     digits = int(spec.strip(".g"))
-    for d in range(digits, 0, -1):
+    for d in range(digits, min(MIN_DIGITS, digits) - 1, -1):
         text = format(float(value), f".{d}g")
         if all(format(float(v), f".{d}g") == text for v in others):
             return text
-    return f"chaotic: {_outward(float(min(values)), False)}–{_outward(float(max(values)), True)}"
+    return chaotic([float(v) for v in values])
+
+
+def chaotic(values: Sequence[float]) -> str:
+    """'chaotic: ' the median of ``values`` (two digits), and their range rounded outwards, with their count."""
+    low, high = min(values), max(values)
+    return (f"chaotic: {format(statistics.median(values), '.2g')} ({_outward(low, False)}–{_outward(high, True)} "
+            f"over {len(values)} runs)")
 
 
 def _outward(v: float, up: bool) -> str:

@@ -61,17 +61,30 @@ def controller_of(scenario: str, **overrides: float) -> tuple[str, dict[str, flo
     return inst.fmu, {**inst.parameters, **overrides}
 
 
-# the changes of the initial state every printed figure is judged over: (relative change of phi1_0, of
-# phi2_0, initial dphi1 and dphi2 in rad/s); a table prints only the digits the nominal run shares with
-# every one of them (``orchestration.markdown.stable``)
+# the changes of the initial state every printed figure is judged over, (relative change of phi1_0, of phi2_0,
+# initial dphi1 and dphi2 in rad/s): a ladder of sizes, each in LADDER_DIRECTIONS seeded directions that move
+# angles and velocities at once (the largest component of a direction is the size); a table prints only the
+# digits the nominal run shares with every one of them (``orchestration.markdown.stable``)
 NOMINAL = (0.0, 0.0, 0.0, 0.0)
-PERTURBATIONS: tuple[tuple[float, float, float, float], ...] = (
-    (1e-12, 1e-12, 0.0, 0.0), (-1e-12, -1e-12, 0.0, 0.0),
-    (1e-10, 1e-10, 0.0, 0.0), (-1e-10, -1e-10, 0.0, 0.0),
-    (1e-14, 1e-14, 0.0, 0.0),
-    (1e-12, 0.0, 0.0, 0.0), (0.0, 1e-12, 0.0, 0.0),  # one angle alone
-    (0.0, 0.0, 1e-12, -1e-12),  # the velocities
-)
+LADDER_SIZES = (1e-13, 1e-12, 1e-11, 1e-10, 1e-9, 1e-8)
+LADDER_DIRECTIONS = 8
+LADDER_SEED = 20261129
+
+
+def ladder_directions(n: int = LADDER_DIRECTIONS, seed: int = LADDER_SEED) -> list[tuple[float, ...]]:
+    """``n`` directions in the four components: seeded integers in [-1000, 1000] over the largest of their
+    magnitudes (integers and one correctly rounded division: the same bits on every machine)."""
+    out = []
+    for row in np.random.default_rng(seed).integers(-1000, 1001, size=(n, 4)).tolist():
+        top = max(abs(k) for k in row)
+        if top == 0:  # all four zero: no direction (one chance in 1e13)
+            raise ValueError(f"seed {seed} draws a zero direction")
+        out.append(tuple(k / top for k in row))
+    return out
+
+
+PERTURBATIONS: tuple[tuple[float, float, float, float], ...] = tuple(
+    tuple(size * c for c in d) for size in LADDER_SIZES for d in ladder_directions())  # type: ignore[misc]
 
 
 def initial_state(perturbation: tuple[float, float, float, float]) -> dict[str, tuple[float, float]]:
