@@ -30,7 +30,8 @@ from orchestration.bench.speed import MEASUREMENT as SPEED_MEASUREMENT
 from orchestration.bench.speed import stored_block
 from orchestration.bench import exchange
 from orchestration.markdown import block_pattern, number, replace_block, stable, stable_pair, table
-from orchestration.reports import fair_tables, numerics_tables, optimum_tables, perturbed, training_tables
+from orchestration.reports import (fair_tables, ladder_tables, numerics_tables, optimum_tables, parting_tables, perturbed,
+                                   training_tables)
 from orchestration.study.comparison import (
     COMPARED,
     OTC_VARIANTS,
@@ -299,7 +300,7 @@ def controllers_verdict() -> str:
 class Block:
     file: str
     make: Callable[[], str]
-    slow: bool  # needs more than a few dozen 100 s runs (every figure is judged over nine: ``perturbed``)
+    slow: bool  # needs more than a few dozen 100 s runs (every figure is judged over 49: ``perturbed``)
 
 
 def integrator_table() -> str:
@@ -327,6 +328,10 @@ BLOCKS: dict[str, Block] = {
     "fair-perturbed": Block("docs/robustness.md", lambda: fair_tables.summary_table(ROOT, "perturbed"), False),
     "fair-paired": Block("docs/robustness-paired.md", lambda: fair_tables.paired_table(ROOT), False),  # the appendix
     "fair-verdict": Block("docs/robustness.md", lambda: fair_tables.verdict(ROOT), False),
+    "ladder": Block("docs/robustness.md", ladder_tables.ladder_table, True),
+    "ladder-tuning": Block("docs/robustness.md", ladder_tables.tuning_table, True),
+    # the stored partings (rerun: python -m orchestration.reports.parting_tables)
+    "parting": Block("docs/robustness.md", lambda: parting_tables.table_of(ROOT), False),
     # the stored optimum (rerun: sotc-cosim optimum --cold all --json docs/optimum/optimum.json)
     "optimum": Block("docs/optimum.md", lambda: optimum_tables.report(optimum_tables.stored(ROOT)), False),
     "optimum-verdict": Block("docs/optimum.md", lambda: optimum_tables.verdict(optimum_tables.stored(ROOT)), False),

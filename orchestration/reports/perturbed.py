@@ -1,7 +1,7 @@
 """The perturbed runs of the generated tables, paid once.
 
 Every printed figure is judged over its run under each of ``comparison.PERTURBATIONS``
-(``orchestration.markdown.stable``): nine 100 s runs a figure. ``docgen write`` computes the perturbed
+(``orchestration.markdown.stable``): 49 100 s runs a figure. ``docgen write`` computes the perturbed
 runs of the blocks it writes (on a process pool) and stores, per configuration, the figures the tables
 print of its nominal run and of each perturbed one in ``STORE`` (JSON, floats as their repr, sorted
 keys). Rendering a block (``docgen check``, tests/docs/test_docgen.py) recomputes only the nominal runs
@@ -133,25 +133,35 @@ def _run_of(kind: str, args: list[Any]) -> str:
     return _text([args[0], *args[1:]] if kind == "loop" else [SOTC, *args])
 
 
-def _figures(kind: str, args: list[Any]) -> tuple[Figures, list[Figures]]:
-    nominal = FIGURES[kind](*args)
+def _figures(kind: str, args: list[Any], check: bool = True) -> tuple[Figures, list[Figures]]:
+    """The figures of a configuration and of its perturbed runs; ``check``: its nominal run computed now and
+    compared with the store (else read from the store, as a table of stored runs is)."""
     at = key(kind, args)
     if _collected is not None:
+        nominal = FIGURES[kind](*args)
         _collected[at] = [kind, args]
         return nominal, [nominal] * len(PERTURBATIONS)
     entry = stored(_root).get(at)
     if entry is None:
         raise Stale(f"{STORE} has no perturbed runs of {at}")
+    if not check:
+        return entry["nominal"], entry["perturbed"]
+    nominal = FIGURES[kind](*args)
     if _text(entry["nominal"]) != _text(nominal):
         raise Stale(f"the nominal run of {at} differs from the one stored in {STORE}")
     return nominal, entry["perturbed"]
 
 
+def design(fmu: str, params: dict[str, float], stop_time: float = 100.0,
+           check: bool = True) -> tuple[Figures, list[Figures]]:
+    """The printed metrics of a controller core with these parameters from section 4's initial state, nominal
+    and under every one of ``PERTURBATIONS`` (from the store; ``check``: as ``_figures``)."""
+    return _figures("loop", [fmu, sorted([k, v] for k, v in params.items()), stop_time], check)
+
+
 def metrics(scenario: str, stop_time: float = 100.0, **overrides: float) -> tuple[Figures, list[Figures]]:
-    """The printed metrics of a scenario's controller (with overrides), nominal and under every one of
-    ``PERTURBATIONS`` (from the store)."""
-    fmu, params = controller_of(scenario, **overrides)
-    return _figures("loop", [fmu, sorted([k, v] for k, v in params.items()), stop_time])
+    """``design`` of a scenario's controller (with overrides)."""
+    return design(*controller_of(scenario, **overrides), stop_time)
 
 
 def tuned(fmu: str, handling: int) -> tuple[Figures, list[Figures]]:

@@ -71,11 +71,19 @@ def _loop_key(scenario, **overrides):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("what, index", [("tuned SOTC", 0), ("CT", 5), ("SOTC state", 7)])
+@pytest.mark.parametrize("what, index", [("tuned SOTC", 0), ("CT", 5), ("SOTC state", 7), ("ladder", 47)])
 def test_a_sample_of_the_stored_perturbed_runs_is_what_the_code_computes(what, index):
-    """One perturbation each of three stored configurations (the tuned SOTC under accel, CT at its scenario's
-    defaults, the SOTC's own state in `paper`), recomputed now: the same bits."""
-    if what == "tuned SOTC":
+    """One perturbation each of four stored configurations (the tuned SOTC under accel, CT at its scenario's
+    defaults, the SOTC's own state in `paper`, the last SOTC design of the ladder table, which reads its
+    nominal runs from the store too), recomputed now: the same bits."""
+    if what == "ladder":
+        from orchestration.study import fair
+
+        fmu, params = fair.configurations(2)[fair.tuned_label("SotcController", 4)]
+        at = perturbed.key("loop", [fmu, sorted([k, v] for k, v in params.items()), 100.0])
+        assert json.dumps(perturbed.FIGURES["loop"](*json.loads(at)[1:]), sort_keys=True) == json.dumps(
+            perturbed.stored(REPO)[at]["nominal"], sort_keys=True)
+    elif what == "tuned SOTC":
         scenario, overrides = tuned_run("SotcController", 2)
         at = _loop_key(scenario, **overrides)
     elif what == "CT":
