@@ -87,10 +87,9 @@ def stable(value: Any, others: Sequence[Any], spec: str = ".4g") -> str:
 
 
 def chaotic(values: Sequence[float]) -> str:
-    """'chaotic: ' the median of ``values`` (two digits), and their range rounded outwards, with their count."""
+    """'chaotic: ' the median of ``values`` (two digits), and their range rounded outwards."""
     low, high = min(values), max(values)
-    return (f"chaotic: {format(statistics.median(values), '.2g')} ({_outward(low, False)}–{_outward(high, True)} "
-            f"over {len(values)} runs)")
+    return f"chaotic: {format(statistics.median(values), '.2g')} ({_outward(low, False)}–{_outward(high, True)})"
 
 
 def _outward(v: float, up: bool) -> str:
