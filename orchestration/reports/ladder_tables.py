@@ -7,7 +7,7 @@ The figures are the stored runs of ``perturbed`` (90 designs: their nominal runs
 render the table; tests/docs/test_perturbed_store.py recomputes a sample). A design whose metric moves by more
 than ``JUMP`` at some size "jumps": a fourth printed digit would not
 hold. A closed loop that depends smoothly on its initial state moves in proportion to the size (the ratio of
-the move to the size is its gain); one that jumps at 1e-13 rad does not, whatever its gain looks like.
+the move to the size is its gain); one with a decision in it that a change turns does not.
 """
 from __future__ import annotations
 
@@ -19,21 +19,26 @@ from orchestration.markdown import number, table
 from orchestration.reports import perturbed
 from orchestration.study import fair
 from orchestration.study.comparison import LADDER_DIRECTIONS, LADDER_SIZES, mse_sum
+from orchestration.study.parting import STOP_TIME
 from orchestration.study.tuning import CONTROLLERS, HANDLINGS
 from orchestration.study.tuning import stored as stored_tuning
 
-STOP_TIME = 100.0  # s: the `paper` run the README's figures come from
 JUMP = 1e-3  # a relative move above 0.1 % changes the fourth significant digit of the metric
 # a smooth response moves the metric by at most a few tens of times the size here (every baseline's nominal
 # design, every design with learning off); a decision a perturbation turns moves it by far more
 GAIN = 1e3
 
 
-def moves(nominal: dict[str, Any], others: list[dict[str, Any]]) -> list[float]:
-    """The largest relative move of MSE_1 + MSE_2 over the directions of each size of the ladder (``others``
-    in ``PERTURBATIONS``' order: size by size, ``LADDER_DIRECTIONS`` each)."""
+def relative_moves(nominal: dict[str, Any], others: list[dict[str, Any]]) -> list[float]:
+    """How far MSE_1 + MSE_2 of each of ``others`` lies from the nominal run's, relative to it."""
     base = mse_sum(nominal)
-    rel = [abs(mse_sum(o) - base) / base for o in others]
+    return [abs(mse_sum(o) - base) / base for o in others]
+
+
+def moves(nominal: dict[str, Any], others: list[dict[str, Any]]) -> list[float]:
+    """The largest relative move over the directions of each size of the ladder (``others`` in
+    ``PERTURBATIONS``' order: size by size, ``LADDER_DIRECTIONS`` each)."""
+    rel = relative_moves(nominal, others)
     return [max(rel[k:k + LADDER_DIRECTIONS]) for k in range(0, len(rel), LADDER_DIRECTIONS)]
 
 

@@ -1,7 +1,7 @@
 """Which decision parts the nearby runs of the SOTC designs that jump on the ladder (``ladder_tables``), stored
 in ``STORE`` and printed in docs/robustness.md (``orchestration.study.parting``).
 
-    python -m orchestration.reports.parting_tables     # the pair of every SOTC design that jumps under accel
+    python -m orchestration.reports.parting_tables     # every SOTC design that jumps under the verdict's handling
 """
 from __future__ import annotations
 
@@ -15,10 +15,10 @@ from orchestration.markdown import number, table
 from orchestration.outputs import atomic_write
 from orchestration.reports import perturbed
 from orchestration.reports.fair_tables import VERDICT_HANDLING
-from orchestration.reports.ladder_tables import JUMP, STOP_TIME, moves
+from orchestration.reports.ladder_tables import JUMP, moves, relative_moves
 from orchestration.study import fair
-from orchestration.study.comparison import LADDER_DIRECTIONS, LADDER_SIZES, mse_sum
-from orchestration.study.parting import APART, parting
+from orchestration.study.comparison import LADDER_DIRECTIONS, LADDER_SIZES
+from orchestration.study.parting import APART, GROWTH, SHIFTS, STOP_TIME, parting
 
 STORE = "docs/parting.json"
 
@@ -33,8 +33,7 @@ def pairs() -> dict[str, tuple[dict[str, float], int, float]]:
         rung = next((k for k, m in enumerate(moves(nominal, others)) if m > JUMP), None)
         if fmu != "SotcController" or rung is None:
             continue
-        base = mse_sum(nominal)
-        rel = [abs(mse_sum(o) - base) / base for o in others]
+        rel = relative_moves(nominal, others)
         index = max(range(rung * LADDER_DIRECTIONS, (rung + 1) * LADDER_DIRECTIONS), key=rel.__getitem__)
         out[label] = (params, index, rel[index])
     return out
@@ -58,20 +57,23 @@ def _decided(d: dict[str, Any] | None) -> list[str]:
     if d["what"] != "CL stack swap":
         return [f"`{d['what']}` differs", f"{d['t']:g} s", "-", "not logged"]
     rows = " / ".join("keeps its rows" if r < 0 else f"swaps row {r}" for r in d["rows"])
-    margins = " / ".join("over 1e-2" if m is None else f"{m:g}" for m in d["margins"])
+    margins = " / ".join(f"none up to {SHIFTS[-1]:g}" if m is None else f"{m:g}" for m in d["margins"])
     return ["CL stack swap", f"{d['t']:g} s", rows, margins]
 
 
 def table_of(root: Path) -> str:
-    """The stored pairs: the perturbation, how far the metric moves, where the runs part and what decided it."""
+    """The stored pairs: the perturbation, how far the metric moves, where the difference jumps and the runs part,
+    and the decision that turned it."""
     rows = []
     for label, r in stored(root).items():
         size = LADDER_SIZES[r["perturbation"] // LADDER_DIRECTIONS]
-        apart = "never" if r["apart_t"] is None else f"{r['apart_t']:g} s"
+        jump, apart = ("never" if r[k] is None else f"{r[k]:g} s" for k in ("jump_t", "apart_t"))
         rows.append([label, f"{size:g} (direction {r['perturbation'] % LADDER_DIRECTIONS})",
-                     f"{number(100 * r['move'], '.2g')} %", apart, *_decided(r["decided_by"])])
-    header = ["design (accel)", "perturbation", "move of MSE_1 + MSE_2", f"angles apart by {APART:g} rad at",
-              "first decision that differs", "at", "nominal / perturbed run", "margin / trace(M), nominal / perturbed"]
+                     f"{number(100 * r['move'], '.2g')} %", jump, apart, *_decided(r["decided_by"])])
+    header = [f"design ({VERDICT_HANDLING})", "perturbation", "move of MSE_1 + MSE_2",
+              f"difference over {GROWTH:g} x the initial one at", f"angles apart by {APART:g} rad at",
+              "last decision that differs before it", "at", "nominal / perturbed run",
+              "margin / trace(M), nominal / perturbed"]
     return table(header, rows)
 
 

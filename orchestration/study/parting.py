@@ -4,12 +4,18 @@
 A pair is a design's 100 s run from section 4's initial state and its run under one perturbation of the
 ladder (``comparison.PERTURBATIONS``). Both run in the pure loop with a ``DecisionLog`` in place of the CL
 stack: it keeps every decision on a sample offered to the full stack (the row it replaces, or -1) with the
-time of the offer. The runs part at the first sample where their angles differ by more than ``APART``; what
-decided it is the first offer the two runs decide differently, if that comes first, with its margin in each
-run: the smallest shift of every threshold of the swap rule (the gain, the rank's margin and the tie window,
-moved together as ``swap_margin`` moves them), relative to trace(M), that changes that run's decision.
-Otherwise the first of the other decisions whose flags differ (the bound (5), the actuator limit, the tuning
-law (30)/(31)) is named, without a margin. ``orchestration.reports.parting_tables`` picks the pairs and
+time of the offer. A smooth closed loop carries the change of the initial state along in proportion; the
+difference of the two states jumps where a decision turns. The jump is the first sample where the
+difference exceeds ``GROWTH`` times the initial one, and what turned it is the last decision before that
+sample that the two runs take differently: an offer to the full stack decided otherwise, or one of the
+other decisions whose flags the core outputs (the tuning law (30)/(31), the bound (5), the actuator limit;
+at one sample the offer comes after the flags). The runs part visibly where their angles differ by more
+than ``APART``. A swap decision comes with its margin in each run: the smallest shift of every threshold of the swap
+rule (the gain, the rank's margin and the tie window, moved together as ``swap_margin`` moves them),
+relative to trace(M), that changes that run's decision, searched below the rule's own margin
+(``SWAP_MARGIN``: a larger shift empties the tie window, and every re-decision refuses); None when none
+there does, i.e. the decision is clear of rounding and it was the change of the state that turned it. The
+flags come without a margin. ``orchestration.reports.parting_tables`` picks the pairs and
 stores them.
 """
 from __future__ import annotations
@@ -20,20 +26,22 @@ import numpy as np
 
 from fmu_controller.sotc import SotcCore
 from fmu_controller.sotc_math import N_BASIS
-from fmu_controller.sotc_stack import CLStack
+from fmu_controller.sotc_stack import SWAP_MARGIN, CLStack
 from fmu_numerics.fixed_linalg import trace
-from orchestration.study.comparison import PERTURBATIONS, initial_state
+from orchestration.study.comparison import NOMINAL, PERTURBATIONS, initial_state
 from orchestration.study.pure_loop import simulate
 
 STOP_TIME = 100.0  # s
 APART = 1e-3  # rad: two runs whose angles differ by more have visibly parted
-SHIFTS = tuple(10.0 ** -k for k in range(16, 1, -1))  # the shifts tried, relative to trace(M): 1e-16 .. 1e-2
+GROWTH = 1e4  # a smooth loop amplifies the initial change by a few tens here (docs/robustness.md, the ladder)
+# the shifts tried, relative to trace(M): powers of ten from 1e-16 up to below SWAP_MARGIN (2.2e-13)
+SHIFTS = tuple(10.0 ** -k for k in range(16, 0, -1) if 10.0 ** -k < SWAP_MARGIN)
 FLAGS = ("tuning_law", "tau_a_bounded", "chi_a_bounded", "tau_limited")  # the other decisions, as outputs
 
 
 class DecisionLog(CLStack):
     """A ``CLStack`` that logs every swap decision (time, row or -1) and, at the offer numbered ``probe``, the
-    smallest threshold shift that changes it (``probed``; None when no shift in ``SHIFTS`` does)."""
+    smallest threshold shift that changes it (``probed``; None when no shift in ``SHIFTS`` does; ``was_probed``)."""
 
     def __init__(self, stack: CLStack, probe: int = -1):
         super().__init__(stack.P, stack.selection, stack.replay_form, stack.constants)
@@ -41,11 +49,12 @@ class DecisionLog(CLStack):
         self.decisions: list[tuple[float, int]] = []
         self.probe = probe
         self.probed: float | None = None
+        self.was_probed = False
 
     def _swap_row(self, eta, spectrum, shift: float = 0.0) -> int:
         row = super()._swap_row(eta, spectrum, shift)
         if len(self.decisions) == self.probe:
-            self.probed = self._margin(eta, row)
+            self.probed, self.was_probed = self._margin(eta, row), True
         self.decisions.append((self.now, row))
         return row
 
@@ -86,30 +95,36 @@ def logged_run(params: dict[str, float], perturbation: tuple[float, ...], probe:
     return simulate(_Clocked(core, log), stop_time=STOP_TIME, **initial_state(perturbation)), log
 
 
-def _first_flag(a, b, before: int) -> tuple[str, float] | None:
-    """The first of ``FLAGS`` whose value differs between runs a and b before sample ``before``."""
+def _last_flag(a, b, before: int) -> tuple[int, str] | None:
+    """(sample, name) of the last of ``FLAGS`` whose value differs between runs a and b before sample ``before``
+    (at one sample, the last in ``FLAGS``' order)."""
     found = []
-    for name in FLAGS:
+    for order, name in enumerate(FLAGS):
         diff = np.nonzero(a.out(name)[:before] != b.out(name)[:before])[0]
         if len(diff):
-            found.append((int(diff[0]), name))
-    return (min(found)[1], float(a.t[min(found)[0]])) if found else None
+            found.append((int(diff[-1]), order, name))
+    return (max(found)[0], max(found)[2]) if found else None
 
 
 def parting(params: dict[str, float], index: int) -> dict[str, Any]:
     """Where the design's nominal run and its run under ``PERTURBATIONS[index]`` part, and what decided it."""
-    a, log_a = logged_run(params, (0.0,) * 4)
+    a, log_a = logged_run(params, NOMINAL)
     b, log_b = logged_run(params, PERTURBATIONS[index])
     apart = np.nonzero(np.abs(a.y[:, :2] - b.y[:, :2]).max(axis=1) > APART)[0]
-    end = int(apart[0]) if len(apart) else len(a.t)
-    out: dict[str, Any] = {"perturbation": index, "apart_t": float(a.t[end]) if len(apart) else None}
-    first = next((i for i, (x, y) in enumerate(zip(log_a.decisions, log_b.decisions)) if x != y), None)
-    if first is not None and (out["apart_t"] is None or log_a.decisions[first][0] <= out["apart_t"]):
-        margins = [logged_run(params, p, first)[1].probed for p in ((0.0,) * 4, PERTURBATIONS[index])]
-        out["decided_by"] = {"what": "CL stack swap", "t": log_a.decisions[first][0],
-                             "rows": [log_a.decisions[first][1], log_b.decisions[first][1]], "margins": margins}
+    d = np.abs(a.y - b.y).max(axis=1)
+    grown = np.nonzero(d > GROWTH * d[0])[0]
+    jump = int(grown[0]) if len(grown) else len(a.t)
+    out: dict[str, Any] = {"perturbation": index, "apart_t": float(a.t[apart[0]]) if len(apart) else None,
+                           "jump_t": float(a.t[jump]) if len(grown) else None}
+    # offers made at t < t[jump] (an offer at t moves the state from the next sample on)
+    differ = [i for i, (x, y) in enumerate(zip(log_a.decisions, log_b.decisions)) if x != y and x[0] < a.t[jump - 1] + 1e-9]
+    last = differ[-1] if differ else None
+    flag = _last_flag(a, b, jump)
+    if last is not None and (flag is None or log_a.decisions[last][0] >= float(a.t[flag[0]])):
+        margins = [logged_run(params, p, last)[1].probed for p in (NOMINAL, PERTURBATIONS[index])]
+        out["decided_by"] = {"what": "CL stack swap", "t": log_a.decisions[last][0],
+                             "rows": [log_a.decisions[last][1], log_b.decisions[last][1]], "margins": margins}
     else:
-        flag = _first_flag(a, b, end)
-        out["decided_by"] = None if flag is None else {"what": flag[0], "t": flag[1]}
+        out["decided_by"] = None if flag is None else {"what": flag[1], "t": float(a.t[flag[0]])}
     return out
 
