@@ -3,6 +3,7 @@
 
     python tests/support/bit_runs.py FMU_DIR            # prints {case: {metric: float.hex()}} as JSON
     python tests/support/bit_runs.py FMU_DIR --write    # stores it as tests/data/reference_bits.json
+    python tests/support/bit_runs.py --no-fmus          # all but the FMU cases (the Python build's child)
 
 The cases: every shipped scenario's controller under every limit handling it accepts and every
 controller's tuned design under every handling, GRID_TIME seconds in the pure loop (probing, the CL
@@ -91,7 +92,7 @@ def fmu_cases(fmu_dir: Path) -> dict[str, dict[str, str]]:
 
 def main(argv: list[str]) -> int:
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # tests/, for support.*
-    cases = {**pure_loop_cases(), **fair_cases(), **fmu_cases(Path(argv[0]))}
+    cases = {**pure_loop_cases(), **fair_cases(), **({} if argv[0] == "--no-fmus" else fmu_cases(Path(argv[0])))}
     text = json.dumps(cases, indent=0, sort_keys=True)
     if argv[1:] == ["--write"]:
         (DATA / "reference_bits.json").write_text(text + "\n")
