@@ -87,9 +87,11 @@ PERTURBATIONS: tuple[tuple[float, float, float, float], ...] = tuple(
     tuple(size * c for c in d) for size in LADDER_SIZES for d in ladder_directions())  # type: ignore[misc]
 
 
-def initial_state(perturbation: tuple[float, float, float, float]) -> dict[str, tuple[float, float]]:
-    """``simulate``'s phi0 and dphi0 for section 4's initial state changed by ``perturbation``."""
-    return {"phi0": (INITIAL_ANGLES[0] * (1.0 + perturbation[0]), INITIAL_ANGLES[1] * (1.0 + perturbation[1])),
+def initial_state(perturbation: tuple[float, float, float, float],
+                  phi0: tuple[float, float] = INITIAL_ANGLES) -> dict[str, tuple[float, float]]:
+    """``simulate``'s phi0 and dphi0 for the state at rest at ``phi0`` (section 4's by default) changed by
+    ``perturbation``."""
+    return {"phi0": (phi0[0] * (1.0 + perturbation[0]), phi0[1] * (1.0 + perturbation[1])),
             "dphi0": (perturbation[2], perturbation[3])}
 
 

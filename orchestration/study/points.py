@@ -2,11 +2,11 @@
 (``orchestration.study.tuning``) and the held-out sets (``orchestration.study.fair``), which differ only
 in their seeds, so the two can never overlap by construction.
 
-A point is a dict: ``phi0`` (initial angles, at rest) and, for a perturbed point, ``plant`` (the five
-model parameters, each off by a uniform factor in [0.8, 1.2]; the controllers keep the nominal model)
-and ``perturbation`` (step disturbances in [-0.5, 0.5] N.m and sinusoidal ones up to 0.5 N.m on both
-joints, measurement noise std_phi log-uniform in [1e-4, 1e-3] rad, std_dphi ten times that, and the
-noise's own seed).
+A point is a dict: ``phi0`` (initial angles; at rest unless it has ``dphi0``, the initial velocities) and,
+for a perturbed point, ``plant`` (the five model parameters, each off by a uniform factor in [0.8, 1.2];
+the controllers keep the nominal model) and ``perturbation`` (step disturbances in [-0.5, 0.5] N.m and
+sinusoidal ones up to 0.5 N.m on both joints, measurement noise std_phi log-uniform in [1e-4, 1e-3] rad,
+std_dphi ten times that, and the noise's own seed).
 """
 from __future__ import annotations
 
@@ -17,6 +17,7 @@ import numpy as np
 
 from fmu_controller.catalog import CORES
 from fmu_plant.dynamics import ArmParameters, IntegrationError
+from fmu_plant.paper_setting import INITIAL_VELOCITIES
 from orchestration.run.metrics import tracking_metrics
 from orchestration.study.pure_loop import Perturbation, simulate
 
@@ -47,6 +48,7 @@ def run_point(fmu: str, params: dict[str, float], point: dict[str, Any], stop_ti
     max_i max |e_i| over the last half, ``max_tau_norm`` (None for a run that failed)."""
     try:
         res = simulate(CORES[fmu](**params), stop_time=stop_time, phi0=tuple(point["phi0"]),
+                       dphi0=tuple(point.get("dphi0", INITIAL_VELOCITIES)),
                        arm=ArmParameters(**point["plant"]) if "plant" in point else None,
                        perturbation=Perturbation(**point.get("perturbation", {})))
     except (IntegrationError, ArithmeticError, ValueError):
