@@ -2,14 +2,17 @@
 earlier rule, whether its decisions rest on rounding, where the bound (5) holds chi_vd^a (whose derivative the core then sets to 0), and the learned W."""
 from __future__ import annotations
 
+import json
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from fmu_controller.saturation import ACCEL, LIMIT_HANDLINGS, RADIAL
 from fmu_numerics.fixed_linalg import EPS
-from fmu_controller.sotc_stack import SELECTIONS, SWAP_MARGIN
+from fmu_controller.sotc_stack import SELECTIONS
 from orchestration.markdown import stable, stable_pair, table
+from orchestration.outputs import atomic_write
 from orchestration.reports import perturbed
 from orchestration.study import swap_margin
 from orchestration.study.comparison import handling_code
@@ -39,21 +42,43 @@ def cl_rule_table() -> str:
                   "lambda_min(M) at 100 s"], rows)
 
 
-def swap_flips_table() -> str:
+FLIPS_STORE = "docs/swap-flips.json"
+
+
+def _flip_rows() -> list[list[Any]]:
+    """[label, limit handling, sorted parameters] of every case of the swap-flips table, in its order."""
+    return [[label, code, sorted([k, v] for k, v in params.items())]
+            for label, code, params in swap_margin.cases() + swap_margin.stress_cases()]
+
+
+def write_flips(root: Path) -> int:
+    """Count the offers, swaps and flips of every case under each of ``swap_margin.MARGINS`` (a 100 s run each)
+    into ``root/FLIPS_STORE``; returns the number of cases."""
+    rows = [[*row, [swap_margin.flip_counts(tuple(map(tuple, row[2])), m) for m in swap_margin.MARGINS]]
+            for row in _flip_rows()]
+    atomic_write(root / FLIPS_STORE, "[\n" + ",\n".join(json.dumps(r) for r in rows) + "\n]\n")  # a case a line
+    return len(rows)
+
+
+def stored_flips(root: Path) -> list[list[Any]]:
+    """The stored counts, if their cases are this code's (else an error naming the command that rewrites them)."""
+    rows = json.loads((root / FLIPS_STORE).read_text())
+    if [r[:3] for r in rows] != _flip_rows():
+        raise ValueError(f"{FLIPS_STORE} holds other cases than the code's: python -m {__name__}")
+    return rows
+
+
+def swap_flips_table(root: Path) -> str:
     """Every offer of a sample to the full CL stack re-decided with its thresholds moved by +-eps trace(M)
     (``orchestration.study.swap_margin``), for `paper` under each handling, every stored tuned SOTC design
-    and the study's stress changes of radial `paper`, on the nominal 100 s `paper` loop: the offers, and the swaps and flips under the margin, under
-    a tenth of it and under the earlier tolerance n eps trace(M) (counts of the one nominal run each)."""
-    margins = (SWAP_MARGIN, SWAP_MARGIN / 10.0, swap_margin.ROUNDING)
-    rows = []
-    for label, code, params in swap_margin.cases() + swap_margin.stress_cases():
-        key = tuple(sorted(params.items()))
-        counts = [swap_margin.flip_counts(key, m) for m in margins]
-        rows.append([label, LIMIT_HANDLINGS[code], counts[0]["offers"],
-                     *(f"{c['swaps']} / {c['flips']}" for c in counts)])
+    and the study's stress changes of radial `paper`, on the nominal 100 s `paper` loop: the offers, and the
+    swaps and flips under each of ``swap_margin.MARGINS`` (counts of the one nominal run each, stored in
+    ``FLIPS_STORE``; tests/unit/test_swap_margin.py recomputes them)."""
+    rows = [[label, LIMIT_HANDLINGS[code], counts[0]["offers"], *(f"{c['swaps']} / {c['flips']}" for c in counts)]
+            for label, code, _, counts in stored_flips(root)]
     names = ("margin", "a tenth of it", "the earlier tolerance")
     return table(["design", "limit handling", "offers to the full stack",
-                  *(f"swaps / flips, {n} ({m / EPS:.0f} eps trace(M))" for n, m in zip(names, margins))],
+                  *(f"swaps / flips, {n} ({m / EPS:.0f} eps trace(M))" for n, m in zip(names, swap_margin.MARGINS))],
                  rows, "llrrrr")
 
 
@@ -106,3 +131,16 @@ def learned_w_table() -> str:
         rows.append(row(f"`{setting}`", s["W"], _of("W", ss), min_eig))
     rows.append(row("the paper's W", PAPER_W, [], ""))
     return table(["setting", "W(100 s)", f"‖W - W_lqr‖ (‖W_lqr‖ = {norm:.3g})", "eig S(W)", "lambda_min(M)"], rows)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Rewrite ``FLIPS_STORE`` (69 runs of 100 s) in the checkout this module lies in."""
+    import argparse
+
+    argparse.ArgumentParser(prog=f"python -m {__name__}", description="Rewrite the swap-flips counts").parse_args(argv)
+    print(f"{FLIPS_STORE}: {write_flips(Path(__file__).resolve().parents[2])} cases")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

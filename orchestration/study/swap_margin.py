@@ -30,6 +30,7 @@ from orchestration.study.pure_loop import simulate
 from orchestration.study.tuning import HANDLINGS, stored, tuned_parameters
 
 ROUNDING = N_BASIS * EPS  # the earlier rule's tolerance, relative to trace(M)
+MARGINS = (SWAP_MARGIN, SWAP_MARGIN / 10.0, ROUNDING)  # the docs' table: the margin, a tenth of it, the earlier tolerance
 STOP_TIME = 100.0  # s, the nominal `paper` loop
 
 

@@ -7,6 +7,7 @@ gain creeps across its threshold by less than eps trace(M) per offer: docs/paper
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import pytest
 
@@ -15,10 +16,18 @@ from fmu_controller.saturation import LIMIT_HANDLINGS, RADIAL
 from fmu_controller.sotc import SotcCore
 from fmu_controller.sotc_math import N_BASIS
 from fmu_controller.sotc_stack import SWAP_MARGIN
-from orchestration.study.swap_margin import ROUNDING, cases, flip_counts
+from orchestration.reports.numerics_tables import stored_flips
+from orchestration.study.swap_margin import MARGINS, cases, flip_counts, stress_cases
 
 CASES = cases()
 PAPER_RADIAL = next(c for c in CASES if c[0] == "`paper`" and c[1] == RADIAL)
+REPO = Path(__file__).resolve().parents[2]  # the checkout's store (the installed package has no docs/)
+
+
+def _stored(case, margin: float = SWAP_MARGIN) -> dict[str, int]:
+    """The counts docs/swap-flips.json holds for ``case`` (the docs' table prints them)."""
+    row = next(r for r in stored_flips(REPO) if (r[0], r[1]) == case[:2])
+    return row[3][MARGINS.index(margin)]
 
 
 def _counts(case, margin: float = SWAP_MARGIN) -> dict[str, int]:
@@ -28,12 +37,15 @@ def _counts(case, margin: float = SWAP_MARGIN) -> dict[str, int]:
 def test_paper_radial_decides_no_offer_on_rounding():
     counts = _counts(PAPER_RADIAL)
     assert counts["offers"] > 1000 and counts["swaps"] > 0  # the stack was full and did swap
-    assert counts["flips"] == 0, counts
+    assert counts["flips"] == 0 and counts == _stored(PAPER_RADIAL), counts
 
 
-def test_the_earlier_tolerance_decides_on_rounding():
-    """The instrument sees flips where there are some: n eps trace(M) in the margin's place."""
-    assert _counts(PAPER_RADIAL, ROUNDING)["flips"] > 0
+@pytest.mark.parametrize("margin", MARGINS[1:])
+def test_under_a_smaller_margin_decisions_rest_on_rounding_as_stored(margin):
+    """The instrument sees flips where there are some: n eps trace(M) (and a tenth of the margin) in the
+    margin's place; the stored counts of the docs' table are this run's."""
+    counts = _counts(PAPER_RADIAL, margin)
+    assert counts["flips"] > 0 and counts == _stored(PAPER_RADIAL, margin)
 
 
 @pytest.mark.slow
@@ -43,6 +55,13 @@ def test_no_decision_rests_on_rounding(case):
     a threshold by less than eps trace(M), which no margin removes (docs/paper-notes.md 2.10a)."""
     counts = _counts(case)
     assert counts["offers"] > 1000 and counts["flips"] <= (0 if case[0] == "`paper`" else 1), counts
+    assert counts == _stored(case), "rerun: python -m orchestration.reports.numerics_tables"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("case", stress_cases(), ids=lambda c: c[0].replace("`", ""))
+def test_a_stress_case_counts_what_the_docs_print(case):
+    assert _counts(case) == _stored(case), "rerun: python -m orchestration.reports.numerics_tables"
 
 
 @pytest.mark.parametrize("below", [True, False])
