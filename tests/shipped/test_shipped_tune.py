@@ -7,8 +7,9 @@ import re
 from pathlib import Path
 
 # enough trials that the Ctrl-C after the second one lands mid-search however fast the cores run (with
-# compiled cores a CT trial takes a fraction of a second: at 3 trials a search had finished before it)
-BUDGET, POLISH = 12, 4
+# compiled cores a CT trial takes a third of a second: at 3 trials a search had finished before it; at 9 per
+# seed, 16 trials are left when it comes). Each trial costs each of the three runs: 12 + 4 took 14 s more
+BUDGET, POLISH = 6, 3
 ARGS = ["tune", "CT", "--budget", str(BUDGET), "--polish", str(POLISH), "--seeds", "0", "1", "--handlings", "accel",
         "--workers", "1"]
 
