@@ -1,7 +1,7 @@
 """One result on every machine: the reference runs of ``support/bit_runs.py`` give the same
 bits under every OpenBLAS kernel, with numpy's CPU dispatch limited and with glibc's libm on the code
 paths of a CPU without FMA or AVX, for the compiled build of the cores (the Python build under two of the
-kernels and both masks, the masks together: ``PYTHON_ENVIRONMENTS``; its pure-loop cases: ``FMU_CASES``), and equal the
+kernels and both masks, the masks together: ``PYTHON_ENVIRONMENTS``; its cases: ``bit_runs.in_python_subset``), and equal the
 stored ``tests/data/reference_bits.json``.
 
 A kernel is forced with ``OPENBLAS_CORETYPE`` (numpy's and scipy's OpenBLAS both read it); numpy's own
@@ -25,9 +25,11 @@ from pathlib import Path
 
 import numpy._core._multiarray_umath as numpy_dispatch
 import pytest
-from support.bit_runs import DATA
+from support.bit_runs import DATA, in_python_subset
 
+from fmu_controller.saturation import ACCEL
 from orchestration.fmu_build.build import compiles
+from orchestration.study.fair import SETS
 
 REPO = Path(__file__).resolve().parents[2]
 SCRIPT = REPO / "tests" / "support" / "bit_runs.py"
@@ -57,12 +59,12 @@ def first_difference(got: dict, want: dict) -> str | None:
 
 
 def bits(environment: dict[str, str], build: str, fmu_dir: Path | None) -> dict:
-    """The reference runs in a child under ``environment``; without ``fmu_dir``, all but the FMU cases."""
+    """The reference runs in a child under ``environment``; without ``fmu_dir``, the Python build's subset."""
     env = {k: v for k, v in os.environ.items() if k not in ("OPENBLAS_CORETYPE", "NPY_DISABLE_CPU_FEATURES", "GLIBC_TUNABLES")}
     env.pop("PYTHONPATH", None)
     if build == "python":
         env["PYTHONPATH"] = str(REPO)  # the source tree's .py before the installed (compiled) package
-    proc = subprocess.run([sys.executable, str(SCRIPT), str(fmu_dir) if fmu_dir else "--no-fmus"], env=env | environment,
+    proc = subprocess.run([sys.executable, str(SCRIPT), str(fmu_dir) if fmu_dir else "--python"], env=env | environment,
                           capture_output=True, text=True, timeout=900, cwd=REPO)
     assert proc.returncode == 0, proc.stderr[-2000:]
     return json.loads(proc.stdout)
@@ -79,8 +81,8 @@ def combined(names: tuple[str, ...]) -> dict[str, str]:
 
 # the FMU cases (100 s of paper and of its radial variant through the FMUs) in the compiled build only: with
 # the cores in Python they are a third of a child's time, and add no arithmetic to the pure loop's (the FMU
-# wrapper passes values through); test_reference_runs runs the Python build's FMUs against the stored runs
-FMU_CASES = "fmu "
+# wrapper passes values through); test_reference_runs runs the Python build's FMUs against the stored runs.
+# The fair cases of the Python build: under accel only (support/bit_runs.py, ``in_python_subset``)
 
 
 @pytest.mark.slow
@@ -92,7 +94,7 @@ def test_reference_runs_have_the_same_bits_everywhere(build, fmu_dir):
     # without a compiler the default build's FMUs are the Python build's: the FMU cases run there
     folder = fmu_dir if build == "compiled" or not compiles() else None
     children = [(e,) for e in ENVIRONMENTS] if build == "compiled" else list(PYTHON_ENVIRONMENTS)
-    want = REFERENCE if folder else {k: v for k, v in REFERENCE.items() if not k.startswith(FMU_CASES)}
+    want = REFERENCE if folder else {k: v for k, v in REFERENCE.items() if in_python_subset(k)}
     assert folder or 0 < len(want) < len(REFERENCE)
     with ThreadPoolExecutor(max_workers=2) as pool:
         results = dict(zip((" + ".join(c) for c in children),
@@ -100,6 +102,15 @@ def test_reference_runs_have_the_same_bits_everywhere(build, fmu_dir):
     for environment, got in results.items():
         difference = first_difference(got, want)
         assert difference is None, f"{environment}, {build} build: {difference}"
+
+
+def test_the_python_builds_cases_are_every_pure_loop_case_and_a_fair_case_of_each_set():
+    subset = [k for k in REFERENCE if in_python_subset(k)]
+    assert [k for k in REFERENCE if k.startswith("loop ")] == [k for k in subset if k.startswith("loop ")]
+    fair = [k for k in subset if k.startswith("fair ")]
+    assert len(fair) == 2 and all(f" handling {ACCEL} " in k for k in fair) and not any(k.startswith("fmu ") for k in subset)
+    marker = f" handling {ACCEL} "
+    assert {k[k.index(marker) + len(marker):k.rindex(" point")] for k in fair} == set(SETS), fair
 
 
 def test_the_python_build_keeps_two_kernels_and_both_masks():

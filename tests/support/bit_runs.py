@@ -3,7 +3,7 @@
 
     python tests/support/bit_runs.py FMU_DIR            # prints {case: {metric: float.hex()}} as JSON
     python tests/support/bit_runs.py FMU_DIR --write    # stores it as tests/data/reference_bits.json
-    python tests/support/bit_runs.py --no-fmus          # all but the FMU cases (the Python build's child)
+    python tests/support/bit_runs.py --python           # the Python build's child: ``in_python_subset``
 
 The cases: every shipped scenario's controller under every limit handling it accepts and every
 controller's tuned design under every handling, GRID_TIME seconds in the pure loop (probing, the CL
@@ -25,6 +25,15 @@ GRID_TIME = 2.0  # s of each grid run
 FAIR_SEEDS = 1  # the fair runs of the first tuning seed's designs: each case adds its Python-build time under every
 # environment of the CPU-independence test, and the arithmetic they run is the same whatever the seed
 RADIAL = 0.0  # the limit_handling code of radial (fmu_controller.saturation.RADIAL)
+# the Python build's children run the fair cases under accel only (the verdict's handling): a fair case is a 20 s
+# SOTC run, half a Python child's time at every handling; each handling's own code (the saturation, its
+# projection) runs in the pure-loop cases, every one under every handling, in both builds
+PYTHON_FAIR_HANDLING = 2  # accel (fmu_controller.saturation.ACCEL)
+
+
+def in_python_subset(case: str) -> bool:
+    """Whether the Python build's children run ``case``: no FMU case, the fair ones under ``PYTHON_FAIR_HANDLING``."""
+    return not case.startswith("fmu ") and (not case.startswith("fair ") or f" handling {PYTHON_FAIR_HANDLING} " in case)
 
 
 def _hex_leaves(metrics: dict) -> dict[str, str]:
@@ -55,13 +64,13 @@ def pure_loop_cases() -> dict[str, dict[str, str]]:
     return out
 
 
-def fair_cases() -> dict[str, dict[str, str]]:
+def fair_cases(handlings: tuple[int, ...] | None = None) -> dict[str, dict[str, str]]:
     from orchestration.study import fair
     from orchestration.study.tuning import HANDLINGS, stored
 
     checked = {fair.tuned_label("SotcController", s) for s in stored()["seeds"][:FAIR_SEEDS]}
     out = {}
-    for handling in HANDLINGS:
+    for handling in HANDLINGS if handlings is None else handlings:
         for label, (fmu, params) in fair.configurations(handling, ("SotcController",)).items():
             if label not in checked:
                 continue
@@ -92,7 +101,10 @@ def fmu_cases(fmu_dir: Path) -> dict[str, dict[str, str]]:
 
 def main(argv: list[str]) -> int:
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # tests/, for support.*
-    cases = {**pure_loop_cases(), **fair_cases(), **({} if argv[0] == "--no-fmus" else fmu_cases(Path(argv[0])))}
+    if argv[0] == "--python":
+        cases = {**pure_loop_cases(), **fair_cases((PYTHON_FAIR_HANDLING,))}
+    else:
+        cases = {**pure_loop_cases(), **fair_cases(), **fmu_cases(Path(argv[0]))}
     text = json.dumps(cases, indent=0, sort_keys=True)
     if argv[1:] == ["--write"]:
         (DATA / "reference_bits.json").write_text(text + "\n")
