@@ -30,8 +30,8 @@ from orchestration.bench.speed import MEASUREMENT as SPEED_MEASUREMENT
 from orchestration.bench.speed import stored_block
 from orchestration.bench import exchange
 from orchestration.markdown import block_pattern, number, replace_block, stable, stable_pair, table
-from orchestration.reports import (fair_tables, ladder_tables, numerics_tables, optimum_tables, parting_tables, perturbed,
-                                   training_tables)
+from orchestration.reports import (fair_tables, heldout_tables, ladder_tables, numerics_tables, optimum_tables, parting_tables,
+                                   perturbed, training_tables)
 from orchestration.study.comparison import (
     COMPARED,
     OTC_VARIANTS,
@@ -332,6 +332,8 @@ BLOCKS: dict[str, Block] = {
     "ladder-tuning": Block("docs/robustness.md", ladder_tables.tuning_table, True),
     # the stored partings (rerun: python -m orchestration.reports.parting_tables)
     "parting": Block("docs/robustness.md", lambda: parting_tables.table_of(ROOT), False),
+    # the stored held-out ladder (rerun: python -m orchestration.reports.heldout_tables)
+    "heldout-ladder": Block("docs/robustness.md", lambda: heldout_tables.block(ROOT), False),
     # the stored optimum (rerun: sotc-cosim optimum --cold all --json docs/optimum/optimum.json)
     "optimum": Block("docs/optimum.md", lambda: optimum_tables.report(optimum_tables.stored(ROOT)), False),
     "optimum-verdict": Block("docs/optimum.md", lambda: optimum_tables.verdict(optimum_tables.stored(ROOT)), False),
