@@ -4,6 +4,7 @@ short functions where the maths and the loop live, and the tree the document ope
 from __future__ import annotations
 
 import ast
+import functools
 import re
 
 import pytest
@@ -40,7 +41,12 @@ CORE_FOLDERS = ("fmi_slave", "fmi3_slave", "fmu_numerics", "fmu_plant", "fmu_con
 MAX_MODULE_LINES = 500
 MAX_FUNCTION_LINES = 80
 
-GRAPH = graph()
+
+
+@functools.lru_cache(maxsize=1)
+def _graph() -> dict:
+    """The import graph, parsed when a test first asks (at import it cost every xdist worker's collection a second)."""
+    return graph()
 
 
 def _folder_of(module: str) -> str:
@@ -48,18 +54,18 @@ def _folder_of(module: str) -> str:
 
 
 def test_no_import_cycle():
-    assert cycles(GRAPH) == []
+    assert cycles(_graph()) == []
 
 
 @pytest.mark.parametrize("folder", sorted(ALLOWED))
 def test_each_folder_imports_only_what_it_may(folder):
-    wrong = sorted(f"{m} -> {t}" for m, targets in GRAPH.items() if _folder_of(m) == folder
+    wrong = sorted(f"{m} -> {t}" for m, targets in _graph().items() if _folder_of(m) == folder
                    for t in targets if _folder_of(t) not in ALLOWED[folder] | {folder})
     assert wrong == []
 
 
 def test_the_base_modules_of_orchestration_import_no_other_part_of_it():
-    wrong = sorted(f"{m} -> {t}" for m in BASE for t in GRAPH[m] if t.startswith("orchestration") and t not in BASE)
+    wrong = sorted(f"{m} -> {t}" for m in BASE for t in _graph()[m] if t.startswith("orchestration") and t not in BASE)
     assert wrong == []
 
 
@@ -67,10 +73,10 @@ def test_the_fmu_packages_need_no_pythonfmu_and_controllers_only_the_arm_model()
     imports = third_party()
     assert sorted(m for m in imports if m.startswith(("fmu_plant", "fmu_controller")) and "pythonfmu" in imports[m]) == []
     assert sorted(imports["fmi_slave.parameters"]) == []  # the cores' parameter tables need no pythonfmu
-    wrong = sorted(f"{m} -> {t}" for m, targets in GRAPH.items() if m.startswith("fmu_controller")
+    wrong = sorted(f"{m} -> {t}" for m, targets in _graph().items() if m.startswith("fmu_controller")
                    for t in targets if t.startswith("fmu_plant") and t not in ARM_MODEL)
     assert wrong == []
-    assert not any(t.startswith("orchestration") for m, ts in GRAPH.items() if m.startswith(CORE_FOLDERS) for t in ts)
+    assert not any(t.startswith("orchestration") for m, ts in _graph().items() if m.startswith(CORE_FOLDERS) for t in ts)
 
 
 # the floors of the FMU packages, lowest first: a module imports only its own floor and those below
@@ -80,8 +86,8 @@ FLOORS = ("fmu_numerics", "fmu_plant", "fmu_controller")
 def test_no_import_runs_up_a_floor():
     """The numerics under the arm, the arm under the controllers: the plant needs no controller code (so
     its FMU bundles none) and the numerics need neither."""
-    floor = {m: FLOORS.index(m.split(".")[0]) for m in GRAPH if m.split(".")[0] in FLOORS}
-    up = sorted(f"{m} -> {t}" for m in floor for t in GRAPH[m] if t in floor and floor[t] > floor[m])
+    floor = {m: FLOORS.index(m.split(".")[0]) for m in _graph() if m.split(".")[0] in FLOORS}
+    up = sorted(f"{m} -> {t}" for m in floor for t in _graph()[m] if t in floor and floor[t] > floor[m])
     assert up == []
 
 
