@@ -7,6 +7,7 @@ Each table that states verdicts names its family (the verdicts it states togethe
 interval at the Bonferroni level of that family (``orchestration.study.statistics``)."""
 from __future__ import annotations
 
+import functools
 import math
 from collections import Counter
 
@@ -15,7 +16,7 @@ from pathlib import Path
 from fmu_controller.catalog import LABELS
 from fmu_controller.saturation import LIMIT_HANDLINGS
 from orchestration.markdown import number, table
-from orchestration.study.fair import MEASURES, SETS, measure, stored, tuned_label
+from orchestration.study.fair import MEASURES, SETS, STORE, measure, stored, tuned_label
 from orchestration.study.statistics import Interval, PairedVerdict, geometric_intervals, level, paired_verdicts
 from orchestration.study.tuning import CONTROLLERS, CONVERGED, HANDLINGS, improvement, still_improving, tpe_improvement, unconverged
 from orchestration.study.tuning import stored as stored_tuning
@@ -237,6 +238,19 @@ def _verdicts(data: dict) -> tuple[dict, int, dict]:
     return against, m, learning
 
 
+def _stored_verdicts(root: Path) -> tuple[dict, dict, int, dict]:
+    """(the stored runs, ``_verdicts`` of them): the verdict table and the README's headline take the same family of
+    bootstraps, computed once per content of the store (its size and modification time) in a process."""
+    stat = (root / STORE).stat()
+    return _verdicts_of(root, stat.st_size, stat.st_mtime_ns)
+
+
+@functools.lru_cache(maxsize=1)
+def _verdicts_of(root: Path, size: int, mtime_ns: int) -> tuple[dict, dict, int, dict]:
+    data = stored(root)
+    return (data, *_verdicts(data))
+
+
 def _by_draw(verdicts: dict, draws: list) -> list[str]:
     return [_seeds_cell({k: v for k, v in verdicts.items() if k[0] == d}) for d in draws]
 
@@ -244,8 +258,7 @@ def _by_draw(verdicts: dict, draws: list) -> list[str]:
 def verdict(root: Path) -> str:
     """The verdict (docs/robustness.md): the tuned SOTC against each tuned baseline, and what learning adds, on
     each draw of the held-out points, and what every draw and tuning seed gives."""
-    data = stored(root)
-    against, m, learning = _verdicts(data)
+    data, against, m, learning = _stored_verdicts(root)
     draws = data["draws"]
     head = (f"Family: on each draw, the {m} verdicts of that draw, {_family_text(m)}. Each draw is {data['n_points']} points per set never "
             f"used for tuning, {data['stop_time']:g} s each, all under {VERDICT_HANDLING}; A is the tuned SOTC, each "
@@ -273,8 +286,7 @@ def _converged_text(still: list[str]) -> str:
 def headline(root: Path) -> str:
     """README: only what every tuning seed gives, clear of the marginal band, on the criterion the tuning judged
     (the MSE): the tuned SOTC better or worse than a tuned baseline. Everything else is in docs/robustness.md."""
-    data = stored(root)
-    against, m, _ = _verdicts(data)
+    data, against, m, _ = _stored_verdicts(root)
     held = []
     for (which, f, name), per in against.items():
         said = _agreed(per)
