@@ -1,7 +1,5 @@
 """`sotc-cosim reproduce`: Table 1 extended, every number from this invocation's runs."""
 import csv
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -100,21 +98,6 @@ def test_reproduce_writes_the_table_from_its_own_runs(fmu_dir, tmp_path, monkeyp
     entities = {c.entity_path for c in RrdReader(rrd).stream().to_chunks()}
     for name in REPRODUCE_SCENARIOS:
         assert f"/{name}/fmu/plant" in entities, sorted(entities)[:20]
-
-
-@pytest.mark.slow
-def test_reproduce_console_script_in_a_fresh_interpreter_outside_the_repo(tmp_path):
-    """The installed ``sotc-cosim`` in its own process, from a folder outside the repository, building
-    every FMU afresh: all controllers run in one process and every limit handling is printed."""
-    exe = Path(sys.executable).with_name("sotc-cosim")
-    proc = subprocess.run([str(exe), "reproduce", "--stop-time", "2", "--fmu-dir", str(tmp_path / "fmus")],
-                          cwd=tmp_path, capture_output=True, text=True, timeout=900)
-    assert proc.returncode == 0, proc.stderr[-2000:]
-    for name in REPRODUCE_SCENARIOS:
-        assert f"\n{name} " in proc.stdout, name
-    for handling in ("radial", "joint", "accel", "none"):
-        assert handling in proc.stdout
-    assert (tmp_path / "recordings" / "table1.md").is_file() and (tmp_path / "recordings" / "reproduce.rrd").is_file()
 
 
 def test_a_chaotic_reading_is_reported_as_not_tracking_with_its_sensitivity(monkeypatch):

@@ -40,10 +40,18 @@ def test_the_source_tree_is_not_importable_where_the_commands_run(shipped):
 
 
 def test_reproduce_runs_every_controller_of_the_paper(shipped):
-    """Builds its FMUs on demand in the working folder, like a first-time user."""
+    """Builds its FMUs on demand in the working folder, like a first-time user: all controllers run in one
+    process, and every run and limit handling is printed."""
+    from orchestration.study.reproduce import REPRODUCE_SCENARIOS
+
     work = shipped.workdir("reproduce")
     proc = shipped.cli("reproduce", "--stop-time", "2", cwd=work)
     _ok(proc)
+    for name in REPRODUCE_SCENARIOS:
+        assert f"\n{name} " in proc.stdout, name
+    for handling in ("radial", "joint", "accel", "none"):
+        assert handling in proc.stdout
+    assert (work / "recordings" / "table1.md").is_file()
     with open(work / "recordings" / "table1.csv", newline="") as f:
         rows = [r for r in csv.DictReader(f) if r["source"] == "this run"]
     assert {r["controller"] for r in rows} >= {"SotcController", "OtcController", "CtController", "LqrController"}
