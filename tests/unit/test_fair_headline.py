@@ -23,8 +23,8 @@ def said(monkeypatch):
     def headline(per_pair: dict) -> str:
         against = {("initial states", f, name): per_pair.get((f, name), {(7, 0): NEITHER, (8, 1): NEITHER})
                    for f in fair_tables.BASELINES for name in ("mse", "tail")}
-        monkeypatch.setattr(fair_tables, "_verdicts", lambda data: (against, 44, {}))
-        monkeypatch.setattr(fair_tables, "stored", lambda root: {"seeds": [0, 1], "draws": [7, 8], "n_points": 128})
+        data = {"seeds": [0, 1], "draws": [7, 8], "n_points": 128}
+        monkeypatch.setattr(fair_tables, "_stored_verdicts", lambda root: (data, against, 44, {}))
         monkeypatch.setattr(fair_tables, "stored_tuning", lambda: {"budget": 256})
         return fair_tables.headline(None)
     monkeypatch.setattr(fair_tables, "unconverged", lambda data: [])
