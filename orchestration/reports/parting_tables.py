@@ -18,7 +18,7 @@ from orchestration.reports.fair_tables import VERDICT_HANDLING
 from orchestration.reports.ladder_tables import JUMP, moves, relative_moves
 from orchestration.study import fair
 from orchestration.study.comparison import LADDER_DIRECTIONS, LADDER_SIZES
-from orchestration.study.parting import APART, GROWTH, SHIFTS, STOP_TIME, parting
+from orchestration.study.parting import APART, GROWTH, SHIFTS, SOLVE, STOP_TIME, parting
 
 STORE = "docs/parting.json"
 
@@ -54,8 +54,13 @@ def stored(root: Path) -> dict[str, Any]:
 def _decided(d: dict[str, Any] | None) -> list[str]:
     if d is None:
         return ["none logged", "-", "-", "-"]
+    if d["what"] == SOLVE:
+        moved, inputs = d["moves"]
+        return [f"the {SOLVE} of z_v takes another branch", f"{d['t']:g} s", "-",
+                f"z_v moves {moved:.2g} rad/s for {inputs:.2g} of state and W"]
     if d["what"] != "CL stack swap":
-        return [f"`{d['what']}` differs", f"{d['t']:g} s", "-", "not logged"]
+        margins = " / ".join(f"{m:.2g}" for m in d["margins"]) if "margins" in d else "not logged"
+        return [f"`{d['what']}` differs", f"{d['t']:g} s", "-", margins]
     rows = " / ".join("keeps its rows" if r < 0 else f"swaps row {r}" for r in d["rows"])
     margins = " / ".join(f"none up to {SHIFTS[-1]:g}" if m is None else f"{m:g}" for m in d["margins"])
     return ["CL stack swap", f"{d['t']:g} s", rows, margins]
@@ -68,12 +73,16 @@ def table_of(root: Path) -> str:
     for label, r in stored(root).items():
         size = LADDER_SIZES[r["perturbation"] // LADDER_DIRECTIONS]
         jump, apart = ("never" if r[k] is None else f"{r[k]:g} s" for k in ("jump_t", "apart_t"))
+        growth, at = r["step_growth"]
         rows.append([label, f"{size:g} (direction {r['perturbation'] % LADDER_DIRECTIONS})",
-                     f"{number(100 * r['move'], '.2g')} %", jump, apart, *_decided(r["decided_by"])])
+                     f"{number(100 * r['move'], '.2g')} %", jump, apart, f"{growth:.2g} at {at:g} s",
+                     *_decided(r["decided_by"])])
     header = [f"design ({VERDICT_HANDLING})", "perturbation", "move of MSE_1 + MSE_2",
               f"difference over {GROWTH:g} x the initial one at", f"angles apart by {APART:g} rad at",
+              "largest growth of the difference in one sample, up to then",
               "last decision that differs before it", "at", "nominal / perturbed run",
-              "margin / trace(M), nominal / perturbed"]
+              "margin, nominal / perturbed (a swap: threshold shift / trace(M); the actuator limit: (torque - rho) / rho)"
+              "; how far the solve's z_v moved"]
     return table(header, rows)
 
 

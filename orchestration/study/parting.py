@@ -15,8 +15,9 @@ rule (the gain, the rank's margin and the tie window, moved together as ``swap_m
 relative to trace(M), that changes that run's decision, searched below the rule's own margin
 (``SWAP_MARGIN``: a larger shift empties the tie window, and every re-decision refuses); None when none
 there does, i.e. the decision is clear of rounding and it was the change of the state that turned it. The
-flags come without a margin. ``orchestration.reports.parting_tables`` picks the pairs and
-stores them.
+actuator limit comes with its margin in each run too: how far the torque it was given (tau* + tau^a + PE,
+summed as the core sums it) lay outside the limit, relative to rho (negative: inside, where the limit left
+it); the other flags come without one. ``orchestration.reports.parting_tables`` picks the pairs and stores them.
 """
 from __future__ import annotations
 
@@ -24,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from fmu_controller.saturation import saturate_norm
 from fmu_controller.sotc import SotcCore
 from fmu_controller.sotc_math import N_BASIS
 from fmu_controller.sotc_stack import SWAP_MARGIN, CLStack
@@ -37,6 +39,7 @@ GROWTH = 1e4  # a smooth loop amplifies the initial change by a few tens here (d
 # the shifts tried, relative to trace(M): powers of ten from 1e-16 up to below SWAP_MARGIN (2.2e-13)
 SHIFTS = tuple(10.0 ** -k for k in range(16, 0, -1) if 10.0 ** -k < SWAP_MARGIN)
 FLAGS = ("tuning_law", "tau_a_bounded", "chi_a_bounded", "tau_limited")  # the other decisions, as outputs
+SOLVE = "implicit solve"  # the z_v of (6)/(28) (docs/paper-notes.md 2.4), on another branch of its equation
 
 
 class DecisionLog(CLStack):
@@ -106,6 +109,39 @@ def _last_flag(a, b, before: int) -> tuple[int, str] | None:
     return (max(found)[0], max(found)[2]) if found else None
 
 
+def limit_margin(core: SotcCore, run, k: int) -> float:
+    """(||tau|| - rho) / rho of the torque the actuator limit of ``core``'s design was given at sample ``k`` of
+    ``run`` (per joint, the larger |tau_j|, where the limit clips each joint)."""
+    raw = [run.out(f"tau_star{j}")[k] + run.out(f"tau_a{j}")[k] + run.out("pe")[k] for j in (1, 2)]
+    size = max(abs(raw[0]), abs(raw[1])) if core.actuator_per_joint else saturate_norm(raw[0], raw[1], core.rho)[2]
+    return float((size - core.rho) / core.rho)
+
+
+def _solve_moves(a, b) -> tuple[np.ndarray, np.ndarray]:
+    """Per sample, between the runs a and b: how far the implicit solve's z_v (the outputs z3, z4) differs, and
+    how far what it is solved from (the plant state and W; the reference is the same)."""
+    dz = np.maximum(np.abs(a.out("z3") - b.out("z3")), np.abs(a.out("z4") - b.out("z4")))
+    dw = np.max([np.abs(a.out(f"W{k}") - b.out(f"W{k}")) for k in range(1, N_BASIS + 1)], axis=0)
+    return dz, np.maximum(np.abs(a.y - b.y).max(axis=1), dw)
+
+
+def _solve_turns(dz: np.ndarray, inputs: np.ndarray, before: int) -> int | None:
+    """The last sample before ``before`` where z_v moved by more than ``GROWTH`` times what it is solved from:
+    the solve took another branch of its equation."""
+    turned = np.nonzero(dz[:before] > GROWTH * inputs[:before])[0]
+    return int(turned[-1]) if len(turned) else None
+
+
+def _step_growth(t: np.ndarray, d: np.ndarray, jump: int) -> list[float]:
+    """[factor, time]: the largest growth of the state difference ``d`` from one sample to the next, up to the
+    jump (a decision turned gives many orders of magnitude at once; an amplifying loop, tens per sample)."""
+    k = np.arange(min(jump, len(d) - 1))
+    k = k[d[k] > 0.0]
+    g = d[k + 1] / d[k]
+    best = int(np.argmax(g))
+    return [float(g[best]), float(t[k[best] + 1])]
+
+
 def parting(params: dict[str, float], index: int) -> dict[str, Any]:
     """Where the design's nominal run and its run under ``PERTURBATIONS[index]`` part, and what decided it."""
     a, log_a = logged_run(params, NOMINAL)
@@ -115,16 +151,27 @@ def parting(params: dict[str, float], index: int) -> dict[str, Any]:
     grown = np.nonzero(d > GROWTH * d[0])[0]
     jump = int(grown[0]) if len(grown) else len(a.t)
     out: dict[str, Any] = {"perturbation": index, "apart_t": float(a.t[apart[0]]) if len(apart) else None,
-                           "jump_t": float(a.t[jump]) if len(grown) else None}
+                           "jump_t": float(a.t[jump]) if len(grown) else None, "step_growth": _step_growth(a.t, d, jump)}
     # offers made at t < t[jump] (an offer at t moves the state from the next sample on)
     differ = [i for i, (x, y) in enumerate(zip(log_a.decisions, log_b.decisions)) if x != y and x[0] < a.t[jump - 1] + 1e-9]
     last = differ[-1] if differ else None
     flag = _last_flag(a, b, jump)
+    dz, inputs = _solve_moves(a, b)
+    solve = _solve_turns(dz, inputs, jump)
+    if solve is not None and (flag is None or solve >= flag[0]):  # at one sample the solve comes first (step 1)
+        flag = (solve, SOLVE)
     if last is not None and (flag is None or log_a.decisions[last][0] >= float(a.t[flag[0]])):
         margins = [logged_run(params, p, last)[1].probed for p in (NOMINAL, PERTURBATIONS[index])]
         out["decided_by"] = {"what": "CL stack swap", "t": log_a.decisions[last][0],
                              "rows": [log_a.decisions[last][1], log_b.decisions[last][1]], "margins": margins}
+    elif flag is None:
+        out["decided_by"] = None
     else:
-        out["decided_by"] = None if flag is None else {"what": flag[1], "t": float(a.t[flag[0]])}
+        out["decided_by"] = {"what": flag[1], "t": float(a.t[flag[0]])}
+        if flag[1] == "tau_limited":
+            core = SotcCore(**params)
+            out["decided_by"]["margins"] = [limit_margin(core, r, flag[0]) for r in (a, b)]
+        if flag[1] == SOLVE:  # how far z_v moved, and how far what it is solved from
+            out["decided_by"]["moves"] = [float(dz[flag[0]]), float(inputs[flag[0]])]
     return out
 
