@@ -55,9 +55,9 @@ def _decided(d: dict[str, Any] | None) -> list[str]:
     if d is None:
         return ["none logged", "-", "-", "-"]
     if d["what"] == SOLVE:
-        moved, inputs = d["moves"]
+        moved, torque, inputs = d["moves"]
         return [f"the {SOLVE} of z_v takes another branch", f"{d['t']:g} s", "-",
-                f"z_v moves {moved:.2g} rad/s for {inputs:.2g} of state and W"]
+                f"z_v moves {moved:.2g} rad/s and tau {torque:.2g} N.m for {inputs:.2g} of state and W"]
     if d["what"] != "CL stack swap":
         margins = " / ".join(f"{m:.2g}" for m in d["margins"]) if "margins" in d else "not logged"
         return [f"`{d['what']}` differs", f"{d['t']:g} s", "-", margins]
@@ -73,13 +73,14 @@ def table_of(root: Path) -> str:
     for label, r in stored(root).items():
         size = LADDER_SIZES[r["perturbation"] // LADDER_DIRECTIONS]
         jump, apart = ("never" if r[k] is None else f"{r[k]:g} s" for k in ("jump_t", "apart_t"))
-        growth, at = r["step_growth"]
         rows.append([label, f"{size:g} (direction {r['perturbation'] % LADDER_DIRECTIONS})",
-                     f"{number(100 * r['move'], '.2g')} %", jump, apart, f"{growth:.2g} at {at:g} s",
+                     f"{number(100 * r['move'], '.2g')} %", jump, apart,
+                     *(f"{v:.2g} at {at:g} s" for v, at in (r["step_growth"], r["solve_gain"])),
                      *_decided(r["decided_by"])])
     header = [f"design ({VERDICT_HANDLING})", "perturbation", "move of MSE_1 + MSE_2",
               f"difference over {GROWTH:g} x the initial one at", f"angles apart by {APART:g} rad at",
               "largest growth of the difference in one sample, up to then",
+              "largest move of the solve's z_v / the move of what it is solved from, up to then",
               "last decision that differs before it", "at", "nominal / perturbed run",
               "margin, nominal / perturbed (a swap: threshold shift / trace(M); the actuator limit: (torque - rho) / rho)"
               "; how far the solve's z_v moved"]

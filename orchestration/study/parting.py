@@ -9,7 +9,8 @@ difference of the two states jumps where a decision turns. The jump is the first
 difference exceeds ``GROWTH`` times the initial one, and what turned it is the last decision before that
 sample that the two runs take differently: an offer to the full stack decided otherwise, or one of the
 other decisions whose flags the core outputs (the tuning law (30)/(31), the bound (5), the actuator limit;
-at one sample the offer comes after the flags). The runs part visibly where their angles differ by more
+at one sample the offer comes after the flags), or the implicit solve of z_v (docs/paper-notes.md 2.4) taking
+another branch of its equation (``SOLVE_GAIN``; at one sample it comes before the flags, as step 1 of the core). The runs part visibly where their angles differ by more
 than ``APART``. A swap decision comes with its margin in each run: the smallest shift of every threshold of the swap
 rule (the gain, the rank's margin and the tie window, moved together as ``swap_margin`` moves them),
 relative to trace(M), that changes that run's decision, searched below the rule's own margin
@@ -40,6 +41,9 @@ GROWTH = 1e4  # a smooth loop amplifies the initial change by a few tens here (d
 SHIFTS = tuple(10.0 ** -k for k in range(16, 0, -1) if 10.0 ** -k < SWAP_MARGIN)
 FLAGS = ("tuning_law", "tau_a_bounded", "chi_a_bounded", "tau_limited")  # the other decisions, as outputs
 SOLVE = "implicit solve"  # the z_v of (6)/(28) (docs/paper-notes.md 2.4), on another branch of its equation
+# the solve took another branch at a sample where both runs solve the equation (residual below RESIDUAL) and
+# their z_v lie more than BRANCH apart and SOLVE_GAIN times further apart than what it is solved from
+SOLVE_GAIN, BRANCH, RESIDUAL = 1e4, 1e-3, 1e-9  # -, rad/s, rad/s
 
 
 class DecisionLog(CLStack):
@@ -125,21 +129,26 @@ def _solve_moves(a, b) -> tuple[np.ndarray, np.ndarray]:
     return dz, np.maximum(np.abs(a.y - b.y).max(axis=1), dw)
 
 
-def _solve_turns(dz: np.ndarray, inputs: np.ndarray, before: int) -> int | None:
-    """The last sample before ``before`` where z_v moved by more than ``GROWTH`` times what it is solved from:
-    the solve took another branch of its equation."""
-    turned = np.nonzero(dz[:before] > GROWTH * inputs[:before])[0]
+def _solve_turns(a, b, dz: np.ndarray, inputs: np.ndarray, before: int) -> int | None:
+    """The last sample before ``before`` where the solve took another branch in one of the runs a and b (see
+    ``SOLVE_GAIN``)."""
+    solved = np.maximum(a.out("zv_residual"), b.out("zv_residual")) <= RESIDUAL
+    turned = np.nonzero(((dz > SOLVE_GAIN * inputs) & (dz > BRANCH) & solved)[:before])[0]
     return int(turned[-1]) if len(turned) else None
+
+
+def _largest(values: np.ndarray, t: np.ndarray) -> list[float]:
+    """[the largest of ``values``, the time of its sample]."""
+    k = int(np.argmax(values))
+    return [float(values[k]), float(t[k])]
 
 
 def _step_growth(t: np.ndarray, d: np.ndarray, jump: int) -> list[float]:
     """[factor, time]: the largest growth of the state difference ``d`` from one sample to the next, up to the
-    jump (a decision turned gives many orders of magnitude at once; an amplifying loop, tens per sample)."""
+    jump (a decision turned gives many orders of magnitude at once; an amplifying loop, less per sample)."""
     k = np.arange(min(jump, len(d) - 1))
     k = k[d[k] > 0.0]
-    g = d[k + 1] / d[k]
-    best = int(np.argmax(g))
-    return [float(g[best]), float(t[k[best] + 1])]
+    return _largest(d[k + 1] / d[k], t[k + 1])
 
 
 def parting(params: dict[str, float], index: int) -> dict[str, Any]:
@@ -157,7 +166,9 @@ def parting(params: dict[str, float], index: int) -> dict[str, Any]:
     last = differ[-1] if differ else None
     flag = _last_flag(a, b, jump)
     dz, inputs = _solve_moves(a, b)
-    solve = _solve_turns(dz, inputs, jump)
+    solve = _solve_turns(a, b, dz, inputs, jump)
+    ahead = inputs[:jump] > 0.0  # the largest ratio of the solve's move to its inputs' up to the jump
+    out["solve_gain"] = _largest(dz[:jump][ahead] / inputs[:jump][ahead], a.t[:jump][ahead])
     if solve is not None and (flag is None or solve >= flag[0]):  # at one sample the solve comes first (step 1)
         flag = (solve, SOLVE)
     if last is not None and (flag is None or log_a.decisions[last][0] >= float(a.t[flag[0]])):
@@ -171,7 +182,9 @@ def parting(params: dict[str, float], index: int) -> dict[str, Any]:
         if flag[1] == "tau_limited":
             core = SotcCore(**params)
             out["decided_by"]["margins"] = [limit_margin(core, r, flag[0]) for r in (a, b)]
-        if flag[1] == SOLVE:  # how far z_v moved, and how far what it is solved from
-            out["decided_by"]["moves"] = [float(dz[flag[0]]), float(inputs[flag[0]])]
+        if flag[1] == SOLVE:  # how far z_v and the torque moved, and how far what z_v is solved from
+            k = flag[0]
+            torque = max(abs(a.out(n)[k] - b.out(n)[k]) for n in ("tau1", "tau2"))
+            out["decided_by"]["moves"] = [float(dz[k]), float(torque), float(inputs[k])]
     return out
 

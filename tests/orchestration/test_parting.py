@@ -41,8 +41,15 @@ def test_the_margin_search_keeps_the_tie_window_open():
     assert SHIFTS[0] == 1e-16 and max(SHIFTS) < SWAP_MARGIN < 10 * max(SHIFTS)
 
 
-def test_a_stored_parting_is_what_the_runs_give():
-    label, r = _first()
+def _first_of(kind: str | None) -> str:
+    """The label of the first stored pair that ``kind`` (a decision's ``what``, or None: no logged decision) parted."""
+    return next(label for label, r in stored(REPO).items() if (r["decided_by"] or {}).get("what") == kind)
+
+
+@pytest.mark.parametrize("kind", [SOLVE, None], ids=["the solve", "no logged decision"])
+def test_a_stored_parting_is_what_the_runs_give(kind):
+    label = _first_of(kind)
+    r = stored(REPO)[label]
     got = parting(dict(r["params"]), r["perturbation"])
     assert got == {k: v for k, v in r.items() if k not in ("params", "move")}, f"{label}: rerun {STORE}"
 
