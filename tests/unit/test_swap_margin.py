@@ -59,9 +59,13 @@ def test_no_decision_rests_on_rounding(case):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("case", stress_cases(), ids=lambda c: c[0].replace("`", ""))
-def test_a_stress_case_counts_what_the_docs_print(case):
-    assert _counts(case) == _stored(case), "rerun: python -m orchestration.reports.numerics_tables"
+@pytest.mark.parametrize("case, margin", [(c, MARGINS[1 + i % 2]) for i, c in enumerate(CASES) if c is not PAPER_RADIAL]
+                         + [(c, m) for c in stress_cases() for m in MARGINS],
+                         ids=lambda v: f"{v:.0e}" if isinstance(v, float) else f"{v[0].replace('`', '')} {LIMIT_HANDLINGS[v[1]]}")
+def test_a_case_counts_what_the_docs_print(case, margin):
+    """The docs' table (docs/swap-flips.json) against this code: every case at the margin above, each case here
+    at one of the two smaller margins in turn, and the stress cases at all three."""
+    assert _counts(case, margin) == _stored(case, margin), "rerun: python -m orchestration.reports.numerics_tables"
 
 
 @pytest.mark.parametrize("below", [True, False])
