@@ -6,10 +6,13 @@ import json
 import re
 from pathlib import Path
 
-# enough trials that the Ctrl-C after the second one lands mid-search however fast the cores run (with
-# compiled cores a CT trial takes a third of a second: at 3 trials a search had finished before it; at 9 per
-# seed, 16 trials are left when it comes). Each trial costs each of the three runs: 12 + 4 took 14 s more
-BUDGET, POLISH = 6, 3
+from orchestration.study.tuning import INITIAL_DESIGN
+
+# one TPE trial beyond the initial design (the sampler's model, and its trials' identity on resume, through the
+# installed wheel) and a CMA-ES polish: enough that the Ctrl-C after the second trial lands mid-search however
+# fast the cores run (a compiled CT trial takes a third of a second; 20 trials are left when it comes). Each
+# trial costs each of the three runs of the command
+BUDGET, POLISH = INITIAL_DESIGN + 1, 2
 ARGS = ["tune", "CT", "--budget", str(BUDGET), "--polish", str(POLISH), "--seeds", "0", "1", "--handlings", "accel",
         "--workers", "1"]
 
