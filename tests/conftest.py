@@ -68,7 +68,7 @@ def shipped_fmu_dir(shipped, tmp_path_factory) -> Path:
 @pytest.fixture(scope="session")
 def fmi3_paths(tmp_path_factory) -> dict[str, Path]:
     """The FMI 3.0 FMUs, cores in Python (compiling them again would double the suite's build time;
-    the compiled FMI 3 build is exercised by tests/shipped/test_shipped_fmi3.py's ArmPlant)."""
+    the compiled FMI 3 build is exercised by tests/shipped/test_shipped_fmi3.py's `paper` FMUs)."""
     from orchestration.fmu_build.compiled import switched
 
     with made_once(tmp_path_factory, "fmus3") as (out, _), switched(False):

@@ -42,7 +42,6 @@ MAX_MODULE_LINES = 500
 MAX_FUNCTION_LINES = 80
 
 
-
 @functools.lru_cache(maxsize=1)
 def _graph() -> dict:
     """The import graph, parsed when a test first asks (at import it cost every xdist worker's collection a second)."""

@@ -20,6 +20,8 @@ import json
 import sys
 from pathlib import Path
 
+from fmu_controller.saturation import ACCEL
+
 DATA = Path(__file__).resolve().parents[1] / "data"
 GRID_TIME = 2.0  # s of each grid run
 FAIR_SEEDS = 1  # the fair runs of the first tuning seed's designs: each case adds its Python-build time under every
@@ -28,7 +30,7 @@ RADIAL = 0.0  # the limit_handling code of radial (fmu_controller.saturation.RAD
 # the Python build's children run the fair cases under accel only (the verdict's handling): a fair case is a 20 s
 # SOTC run, half a Python child's time at every handling; each handling's own code (the saturation, its
 # projection) runs in the pure-loop cases, every one under every handling, in both builds
-PYTHON_FAIR_HANDLING = 2  # accel (fmu_controller.saturation.ACCEL)
+PYTHON_FAIR_HANDLING = ACCEL
 
 
 def in_python_subset(case: str) -> bool:
