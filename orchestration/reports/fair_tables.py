@@ -8,6 +8,7 @@ interval at the Bonferroni level of that family (``orchestration.study.statistic
 from __future__ import annotations
 
 import functools
+import json
 import math
 from collections import Counter
 
@@ -240,14 +241,13 @@ def _verdicts(data: dict) -> tuple[dict, int, dict]:
 
 def _stored_verdicts(root: Path) -> tuple[dict, dict, int, dict]:
     """(the stored runs, ``_verdicts`` of them): the verdict table and the README's headline take the same family of
-    bootstraps, computed once per content of the store (its size and modification time) in a process."""
-    stat = (root / STORE).stat()
-    return _verdicts_of(root, stat.st_size, stat.st_mtime_ns)
+    bootstraps, computed once per content of the store in a process."""
+    return _verdicts_of((root / STORE).read_bytes())
 
 
 @functools.lru_cache(maxsize=1)
-def _verdicts_of(root: Path, size: int, mtime_ns: int) -> tuple[dict, dict, int, dict]:
-    data = stored(root)
+def _verdicts_of(text: bytes) -> tuple[dict, dict, int, dict]:
+    data = json.loads(text)
     return (data, *_verdicts(data))
 
 
