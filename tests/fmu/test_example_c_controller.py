@@ -283,15 +283,21 @@ def test_an_out_folder_that_does_not_exist_is_refused_in_one_line(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
-@pytest.mark.skipif(sys.platform == "win32", reason="a shell script stands in for the compiler")
-def test_a_failure_while_zipping_leaves_no_partial_fmu(tmp_path):
-    """A compiler whose output is a dangling link: the zip fails after its temporary file was made."""
+def _build_with_fake_compiler(tmp_path: Path, shell: str) -> tuple[subprocess.CompletedProcess, Path]:
+    """build.py with CC a shell script running these lines, into an empty folder: how it ended, and the folder."""
     fake = tmp_path / "cc"
-    fake.write_text('#!/bin/sh\nwhile [ $# -gt 0 ]; do [ "$1" = -o ] && ln -s /nonexistent/so "$2"; shift; done\n')
+    fake.write_text(f"#!/bin/sh\n{shell}\n")
     fake.chmod(0o755)
     out = tmp_path / "out"
     out.mkdir()
-    done = _run_build(tmp_path, "--out", str(out), env={**os.environ, "CC": str(fake)})
+    return _run_build(tmp_path, "--out", str(out), env={**os.environ, "CC": str(fake)}), out
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="a shell script stands in for the compiler")
+def test_a_failure_while_zipping_leaves_no_partial_fmu(tmp_path):
+    """A compiler whose output is a dangling link: the zip fails after its temporary file was made."""
+    done, out = _build_with_fake_compiler(
+        tmp_path, 'while [ $# -gt 0 ]; do [ "$1" = -o ] && ln -s /nonexistent/so "$2"; shift; done')
     assert done.returncode == 1 and done.stderr.startswith("build.py: ") and len(done.stderr.splitlines()) == 1
     assert list(out.iterdir()) == []
 
@@ -320,11 +326,6 @@ def test_a_compilation_error_exits_1_with_the_compiler_messages_and_writes_nothi
 @pytest.mark.skipif(sys.platform == "win32", reason="a shell script stands in for the compiler")
 def test_sigterm_during_the_build_ends_it_like_ctrl_c_with_nothing_written(tmp_path):
     """A compiler that sends the build SIGTERM: the build stops (128 + 15), no traceback, nothing written."""
-    fake = tmp_path / "cc"
-    fake.write_text("#!/bin/sh\nkill -TERM $PPID\nexec sleep 60\n")
-    fake.chmod(0o755)
-    out = tmp_path / "out"
-    out.mkdir()
-    done = _run_build(tmp_path, "--out", str(out), env={**os.environ, "CC": str(fake)})
+    done, out = _build_with_fake_compiler(tmp_path, "kill -TERM $PPID\nexec sleep 60")
     assert done.returncode == 128 + signal.SIGTERM and "Traceback" not in done.stderr, done.stderr
     assert list(out.iterdir()) == []
