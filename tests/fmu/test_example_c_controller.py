@@ -11,7 +11,6 @@ from __future__ import annotations
 import ast
 import math
 import os
-import shlex
 import shutil
 import signal
 import subprocess
@@ -26,11 +25,8 @@ from fmpy import read_model_description, simulate_fmu
 from fmpy.fmi2 import FMU2Slave
 from fmpy.validation import validate_fmu
 
-from support import REPO
+from support.example_controller import BUILD, EXAMPLE, FMU_NAME, run_build, skip_without_compiler
 
-EXAMPLE = REPO / "examples" / "pd_controller"
-BUILD = EXAMPLE / "build.py"
-FMU_NAME = "PdController.fmu"
 INPUTS = ("q1", "q2", "dq1", "dq2", "q1_ref", "q2_ref")
 # rows of (q1, q2, dq1, dq2, q1_ref, q2_ref), one every 0.01 s: with the defaults (Kp 60, Kd 15, umax 4)
 # rows 0, 2 and 4 stay inside the bound and rows 1 (just: u = (3, 3)), 3 and 5 are cut to it
@@ -43,29 +39,12 @@ SIGNAL = [(0.0, 0.0, 0.0, 0.0, 0.01, -0.02),
 STEP = 0.01
 
 
-def _compiler() -> str | None:
-    """What build.py would compile with: $CC, else cc or gcc on PATH."""
-    if os.environ.get("CC"):
-        return shutil.which(shlex.split(os.environ["CC"])[0])
-    return shutil.which("cc") or shutil.which("gcc")
-
-
-def _run_build(cwd: Path, *args: str, script: Path = BUILD, env: dict | None = None) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, str(script), *args], cwd=cwd, env=env, capture_output=True, text=True,
-                          timeout=300)
-
-
-def _skip_without_compiler() -> None:
-    if _compiler() is None:
-        pytest.skip("no C compiler ($CC, cc or gcc) to build examples/pd_controller")
-
-
 @pytest.fixture(scope="module")
 def built(tmp_path_factory) -> tuple[Path, subprocess.CompletedProcess]:
     """The folder the script ran in (no --out: the FMU goes there) and how it ended."""
-    _skip_without_compiler()
+    skip_without_compiler()
     folder = tmp_path_factory.mktemp("pd_build")
-    return folder, _run_build(folder)
+    return folder, run_build(folder)
 
 
 @pytest.fixture(scope="module")
@@ -271,14 +250,14 @@ def test_without_a_compiler_the_build_says_so_in_one_line_and_writes_nothing(tmp
     env = {**os.environ, "CC": "/nonexistent/cc"} if variant == "CC names no file" else _no_compiler_env(tmp_path)
     out = tmp_path / "out"
     out.mkdir()
-    done = _run_build(tmp_path, "--out", str(out), env=env)
+    done = run_build(tmp_path, "--out", str(out), env=env)
     assert done.returncode == 2 and done.stdout == ""
     assert len(done.stderr.splitlines()) == 1 and done.stderr.startswith("build.py: no C compiler"), done.stderr
     assert list(out.iterdir()) == []
 
 
 def test_an_out_folder_that_does_not_exist_is_refused_in_one_line(tmp_path):
-    done = _run_build(tmp_path, "--out", str(tmp_path / "missing"))
+    done = run_build(tmp_path, "--out", str(tmp_path / "missing"))
     assert done.returncode == 2 and done.stderr == f"build.py: --out: {tmp_path / 'missing'} is not a folder\n"
     assert list(tmp_path.iterdir()) == []
 
@@ -290,7 +269,7 @@ def _build_with_fake_compiler(tmp_path: Path, shell: str) -> tuple[subprocess.Co
     fake.chmod(0o755)
     out = tmp_path / "out"
     out.mkdir()
-    return _run_build(tmp_path, "--out", str(out), env={**os.environ, "CC": str(fake)}), out
+    return run_build(tmp_path, "--out", str(out), env={**os.environ, "CC": str(fake)}), out
 
 
 @pytest.mark.skipif(sys.platform == "win32", reason="a shell script stands in for the compiler")
@@ -311,13 +290,13 @@ def _copied_example(tmp_path: Path) -> Path:
 
 @pytest.mark.slow
 def test_a_compilation_error_exits_1_with_the_compiler_messages_and_writes_nothing(tmp_path):
-    _skip_without_compiler()
+    skip_without_compiler()
     folder = _copied_example(tmp_path)
     source = folder / "pd_controller.c"
     source.write_text(source.read_text().replace("r[U1] = u1;", "r[U1] = u1"))
     out = tmp_path / "out"
     out.mkdir()
-    done = _run_build(tmp_path, "--out", str(out), script=folder / "build.py")
+    done = run_build(tmp_path, "--out", str(out), script=folder / "build.py")
     assert done.returncode == 1 and done.stdout == ""
     assert "error" in done.stderr and done.stderr.splitlines()[-1].startswith("build.py: ")
     assert list(out.iterdir()) == []
