@@ -24,6 +24,7 @@ from fmu_controller.base import (
     MEASUREMENT_PORTS,
     MODEL_PARAMETER_SPECS,
     REFERENCE_PORTS,
+    TORQUE_UNIT,
     ControllerCore,
 )
 from fmu_plant.dynamics import STEP_SIZE, ArmParameters
@@ -57,8 +58,8 @@ class ControllerSlave(DescribedSlave):
         for name in INPUT_PORTS:
             self.declare_input(name, INPUT_UNITS[name], INPUT_DOCS[name])
         self._core = self._make_core()
-        units = {"tau1": ("N.m", "Joint 1 torque command, held over [t, t + T)"),
-                 "tau2": ("N.m", "Joint 2 torque command, held over [t, t + T)")}
+        units = {"tau1": (TORQUE_UNIT, "Joint 1 torque command, held over [t, t + T)"),
+                 "tau2": (TORQUE_UNIT, "Joint 2 torque command, held over [t, t + T)")}
         units.update({o.name: (o.unit, o.description) for o in self.CORE.EXTRA_OUTPUTS})
         unknown = sorted(set(self.STATE_OUTPUTS) - set(self.CORE.output_names()))
         if unknown:

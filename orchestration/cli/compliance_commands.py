@@ -71,13 +71,30 @@ def _cmd_export_ssp(args: argparse.Namespace) -> int:
     return exit_codes.OK
 
 
+def _cmd_check_controller(args: argparse.Namespace) -> int:
+    from orchestration.compliance.contract import check, read_ports, report
+    from orchestration.compliance.validate import fmpy_problems
+
+    result = check(args.fmu, read_ports(args.ports) if args.ports is not None else None)
+    result.problems += [f"fmpy: {p}" for p in fmpy_problems(args.fmu)]
+    print(report(result))
+    return exit_codes.OK if not result.problems else exit_codes.FAILED
+
+
 def add_commands(sub) -> None:
-    """validate, cross-check, export-ssp."""
+    """validate, check-controller, cross-check, export-ssp."""
     p = sub.add_parser("validate", help="check FMUs: fmpy, fmutool -check and the project's invariants")
     p.add_argument("fmus", nargs="*", metavar="FMU", help="model names or .fmu paths (default: every FMU)")
     add_fmu_dir(p)
     add_fmi(p, "check (model names)")
     p.set_defaults(func=_cmd_validate)
+
+    p = sub.add_parser("check-controller", help="check a controller FMU from any tool against the controller contract "
+                       "(docs/benchmark.md): its port map, causalities, types, units, binary; fmpy's validation")
+    p.add_argument("fmu", type=Path, metavar="FMU", help="the controller's .fmu file (FMI 2.0 or 3.0 Co-Simulation)")
+    p.add_argument("--ports", type=Path, metavar="TOML", help="a file with ports = { contract name = \"FMU variable\" "
+                   "} (default: the FMU's variables of the contract's names)")
+    p.set_defaults(func=_cmd_check_controller)
 
     p = sub.add_parser("cross-check", help="write a reference run of every FMU in the FMI Cross-Check layout")
     p.add_argument("models", nargs="*", metavar="MODEL", help="FMUs to export (default all)")

@@ -97,7 +97,7 @@ class ValidationReport:
 
 # --- the checks ---------------------------------------------------------------------------------
 
-def _fmpy_problems(path: Path) -> list[str]:
+def fmpy_problems(path: Path) -> list[str]:
     from fmpy.validation import validate_fmu
 
     return [str(p) for p in validate_fmu(str(path))]
@@ -317,7 +317,7 @@ def validate_fmu_file(path: Path) -> FmuReport:
     if report.problems["archive"]:
         report.skip(CHECKS, "the file is not an FMU that can be read (archive)")
         return report
-    report.problems["fmpy"] = _fmpy_problems(path)
+    report.problems["fmpy"] = fmpy_problems(path)
     report.problems["fmutool"] = _fmutool_problems(path)
     children.check()
     try:

@@ -1,0 +1,159 @@
+"""The controller contract (docs/benchmark.md): what a controller FMU from any tool may read and must write to
+take the place of ours, checked against its modelDescription before anything runs (``sotc-cosim
+check-controller``).
+
+A controller reads any of the contract's inputs (``fmu_controller.base``: the measurement ``phi1 phi2 dphi1
+dphi2`` from the arm, the reference ``phi1_d ... ddphi2_d``) and writes both torques ``tau1 tau2`` in N.m,
+as FMI 2.0 or 3.0 Co-Simulation. A port map names the FMU's own variable for each contract name it uses;
+without one, the FMU's variables of the contract's names are used. Each mapped variable must exist with
+the right causality, be a real (FMI 2 ``Real``, FMI 3 ``Float64``) and, where it declares a unit, carry the
+contract's; an element of an FMI 3.0 array of fixed size is named ``name[i]`` (from 1). Contract inputs the FMU
+does not read are left out of the map.
+"""
+from __future__ import annotations
+
+import re
+import zipfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from fmu_controller.base import INPUT_UNITS, MEASUREMENT_PORTS, REFERENCE_PORTS, TORQUE_PORTS, TORQUE_UNIT
+from orchestration.exit_codes import UsageError
+
+INPUTS = MEASUREMENT_PORTS + REFERENCE_PORTS
+UNITS = {**INPUT_UNITS, **dict.fromkeys(TORQUE_PORTS, TORQUE_UNIT)}
+REALS = ("Real", "Float64")  # FMI 2.0, FMI 3.0
+_ELEMENT = re.compile(r"([A-Za-z_][A-Za-z0-9_.]*)\[([0-9]+)\]")  # an FMI 3.0 array's element, from 1
+VERSIONS = ("2.0", "3.0")
+
+
+class ContractError(UsageError):
+    """A file that cannot be checked at all (not an FMU, a port map that is not one): one line naming it."""
+
+
+@dataclass
+class Check:
+    """What ``check`` found: the map used (contract name -> FMU variable), the FMU's inputs the map leaves at
+    their start values, and the problems (each one line naming the key)."""
+
+    fmu: Path
+    ports: dict[str, str]
+    unfed: list[str] = field(default_factory=list)
+    problems: list[str] = field(default_factory=list)
+
+
+def read_ports(path: Path) -> dict[str, str]:
+    """The ``ports`` table of a TOML file: contract name -> the FMU's variable name."""
+    from orchestration.toml_files import read_toml
+
+    raw = read_toml(path, str(path), ContractError)
+    ports = raw.get("ports")
+    if not isinstance(ports, dict) or not ports:
+        raise ContractError(f"{path}: needs a table ports = {{ contract name = \"FMU variable\", ... }}")
+    for key, value in ports.items():
+        if key not in UNITS:
+            raise ContractError(f"{path}: ports.{key}: not a contract name ({', '.join(UNITS)})")
+        if not isinstance(value, str) or not value:
+            raise ContractError(f"{path}: ports.{key}: the FMU's variable name, a non-empty string")
+    return dict(ports)
+
+
+def model_description(path: Path):
+    """The FMU's parsed modelDescription (``ContractError`` if the file is no FMU that can be read)."""
+    from fmpy import read_model_description
+
+    from orchestration.compliance.validate import archive_problems
+
+    if not path.is_file():
+        raise ContractError(f"{path}: no such file")
+    unsafe = archive_problems(path)
+    if unsafe:
+        raise ContractError(f"{path}: {unsafe[0]}")
+    try:
+        return read_model_description(str(path), validate=False)
+    except Exception as exc:  # noqa: BLE001 - whatever a foreign archive makes fmpy raise, one line
+        raise ContractError(f"{path}: cannot read its modelDescription.xml: {exc}") from None
+
+
+def _binary_problems(path: Path, md) -> list[str]:
+    """A Co-Simulation binary for this platform, in the folder each FMI version names it."""
+    import fmpy
+
+    platform = fmpy.platform if md.fmiVersion == "2.0" else fmpy.platform_tuple
+    name = f"binaries/{platform}/{md.coSimulation.modelIdentifier}{fmpy.sharedLibraryExtension}"
+    with zipfile.ZipFile(path) as z:
+        if name in z.namelist():
+            return []
+        folders = sorted({n.split("/")[1] for n in z.namelist() if n.startswith("binaries/") and n.count("/") > 1})
+    return [f"no binary for this platform: {name} is missing (binaries for: {', '.join(folders) or 'none'})"]
+
+
+def _element(variables: dict, name: str):
+    """The variable ``name`` names: a scalar, or ``array[i]`` (1-based) of an FMI 3.0 array of fixed size; None:
+    no such variable or element."""
+    m = _ELEMENT.fullmatch(name)
+    if m is None:
+        return variables.get(name)
+    array, index = variables.get(m[1]), int(m[2])
+    sizes = [int(d.start) for d in array.dimensions if d.start is not None] if array is not None else []
+    return array if len(sizes) == 1 == len(array.dimensions) and 1 <= index <= sizes[0] else None
+
+
+def _own_name(variables: dict, key: str) -> str | None:
+    """The FMU's variable of the contract name ``key``: itself, or the element of an array of its stem (FMI 3.0
+    ``tau[1]`` for ``tau1``); None if it has neither."""
+    stem, index = key[:-1], key[-1]
+    for name in (key, f"{stem}[{index}]" if index.isdigit() else None):
+        if name is not None and _element(variables, name) is not None:
+            return name
+    return None
+
+
+def _variable_problems(key: str, variable, name: str) -> list[str]:
+    want = "output" if key in TORQUE_PORTS else "input"
+    where = f"ports.{key} = '{name}'"
+    if variable is None:
+        return [f"{where}: the FMU has no variable '{name}' (an array's element: name[i], from 1)"]
+    found = []
+    if variable.causality != want:
+        found.append(f"{where}: causality '{variable.causality}', the contract needs an {want}")
+    if variable.type not in REALS:
+        found.append(f"{where}: type {variable.type}, the contract needs a real (Real / Float64)")
+    unit = variable.unit or (variable.declaredType.unit if variable.declaredType is not None else None)
+    if unit and unit != UNITS[key]:
+        found.append(f"{where}: unit '{unit}', the contract's is '{UNITS[key]}'")
+    return found
+
+
+def check(path: Path, ports: dict[str, str] | None = None) -> Check:
+    """``path`` against the contract through ``ports`` (None: the contract's own names, those the FMU has)."""
+    md = model_description(path)
+    variables = {v.name: v for v in md.modelVariables}
+    if ports is None:
+        ports = {k: _own_name(variables, k) or k for k in UNITS if _own_name(variables, k) or k in TORQUE_PORTS}
+    result = Check(path, dict(ports))
+    if md.fmiVersion not in VERSIONS:
+        result.problems.append(f"FMI {md.fmiVersion}: the contract takes FMI {' or '.join(VERSIONS)}")
+    if md.coSimulation is None:
+        result.problems.append("no Co-Simulation interface (the contract takes Co-Simulation FMUs)")
+    else:
+        result.problems += _binary_problems(path, md)
+    for key in TORQUE_PORTS:
+        if key not in ports:
+            result.problems.append(f"ports.{key}: missing; the contract needs both torques {' and '.join(TORQUE_PORTS)}")
+    for key, name in ports.items():
+        result.problems += _variable_problems(key, _element(variables, name), name)
+    fed = {_ELEMENT.sub(r"\1", n) for n in ports.values()}
+    result.unfed = [v.name for v in md.modelVariables if v.causality == "input" and v.name not in fed]
+    return result
+
+
+def report(result: Check) -> str:
+    """The map, the inputs left at their start values, and a line per problem."""
+    lines = [f"{result.fmu}:", *(f"  {k:9s} -> {v}" for k, v in result.ports.items())]
+    if result.unfed:
+        lines.append(f"  inputs no contract name feeds (left at their start values): {', '.join(result.unfed)}")
+    lines += [f"  problem: {p}" for p in result.problems]
+    lines.append("  meets the controller contract" if not result.problems else
+                 f"  does not meet the controller contract ({len(result.problems)} problems)")
+    return "\n".join(lines)

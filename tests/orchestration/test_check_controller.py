@@ -1,0 +1,113 @@
+"""``sotc-cosim check-controller``: a controller FMU from another tool against the controller contract
+(orchestration/compliance/contract.py, docs/benchmark.md), through the installed console script: the C example
+of examples/pd_controller with its port map, our own controllers without one, and FMUs and maps that break the
+contract, each named in one line."""
+from __future__ import annotations
+
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+
+import fmpy
+import pytest
+from support.example_controller import PORTS, built_fmu
+
+from orchestration.compliance.contract import UNITS
+
+CLI = str(Path(sys.executable).with_name("sotc-cosim"))
+
+
+def _check(fmu: Path, cwd: Path, ports: dict | str | None = None) -> subprocess.CompletedProcess:
+    args = [CLI, "check-controller", str(fmu)]
+    if ports is not None:
+        text = ports if isinstance(ports, str) else "ports = { " + ", ".join(f'{k} = "{v}"' for k, v in ports.items()) + " }\n"
+        (cwd / "ports.toml").write_text(text)
+        args += ["--ports", "ports.toml"]
+    return subprocess.run(args, cwd=cwd, capture_output=True, text=True, timeout=300)
+
+
+@pytest.fixture(scope="module")
+def example(tmp_path_factory) -> Path:
+    return built_fmu(tmp_path_factory.mktemp("pd"))
+
+
+def test_the_example_meets_the_contract_through_its_port_map(example, tmp_path):
+    done = _check(example, tmp_path, PORTS)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert all(f"{k:9s} -> {v}" in done.stdout for k, v in PORTS.items()) and "meets the controller contract" in done.stdout
+
+
+def test_without_a_map_the_examples_own_names_are_no_torques(example, tmp_path):
+    done = _check(example, tmp_path)
+    assert done.returncode == 1
+    problems = [line for line in done.stdout.splitlines() if "problem:" in line]
+    assert problems == [f"  problem: ports.{k} = '{k}': the FMU has no variable '{k}' (an array's element: name[i], "
+                        "from 1)" for k in ("tau1", "tau2")], done.stdout
+    assert "(left at their start values): q1, q2, dq1, dq2, q1_ref, q2_ref, dq1_ref, dq2_ref" in done.stdout
+
+
+@pytest.mark.parametrize("change, problem", [
+    ({"phi1": "u1"}, "ports.phi1 = 'u1': causality 'output', the contract needs an input"),
+    ({"phi1": "u1"}, "ports.phi1 = 'u1': unit 'N.m', the contract's is 'rad'"),
+    ({"tau2": "Kp"}, "ports.tau2 = 'Kp': causality 'parameter', the contract needs an output"),
+    ({"dphi1": "nope"}, "ports.dphi1 = 'nope': the FMU has no variable 'nope'"),
+    ({"tau1": "u1[1]"}, "ports.tau1 = 'u1[1]': the FMU has no variable 'u1[1]'"),
+], ids=["an output read", "a unit", "a parameter written", "no such variable", "no such array"])
+def test_a_map_that_breaks_the_contract_is_named_by_its_key(example, tmp_path, change, problem):
+    done = _check(example, tmp_path, {**PORTS, **change})
+    assert done.returncode == 1 and problem in done.stdout, done.stdout
+
+
+def test_a_map_without_both_torques_is_refused(example, tmp_path):
+    done = _check(example, tmp_path, {k: v for k, v in PORTS.items() if k != "tau2"})
+    assert done.returncode == 1 and "ports.tau2: missing" in done.stdout, done.stdout
+
+
+def test_a_binary_for_another_platform_only_is_named(example, tmp_path):
+    other = tmp_path / "other.fmu"
+    with zipfile.ZipFile(example) as src, zipfile.ZipFile(other, "w") as out:
+        for item in src.infolist():
+            out.writestr(item.filename.replace(f"binaries/{fmpy.platform}/", "binaries/win64/"), src.read(item))
+    done = _check(other, tmp_path, PORTS)
+    assert done.returncode == 1, done.stdout
+    assert (f"no binary for this platform: binaries/{fmpy.platform}/PdController{fmpy.sharedLibraryExtension} is "
+            "missing (binaries for: win64)") in done.stdout
+
+
+@pytest.mark.parametrize("ports, said", [
+    ('ports = { foo = "q1" }\n', "ports.foo: not a contract name"),
+    ('ports = { tau1 = 3 }\n', "ports.tau1: the FMU's variable name, a non-empty string"),
+    ("tau1 = 'u1'\n", "needs a table ports = {"),
+    ("ports = {\n", "ports.toml"),
+], ids=["not a contract name", "not a name", "no ports table", "not TOML"])
+def test_a_bad_port_map_is_one_line_and_exit_2(example, tmp_path, ports, said):
+    done = _check(example, tmp_path, ports)
+    assert done.returncode == 2 and done.stdout == "", done.stdout
+    assert len(done.stderr.strip().splitlines()) == 1 and said in done.stderr and "Traceback" not in done.stderr
+
+
+@pytest.mark.parametrize("content", [None, b"not a zip", b"PK\x05\x06" + b"\0" * 18], ids=["missing", "text", "empty zip"])
+def test_a_file_that_is_no_fmu_is_one_line_and_exit_2(tmp_path, content):
+    fmu = tmp_path / "x.fmu"
+    if content is not None:
+        fmu.write_bytes(content)
+    done = _check(fmu, tmp_path)
+    assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1 and "x.fmu" in done.stderr, done.stderr
+    assert "Traceback" not in done.stderr
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("fmi", [2, 3])
+def test_our_own_controllers_meet_the_contract_without_a_map(request, tmp_path, fmi):
+    """Every controller of ours, by the contract's names: every input it reads and both torques; in FMI 3.0,
+    phi, dphi and tau are arrays of 2, whose elements stand for phi1 ... tau2 (``name[i]``, from 1)."""
+    from orchestration.fmu_build.build import FMU_SOURCES
+
+    paths = request.getfixturevalue("fmu_paths" if fmi == 2 else "fmi3_paths")
+    for model in [m for m in FMU_SOURCES if m.endswith("Controller")]:
+        done = _check(paths[model], tmp_path)
+        assert done.returncode == 0, done.stdout
+        for key in UNITS:
+            own = key if fmi == 2 or key[:-1] not in ("phi", "dphi", "tau") else f"{key[:-1]}[{key[-1]}]"
+            assert f"{key:9s} -> {own}" in done.stdout, done.stdout
