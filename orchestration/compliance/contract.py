@@ -23,7 +23,7 @@ from orchestration.exit_codes import UsageError
 INPUTS = MEASUREMENT_PORTS + REFERENCE_PORTS
 UNITS = {**INPUT_UNITS, **dict.fromkeys(TORQUE_PORTS, TORQUE_UNIT)}
 REALS = ("Real", "Float64")  # FMI 2.0, FMI 3.0
-_ELEMENT = re.compile(r"([A-Za-z_][A-Za-z0-9_.]*)\[([0-9]+)\]")  # an FMI 3.0 array's element, from 1
+_ELEMENT = re.compile(r"([A-Za-z_][A-Za-z0-9_.]*)\[([1-9][0-9]*)\]")  # an FMI 3.0 array's element, from 1
 VERSIONS = ("2.0", "3.0")
 
 
@@ -65,7 +65,7 @@ def model_description(path: Path):
     from orchestration.compliance.validate import archive_problems
 
     if not path.is_file():
-        raise ContractError(f"{path}: no such file")
+        raise ContractError(f"{path}: {'not a file' if path.exists() else 'no such file'}")
     unsafe = archive_problems(path)
     if unsafe:
         raise ContractError(f"{path}: {unsafe[0]}")
@@ -89,10 +89,10 @@ def _binary_problems(path: Path, md) -> list[str]:
 
 
 def _element(variables: dict, name: str):
-    """The variable ``name`` names: a scalar, or ``array[i]`` (1-based) of an FMI 3.0 array of fixed size; None:
-    no such variable or element."""
+    """The variable ``name`` names: a variable of that name (FMI 2.0 tools name scalars ``u[1]`` too), or else
+    ``array[i]`` (from 1) of an FMI 3.0 array of fixed size; None: no such variable or element."""
     m = _ELEMENT.fullmatch(name)
-    if m is None:
+    if name in variables or m is None:
         return variables.get(name)
     array, index = variables.get(m[1]), int(m[2])
     sizes = [int(d.start) for d in array.dimensions if d.start is not None] if array is not None else []
@@ -115,6 +115,8 @@ def _variable_problems(key: str, variable, name: str) -> list[str]:
     if variable is None:
         return [f"{where}: the FMU has no variable '{name}' (an array's element: name[i], from 1)"]
     found = []
+    if getattr(variable, "dimensions", None) and not _ELEMENT.fullmatch(name):
+        found.append(f"{where}: an array; the contract takes one value: name an element, {name}[i] from 1")
     if variable.causality != want:
         found.append(f"{where}: causality '{variable.causality}', the contract needs an {want}")
     if variable.type not in REALS:
@@ -143,6 +145,9 @@ def check(path: Path, ports: dict[str, str] | None = None) -> Check:
             result.problems.append(f"ports.{key}: missing; the contract needs both torques {' and '.join(TORQUE_PORTS)}")
     for key, name in ports.items():
         result.problems += _variable_problems(key, _element(variables, name), name)
+    for name in sorted({n for n in ports.values() if list(ports.values()).count(n) > 1}):
+        keys = [k for k, n in ports.items() if n == name]
+        result.problems.append(f"ports.{keys[1]} = '{name}': {name} is mapped to {' and '.join(keys)}; one variable each")
     fed = {_ELEMENT.sub(r"\1", n) for n in ports.values()}
     result.unfed = [v.name for v in md.modelVariables if v.causality == "input" and v.name not in fed]
     return result
@@ -155,5 +160,6 @@ def report(result: Check) -> str:
         lines.append(f"  inputs no contract name feeds (left at their start values): {', '.join(result.unfed)}")
     lines += [f"  problem: {p}" for p in result.problems]
     lines.append("  meets the controller contract" if not result.problems else
-                 f"  does not meet the controller contract ({len(result.problems)} problems)")
+                 f"  does not meet the controller contract ({len(result.problems)} "
+                 f"problem{'s' if len(result.problems) > 1 else ''})")
     return "\n".join(lines)

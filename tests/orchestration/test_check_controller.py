@@ -111,3 +111,31 @@ def test_our_own_controllers_meet_the_contract_without_a_map(request, tmp_path, 
         for key in UNITS:
             own = key if fmi == 2 or key[:-1] not in ("phi", "dphi", "tau") else f"{key[:-1]}[{key[-1]}]"
             assert f"{key:9s} -> {own}" in done.stdout, done.stdout
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("ports, problem", [
+    ({"tau1": "tau[1]", "tau2": "tau[2]", "phi1": "phi[1]"}, None),
+    ({"tau1": "tau[1]", "tau2": "tau[3]"}, "ports.tau2 = 'tau[3]': the FMU has no variable 'tau[3]'"),
+    ({"tau1": "tau[1]", "tau2": "tau[0]"}, "ports.tau2 = 'tau[0]': the FMU has no variable 'tau[0]'"),
+    ({"tau1": "tau[1]", "tau2": "tau[2]", "phi1": "phi"}, "ports.phi1 = 'phi': an array; the contract takes one value"),
+    ({"tau1": "tau[1]", "tau2": "tau[1]"}, "ports.tau2 = 'tau[1]': tau[1] is mapped to tau1 and tau2; one variable each"),
+    ({"tau1": "tau[1]", "tau2": "limit_handling"}, "ports.tau2 = 'limit_handling': type Int32, the contract needs a real"),
+], ids=["elements", "past the end", "from 1", "a whole array", "one element twice", "an integer"])
+def test_an_fmi3_map_names_array_elements_from_1(fmi3_paths, tmp_path, ports, problem):
+    done = _check(fmi3_paths["CtController"], tmp_path, ports)
+    assert done.returncode == (0 if problem is None else 1), done.stdout
+    assert problem is None or problem in done.stdout, done.stdout
+
+
+def test_an_fmi2_scalar_named_like_an_element_is_itself(example, tmp_path):
+    """FMI 2.0 tools (OpenModelica, Dymola) export an array as scalars named u[1], u[2]: such a name is the variable's."""
+    renamed = tmp_path / "renamed.fmu"
+    with zipfile.ZipFile(example) as src, zipfile.ZipFile(renamed, "w") as out:
+        for item in src.infolist():
+            data = src.read(item)
+            if item.filename == "modelDescription.xml":
+                data = data.replace(b'name="u1"', b'name="u[1]"').replace(b'name="u2"', b'name="u[2]"')
+            out.writestr(item, data)
+    done = _check(renamed, tmp_path, {**PORTS, "tau1": "u[1]", "tau2": "u[2]"})
+    assert done.returncode == 0, done.stdout
