@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import re
 import signal
+import stat
 import threading
 import tomllib
 from contextlib import contextmanager
@@ -121,7 +122,10 @@ def read_toml(path: Path, label: str, error: type[UsageError] = UsageError) -> d
     looked at before it is read)."""
     with _signals_stop_reading(error(f"{label}: reading it was interrupted")):
         try:
-            size = path.stat().st_size
+            st = path.stat()
+            if not stat.S_ISREG(st.st_mode) and not stat.S_ISDIR(st.st_mode):  # a folder: read_bytes says so
+                raise error(f"{label}: not a regular file (a FIFO or a device would block the read or never end)")
+            size = st.st_size
             if size > MAX_BYTES:
                 raise error(f"{label}: {size:,} bytes is too large for a sotc-cosim file (at most {MAX_BYTES:,})")
             data = path.read_bytes()

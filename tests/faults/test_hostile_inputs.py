@@ -42,6 +42,18 @@ def test_a_hostile_toml_gives_one_line_naming_the_file(kind, command, tmp_path):
     _nothing_but(tmp_path, path.name)
 
 
+@pytest.mark.parametrize("args, said", [(["run", "fifo.toml"], "not a TOML scenario file"),
+                                        (["check-controller", "x.fmu", "--ports", "fifo.toml"], "not a regular file")],
+                         ids=["scenario", "port map"])
+def test_a_fifo_for_a_toml_gives_one_line_instead_of_waiting_for_a_writer(args, said, tmp_path):
+    """Reading a FIFO blocks until something writes into it (a device may never end): refused before reading
+    (a port map blocked check-controller until a signal)."""
+    os.mkfifo(tmp_path / "fifo.toml")
+    proc = run(args, tmp_path, timeout=60)
+    assert proc.returncode == 2 and said in one_line(proc.stderr) and "fifo.toml" in proc.stderr, proc.stderr[-500:]
+    _nothing_but(tmp_path, "fifo.toml")
+
+
 def _dangling(tmp_path, name: str):
     (tmp_path / name).symlink_to(tmp_path / "nowhere" / name)
     return name
