@@ -59,6 +59,9 @@ class Cluster:
     scratch: str  # this command's scratch folder (a name under the private ``scratch`` folder)
 
 
+CONNECT_TIMEOUT = "10s"  # how long a --scheduler is tried (distributed retries a refused connection until then)
+
+
 def open_client(scheduler: str | None, workers: int | None) -> Cluster:
     """A client of the scheduler at ``scheduler`` (``ScenarioError`` naming ``--scheduler`` if there
     is none), or of a local cluster whose workers keep their files in this command's scratch folder."""
@@ -75,7 +78,7 @@ def _connect(scheduler: str | None, workers: int | None, scratch: str) -> tuple[
 
     if scheduler:
         try:
-            return Client(scheduler, timeout="10s"), None
+            return Client(scheduler, timeout=CONNECT_TIMEOUT), None
         except OSError as exc:
             raise ScenarioError(f"--scheduler {scheduler}: cannot reach a Dask scheduler there ({exc})") from None
         except (ValueError, TypeError) as exc:  # not an address: no port, a bad port, an unknown protocol
