@@ -75,7 +75,8 @@ def _cmd_check_controller(args: argparse.Namespace) -> int:
     from orchestration.compliance.contract import check, read_ports, report
     from orchestration.compliance.validate import fmpy_problems
 
-    result = check(args.fmu, read_ports(args.ports) if args.ports is not None else None)
+    ports, parameters = read_ports(args.ports) if args.ports is not None else (None, None)
+    result = check(args.fmu, ports, parameters)
     result.problems += [f"fmpy: {p}" for p in fmpy_problems(args.fmu)]
     print(report(result))
     return exit_codes.OK if not result.problems else exit_codes.FAILED
@@ -93,7 +94,7 @@ def add_commands(sub) -> None:
                        "(docs/benchmark.md): its port map, causalities, types, units, binary; fmpy's validation")
     p.add_argument("fmu", type=Path, metavar="FMU", help="the controller's .fmu file (FMI 2.0 or 3.0 Co-Simulation)")
     p.add_argument("--ports", type=Path, metavar="TOML", help="a file with ports = { contract name = \"FMU variable\" "
-                   "} (default: the FMU's variables of the contract's names)")
+                   "} and, if set, parameters = { name = value } (default: the FMU's variables of the contract's names)")
     p.set_defaults(func=_cmd_check_controller)
 
     p = sub.add_parser("cross-check", help="write a reference run of every FMU in the FMI Cross-Check layout")

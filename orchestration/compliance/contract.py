@@ -12,6 +12,7 @@ does not read are left out of the map.
 """
 from __future__ import annotations
 
+import math
 import re
 import zipfile
 from dataclasses import dataclass, field
@@ -23,6 +24,7 @@ from orchestration.exit_codes import UsageError
 INPUTS = MEASUREMENT_PORTS + REFERENCE_PORTS
 UNITS = {**INPUT_UNITS, **dict.fromkeys(TORQUE_PORTS, TORQUE_UNIT)}
 REALS = ("Real", "Float64")  # FMI 2.0, FMI 3.0
+INTEGERS = ("Integer", "Int8", "UInt8", "Int16", "UInt16", "Int32", "UInt32", "Int64", "UInt64")
 _ELEMENT = re.compile(r"([A-Za-z_][A-Za-z0-9_.]*)\[([1-9][0-9]*)\]")  # an FMI 3.0 array's element, from 1
 VERSIONS = ("2.0", "3.0")
 
@@ -33,21 +35,23 @@ class ContractError(UsageError):
 
 @dataclass
 class Check:
-    """What ``check`` found: the map used (contract name -> FMU variable), the FMU's inputs the map leaves at
-    their start values, and the problems (each one line naming the key)."""
+    """What ``check`` found: the map used (contract name -> FMU variable), the parameters to set, the FMU's
+    inputs the map leaves at their start values, and the problems (each one line naming the key)."""
 
     fmu: Path
     ports: dict[str, str]
+    parameters: dict[str, float] = field(default_factory=dict)
     unfed: list[str] = field(default_factory=list)
     problems: list[str] = field(default_factory=list)
 
 
-def read_ports(path: Path) -> dict[str, str]:
-    """The ``ports`` table of a TOML file: contract name -> the FMU's variable name."""
+def read_ports(path: Path) -> tuple[dict[str, str], dict[str, float]]:
+    """The ``ports`` table of a TOML file (contract name -> the FMU's variable name) and its ``parameters``
+    table, if any (the FMU's parameter -> a number to set it to)."""
     from orchestration.toml_files import read_toml
 
     raw = read_toml(path, str(path), ContractError)
-    ports = raw.get("ports")
+    ports, parameters = raw.get("ports"), raw.get("parameters", {})
     if not isinstance(ports, dict) or not ports:
         raise ContractError(f"{path}: needs a table ports = {{ contract name = \"FMU variable\", ... }}")
     for key, value in ports.items():
@@ -55,7 +59,12 @@ def read_ports(path: Path) -> dict[str, str]:
             raise ContractError(f"{path}: ports.{key}: not a contract name ({', '.join(UNITS)})")
         if not isinstance(value, str) or not value:
             raise ContractError(f"{path}: ports.{key}: the FMU's variable name, a non-empty string")
-    return dict(ports)
+    if not isinstance(parameters, dict):
+        raise ContractError(f"{path}: parameters: a table {{ name = value, ... }}")
+    for key, value in parameters.items():
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise ContractError(f"{path}: parameters.{key}: a finite number")
+    return dict(ports), {k: float(v) for k, v in parameters.items()}
 
 
 def model_description(path: Path):
@@ -127,8 +136,30 @@ def _variable_problems(key: str, variable, name: str) -> list[str]:
     return found
 
 
-def check(path: Path, ports: dict[str, str] | None = None) -> Check:
-    """``path`` against the contract through ``ports`` (None: the contract's own names, those the FMU has)."""
+def _parameter_problems(name: str, value: float, variable) -> list[str]:
+    """Whether ``value`` can be set to the FMU's parameter ``name`` before a run: a parameter (fixed or
+    tunable) of a numeric type, within its declared min and max, whole for an integer."""
+    where = f"parameters.{name} = {value:g}"
+    if variable is None:
+        return [f"{where}: the FMU has no variable '{name}'"]
+    if variable.causality != "parameter" or variable.variability not in ("fixed", "tunable"):
+        return [f"{where}: causality '{variable.causality}', variability '{variable.variability}': not a parameter "
+                "a host may set (a fixed or tunable parameter)"]
+    if variable.type not in (*REALS, "Float32", *INTEGERS):
+        return [f"{where}: type {variable.type}, not a number"]
+    found = []
+    if variable.type in INTEGERS and value != int(value):
+        found.append(f"{where}: {name} is an integer ({variable.type})")
+    low, high = (float(b) if b not in (None, "") else None for b in (variable.min, variable.max))
+    if (low is not None and value < low) or (high is not None and value > high):
+        found.append(f"{where}: outside [{'-inf' if low is None else f'{low:g}'}, {'inf' if high is None else f'{high:g}'}]"
+                     f", the range its modelDescription declares")
+    return found
+
+
+def check(path: Path, ports: dict[str, str] | None = None, parameters: dict[str, float] | None = None) -> Check:
+    """``path`` against the contract through ``ports`` (None: the contract's own names, those the FMU has), and
+    ``parameters`` (name -> value) against its parameters."""
     md = model_description(path)
     variables = {v.name: v for v in md.modelVariables}
     if ports is None:
@@ -148,6 +179,9 @@ def check(path: Path, ports: dict[str, str] | None = None) -> Check:
     for name in sorted({n for n in ports.values() if list(ports.values()).count(n) > 1}):
         keys = [k for k, n in ports.items() if n == name]
         result.problems.append(f"ports.{keys[1]} = '{name}': {name} is mapped to {' and '.join(keys)}; one variable each")
+    for name, value in (parameters or {}).items():
+        result.problems += _parameter_problems(name, value, variables.get(name))
+    result.parameters = dict(parameters or {})
     fed = {_ELEMENT.sub(r"\1", n) for n in ports.values()}
     result.unfed = [v.name for v in md.modelVariables if v.causality == "input" and v.name not in fed]
     return result
@@ -155,7 +189,8 @@ def check(path: Path, ports: dict[str, str] | None = None) -> Check:
 
 def report(result: Check) -> str:
     """The map, the inputs left at their start values, and a line per problem."""
-    lines = [f"{result.fmu}:", *(f"  {k:9s} -> {v}" for k, v in result.ports.items())]
+    lines = [f"{result.fmu}:", *(f"  {k:9s} -> {v}" for k, v in result.ports.items()),
+             *(f"  parameter {k} = {v:g}" for k, v in result.parameters.items())]
     if result.unfed:
         lines.append(f"  inputs no contract name feeds (left at their start values): {', '.join(result.unfed)}")
     lines += [f"  problem: {p}" for p in result.problems]

@@ -59,6 +59,22 @@ def test_a_map_that_breaks_the_contract_is_named_by_its_key(example, tmp_path, c
     assert done.returncode == 1 and problem in done.stdout, done.stdout
 
 
+def _with_parameters(parameters: str) -> str:
+    return "ports = { " + ", ".join(f'{k} = "{v}"' for k, v in PORTS.items()) + " }\nparameters = " + parameters + "\n"
+
+
+def test_the_parameters_to_set_are_checked_against_the_fmus(example, tmp_path):
+    """Kp = 30 can be set; Kd below the min its modelDescription declares, a variable it lacks and an input cannot."""
+    done = _check(example, tmp_path, _with_parameters("{ Kp = 30.0, Kd = -1.0, nope = 1, q1 = 0.5 }"))
+    assert done.returncode == 1 and "  parameter Kp = 30" in done.stdout, done.stdout
+    problems = [line.removeprefix("  problem: ") for line in done.stdout.splitlines() if "problem:" in line]
+    assert problems == ["parameters.Kd = -1: outside [0, inf], the range its modelDescription declares",
+                        "parameters.nope = 1: the FMU has no variable 'nope'",
+                        "parameters.q1 = 0.5: causality 'input', variability 'continuous': not a parameter a host may "
+                        "set (a fixed or tunable parameter)"], done.stdout
+    assert _check(example, tmp_path, _with_parameters("{ Kp = 30.0, umax = 3 }")).returncode == 0
+
+
 def test_a_map_without_both_torques_is_refused(example, tmp_path):
     done = _check(example, tmp_path, {k: v for k, v in PORTS.items() if k != "tau2"})
     assert done.returncode == 1 and "ports.tau2: missing" in done.stdout, done.stdout
@@ -80,7 +96,11 @@ def test_a_binary_for_another_platform_only_is_named(example, tmp_path):
     ('ports = { tau1 = 3 }\n', "ports.tau1: the FMU's variable name, a non-empty string"),
     ("tau1 = 'u1'\n", "needs a table ports = {"),
     ("ports = {\n", "ports.toml"),
-], ids=["not a contract name", "not a name", "no ports table", "not TOML"])
+    ('ports = { tau1 = "u1" }\nparameters = { Kp = "a" }\n', "parameters.Kp: a finite number"),
+    ('ports = { tau1 = "u1" }\nparameters = { Kp = nan }\n', "parameters.Kp: a finite number"),
+    ('ports = { tau1 = "u1" }\nparameters = 3\n', "parameters: a table"),
+], ids=["not a contract name", "not a name", "no ports table", "not TOML", "a parameter not a number", "nan",
+        "parameters not a table"])
 def test_a_bad_port_map_is_one_line_and_exit_2(example, tmp_path, ports, said):
     done = _check(example, tmp_path, ports)
     assert done.returncode == 2 and done.stdout == "", done.stdout
@@ -121,8 +141,13 @@ def test_our_own_controllers_meet_the_contract_without_a_map(request, tmp_path, 
     ({"tau1": "tau[1]", "tau2": "tau[2]", "phi1": "phi"}, "ports.phi1 = 'phi': an array; the contract takes one value"),
     ({"tau1": "tau[1]", "tau2": "tau[1]"}, "ports.tau2 = 'tau[1]': tau[1] is mapped to tau1 and tau2; one variable each"),
     ({"tau1": "tau[1]", "tau2": "limit_handling"}, "ports.tau2 = 'limit_handling': type Int32, the contract needs a real"),
-], ids=["elements", "past the end", "from 1", "a whole array", "one element twice", "an integer"])
+    ("{ limit_handling = 1.5 }", "parameters.limit_handling = 1.5: limit_handling is an integer (Int32)"),
+    ("{ p1 = 2000.0 }", "parameters.p1 = 2000: outside [0, 1000], the range its modelDescription declares"),
+], ids=["elements", "past the end", "from 1", "a whole array", "one element twice", "an integer",
+        "an integer parameter", "a parameter's range"])
 def test_an_fmi3_map_names_array_elements_from_1(fmi3_paths, tmp_path, ports, problem):
+    if isinstance(ports, str):  # parameters, with the torques mapped
+        ports = 'ports = { tau1 = "tau[1]", tau2 = "tau[2]" }\nparameters = ' + ports + "\n"
     done = _check(fmi3_paths["CtController"], tmp_path, ports)
     assert done.returncode == (0 if problem is None else 1), done.stdout
     assert problem is None or problem in done.stdout, done.stdout
