@@ -1,4 +1,5 @@
-"""Progress of long commands (sweeps, ``reproduce``, ``tune``): done, failed, running, estimated time left.
+"""Progress of long commands (sweeps, ``reproduce``, ``tune``): done, failed, running, estimated time left;
+``stage`` for a command whose long steps are few and unlike (``bench``).
 
 On a terminal: a tqdm bar. Otherwise (a pipe, a log file, CI): plain lines, so the output stays readable
 and greppable: one for the first item, one for the last, one for every failure, and between them at most
@@ -76,3 +77,8 @@ class Progress:
     def close(self) -> None:
         if self.bar is not None:
             self.bar.close()
+
+
+def stage(label: str, what: str) -> None:
+    """A line on stderr as one long step of a command starts (its report stays alone on stdout)."""
+    print(f"{label}: {what} ...", file=sys.stderr, flush=True)

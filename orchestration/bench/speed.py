@@ -38,6 +38,7 @@ from orchestration.bench.targets import MASTER, PLUMBING, check_targets
 from orchestration.bench.trial import trial_costs
 from orchestration.fmu_build import compiled
 from orchestration.markdown import table
+from orchestration.progress import stage
 
 SCENARIO = "paper"
 LONG_RUNS = (1000.0, 10000.0)
@@ -301,17 +302,23 @@ def _bench_speed(fmu_dir: Path, repeats: int, long: tuple[float, ...], record_ev
                    "long_runs": "one run each in a fresh child process, with recording"},
     }
     data["compiled"] = compiled.target() if isinstance(fast, dict) else f"not measured: {fast}"
+    stage("bench speed", f"{scenario.stop_time:g} s of {SCENARIO} side by side, {repeats} runs each")
     data.update(side_by_side(scenario, paths, repeats, fast if isinstance(fast, dict) else None))
+    stage("bench speed", "the cost split per step, instrumented runs")
     data["split"] = cost_split(scenario, paths, writer, repeats)
     if isinstance(fast, dict):
         data["split_compiled"] = cost_split(scenario, fast, writer, repeats)
+    stage("bench speed", "the plumbing's floor, then whole processes")
     data["plumbing_floor"] = plumbing_floor(scenario, paths)
     data["process"] = process_walls(next(iter((fast if isinstance(fast, dict) else paths).values())).parent, repeats)
     if stop_time is None:  # a shortened bench (a smoke test) leaves out the trials of 8 x 20 s
+        stage("bench speed", "a tuning trial's cost")
         trials = trial_costs(repeats)  # the compiled cores' trial is the one a tuning runs, when there is one
         data["trial"] = trials.pop("compiled", trials["default"])
         if trials["default"] is not data["trial"]:
             data["trial_default"] = trials["default"]
+    if long:
+        stage("bench speed", f"long runs of {', '.join(f'{s:g}' for s in long)} s, each in its own process")
     data["long"] = long_runs(fmu_dir, long, record_every) if long else []
     data["targets"] = check_targets(data)
     return data

@@ -2,6 +2,8 @@
 generated tables in the docs (``speed`` blocks) are checked with every docgen block (test_docgen)."""
 from __future__ import annotations
 
+import contextlib
+import io
 import json
 import math
 import time
@@ -13,11 +15,26 @@ from orchestration.cli import main
 
 
 @pytest.fixture(scope="module")
-def short_bench(fmu_dir, tmp_path_factory):
+def short_bench_run(fmu_dir, tmp_path_factory) -> tuple[dict, str]:
+    """The short bench's JSON and what it said on stderr."""
     out = tmp_path_factory.mktemp("bench") / "b.json"
-    assert main(["bench", "--repeats", "2", "--long", "none", "--stop-time", "2", "--fmu-dir", str(fmu_dir),
-                 "--json", str(out)]) == 0
-    return json.loads(out.read_text())["speed"]
+    with contextlib.redirect_stderr(io.StringIO()) as said:
+        assert main(["bench", "--repeats", "2", "--long", "none", "--stop-time", "2", "--fmu-dir", str(fmu_dir),
+                     "--json", str(out)]) == 0
+    return json.loads(out.read_text())["speed"], said.getvalue()
+
+
+@pytest.fixture(scope="module")
+def short_bench(short_bench_run) -> dict:
+    return short_bench_run[0]
+
+
+def test_each_long_step_of_the_bench_says_it_starts_on_stderr(short_bench_run):
+    """Its defaults run for minutes: a line as each step starts, the report alone on stdout."""
+    steps = [line for line in short_bench_run[1].splitlines() if line.startswith("bench speed: ")]
+    assert steps == ["bench speed: 2 s of paper side by side, 2 runs each ...",
+                     "bench speed: the cost split per step, instrumented runs ...",
+                     "bench speed: the plumbing's floor, then whole processes ..."], short_bench_run[1]
 
 
 def test_bench_reports_floor_cosim_and_recording_side_by_side_with_its_method(short_bench):
