@@ -1,7 +1,8 @@
 """One result on every machine: the reference runs of ``support/bit_runs.py`` give the same
 bits under every OpenBLAS kernel, with numpy's CPU dispatch limited and with glibc's libm on the code
-paths of a CPU without FMA or AVX, for the compiled build of the cores (the Python build under two of the
-kernels and both masks, the masks together: ``PYTHON_ENVIRONMENTS``; its cases: ``bit_runs.in_python_subset``), and equal the
+paths of a CPU without FMA or AVX, for the compiled build of the cores (each mask in a kernel's child:
+``COMPILED_ENVIRONMENTS``; the Python build under two of the kernels and both masks, the masks together:
+``PYTHON_ENVIRONMENTS``; its cases: ``bit_runs.in_python_subset``), and equal the
 stored ``tests/data/reference_bits.json``.
 
 A kernel is forced with ``OPENBLAS_CORETYPE`` (numpy's and scipy's OpenBLAS both read it); numpy's own
@@ -43,6 +44,10 @@ ENVIRONMENTS = {**{k: {"OPENBLAS_CORETYPE": k} for k in KERNELS}, "numpy baselin
 # elementwise loops under every kernel; a child per environment, as the compiled build has, added 200 s of the
 # suite and no case that these two do not cover (a mask that changed a bit would change it in the first child)
 PYTHON_ENVIRONMENTS = (("Prescott", "numpy baseline", "glibc without FMA"), ("SkylakeX",))
+# the compiled build: a child per kernel, each mask with one of them (a mask that changed a bit would change it
+# there too; 9 s of the suite less than a child of its own each)
+COMPILED_ENVIRONMENTS = (("Prescott", "numpy baseline"), ("Sandybridge", "glibc without FMA"), ("Haswell",),
+                         ("SkylakeX",), ("Zen",))
 REFERENCE = json.loads((DATA / "reference_bits.json").read_text())
 
 
@@ -88,12 +93,13 @@ def combined(names: tuple[str, ...]) -> dict[str, str]:
 @pytest.mark.slow
 @pytest.mark.parametrize("build", ["compiled", "python"])
 def test_reference_runs_have_the_same_bits_everywhere(build, fmu_dir):
-    """Every environment in its own child, two at a time (the children are single-threaded)."""
+    """Each child's environments (``COMPILED_ENVIRONMENTS``, ``PYTHON_ENVIRONMENTS``), two children at a time
+    (the children are single-threaded)."""
     if build == "compiled" and not compiles():
         pytest.skip("no compiled build here (Cython or a C compiler missing): the Python build is the one tested")
     # without a compiler the default build's FMUs are the Python build's: the FMU cases run there
     folder = fmu_dir if build == "compiled" or not compiles() else None
-    children = [(e,) for e in ENVIRONMENTS] if build == "compiled" else list(PYTHON_ENVIRONMENTS)
+    children = list(COMPILED_ENVIRONMENTS if build == "compiled" else PYTHON_ENVIRONMENTS)
     want = REFERENCE if folder else {k: v for k, v in REFERENCE.items() if in_python_subset(k)}
     assert folder or 0 < len(want) < len(REFERENCE)
     with ThreadPoolExecutor(max_workers=2) as pool:
@@ -111,6 +117,12 @@ def test_the_python_builds_cases_are_every_pure_loop_case_and_a_fair_case_of_eac
     assert len(fair) == 2 and all(f" handling {ACCEL} " in k for k in fair) and not any(k.startswith("fmu ") for k in subset)
     marker = f" handling {ACCEL} "
     assert {k[k.index(marker) + len(marker):k.rindex(" point")] for k in fair} == set(SETS), fair
+
+
+def test_the_compiled_build_runs_every_kernel_and_mask():
+    named = [n for child in COMPILED_ENVIRONMENTS for n in child]
+    assert sorted(named) == sorted(ENVIRONMENTS) and all(combined(child) for child in COMPILED_ENVIRONMENTS)
+    assert all(len(set(child) & set(KERNELS)) == 1 for child in COMPILED_ENVIRONMENTS)  # a kernel each
 
 
 def test_the_python_build_keeps_two_kernels_and_both_masks():
