@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pytest
 
-from support.cli import SCRIPT, env_for, leftovers, run
+from support.cli import SCRIPT, env_for, leftovers, run, warm_core_cache
 
 from orchestration.outputs import private_root
 
@@ -25,6 +25,9 @@ pytestmark = pytest.mark.slow  # builds in subprocesses, signalled at random mom
 PICKS = random.Random(27)  # the moments, reproducible
 MODELS = ["ArmPlant", "ReferenceTrajectory"]  # two small FMUs: a moment inside the second is in a build
 STOPPED = "stopped while building FMUs; nothing ran"
+# the cores the second FMU built compiles (the others come from the cache, as after a user's first build): the
+# moment falls into a compile, and the first FMU's build does not compile for seconds before it
+COMPILED_HERE = ("fmu_plant/trajectory", "fmu_controller/saturation")
 
 
 def _descendants(tmp: Path) -> list[str]:
@@ -68,6 +71,7 @@ class _Lines:
 def _build_then_signal(args: list[str], cwd: Path, signum: int, group: bool, marker: str = f"[2/{len(MODELS)}]"):
     """Start ``args``; once the build shows ``marker`` (the second FMU's build started), wait a random moment
     and send ``signum`` to the process group or the PID; return (exit code, stdout, stderr lines)."""
+    warm_core_cache(cwd, leave=COMPILED_HERE)
     proc = subprocess.Popen(_script_cmd(args), cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             env=env_for(cwd), start_new_session=True)
     lines = _Lines(proc)
@@ -115,6 +119,7 @@ def test_sigterm_during_the_first_run_stops_its_build_and_runs_nothing(tmp_path)
 
 def test_after_sigkill_of_the_command_no_build_child_writes_fmus(tmp_path):
     out = tmp_path / "fmus"
+    warm_core_cache(tmp_path, leave=COMPILED_HERE)
     proc = subprocess.Popen(_script_cmd(["build", "--out", str(out), *MODELS]), cwd=tmp_path, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True, env=env_for(tmp_path))
     lines = _Lines(proc)
@@ -137,6 +142,7 @@ def test_a_later_build_removes_what_a_killed_build_left(tmp_path):
     (stale / "resources").mkdir()
     alive = tmp_path / "tmp" / (owner_prefix("sotc_stage_") + "mine")  # this test's own: kept
     alive.mkdir()
+    warm_core_cache(tmp_path)  # about what the build removes, not about compiling
     proc = run(["build", "--out", str(tmp_path / "fmus"), "Disturbance"], tmp_path)
     assert proc.returncode == 0, proc.stderr
     assert "Disturbance.fmu" in proc.stdout.strip().splitlines()[-1], proc.stdout

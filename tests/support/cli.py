@@ -41,10 +41,11 @@ def leftovers(cwd: Path, folders: bool = False) -> list[str]:
     return sorted(str(p.relative_to(tmp)) for p in tmp.rglob("*") if not kept(p) and (folders or not p.is_dir()))
 
 
-def warm_core_cache(cwd: Path) -> None:
+def warm_core_cache(cwd: Path, leave: tuple[str, ...] = ()) -> None:
     """Give the command's TMPDIR (``env_for``) this process's compiled cores, as a user's cache holds them
     after a first build: a test about what a build does, not about compiling, then copies them (each still
-    checked against its manifest) instead of compiling them for a minute."""
+    checked against its manifest) instead of compiling them for a minute. The modules of ``leave`` (paths such
+    as ``fmu_plant/trajectory``) are not given: a build compiles them."""
     from orchestration.verified import CORES
     from orchestration.outputs import private_folder, private_root
     from orchestration.verified import intact
@@ -54,7 +55,9 @@ def warm_core_cache(cwd: Path) -> None:
     for folder in (cwd / "tmp", root, target.parent, target):  # each private, as private_folder makes them
         folder.mkdir(mode=0o700, exist_ok=True)
     for folder in private_folder(*CORES).iterdir():
-        if not folder.name.startswith(".") and intact(folder):  # whole ones only: other workers build too
+        if folder.name.startswith(".") or not intact(folder):  # whole ones only: other workers build too
+            continue
+        if not any(next(folder.glob(f"{module}.*"), None) for module in leave):
             shutil.copytree(folder, target / folder.name)
 
 
