@@ -17,8 +17,13 @@ settings.register_profile("explore", derandomize=False)
 settings.load_profile("ci" if os.environ.get("CI") else "explore")
 
 from support.once import made_once
+from support.schedule import longest_first
 
 from orchestration.fmu_build.build import FMU_SOURCES, ensure_built
+
+
+def pytest_collection_modifyitems(items) -> None:
+    longest_first(items)  # the order xdist hands the files out in (support.schedule)
 
 
 @pytest.fixture(scope="session")
