@@ -150,3 +150,29 @@ def test_a_port_map_beside_a_plant_is_refused(tmp_path):
     path.write_text('extends = "paper"\n[instances.plant]\nfmu = "arm.fmu"\nports = { tau1 = "u" }\n')
     with pytest.raises(Exception, match="instances.plant.ports: a port map is for a controller from a file"):
         load_scenario(str(path))
+
+
+def test_an_fmi3_controller_file_runs_under_its_array_elements(tmp_path, fmu_paths):
+    """Our CT controller built as FMI 3.0 (phi, dphi, tau arrays of 2) as a file, mapped by element (``tau[1]``),
+    its own limit off: the arm gets its torques projected, its own ``tau`` is recorded beside them (tau1_fmu)."""
+    from orchestration.fmu_build.build import ensure_built
+    from orchestration.fmu_build.compiled import switched
+
+    with switched(False):  # Python cores: one FMU in a few seconds
+        ensure_built(["CtController"], tmp_path / "vendor", fmi=3)
+    elements = {k: f"{k[:-1]}[{k[-1]}]" for k in ("phi1", "phi2", "dphi1", "dphi2", "tau1", "tau2")}
+    reference = {k: k for k in ("phi1_d", "phi2_d", "dphi1_d", "dphi2_d", "ddphi1_d", "ddphi2_d")}
+    path = _scenario(tmp_path, "vendor/CtController.fmu", {**elements, **reference}, "{ limit_handling = 3 }")
+    result = run(load_scenario(str(path)).with_stop_time(0.2), fmu_paths)
+    assert not result.failed, result.error
+    ctrl = result.outputs["controller"]
+    over = _over(ctrl["tau1_fmu"], ctrl["tau2_fmu"])
+    assert over.any() and summarize(result)["torque_cuts"] == over.sum()
+    norm = np.hypot(ctrl["tau1_fmu"], ctrl["tau2_fmu"])
+    np.testing.assert_allclose(ctrl["tau1"][over], (ctrl["tau1_fmu"] * TORQUE_LIMIT / norm)[over], rtol=4e-15)
+    assert np.array_equal(ctrl["tau1"][~over], ctrl["tau1_fmu"][~over])
+
+
+def test_our_own_controllers_run_without_the_actuator(fmu_paths):
+    result = run(load_scenario("paper").with_stop_time(0.05), fmu_paths)
+    assert "torque_cut" not in result.outputs["controller"] and summarize(result)["torque_cuts"] == 0
