@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import zipfile
+from dataclasses import replace
 from fractions import Fraction
 from pathlib import Path
 
@@ -176,3 +177,34 @@ def test_an_fmi3_controller_file_runs_under_its_array_elements(tmp_path, fmu_pat
 def test_our_own_controllers_run_without_the_actuator(fmu_paths):
     result = run(load_scenario("paper").with_stop_time(0.05), fmu_paths)
     assert "torque_cut" not in result.outputs["controller"] and summarize(result)["torque_cuts"] == 0
+
+
+def test_a_sweep_point_runs_the_file_on_a_worker(example, tmp_path, fmu_dir):
+    """The point's task, as a Dask worker runs it (no cluster here): the file travels as bytes, its cut counted."""
+    from orchestration.sweep.runner import fmu_blobs, point_key, run_point
+    from orchestration.sweep.spec import grid_from_assignments
+
+    _vendor(tmp_path, example)
+    sweep = grid_from_assignments(str(_scenario(tmp_path)), ["controller.Kp=10"])
+    blobs = fmu_blobs(sweep.model_names(), fmu_dir)
+    [point] = sweep.points()
+    key = point_key(point.scenario, {m: d for m, (d, _) in blobs.items()})
+    row = run_point({"time_limit": 60.0, "state_bound": 1e3, "record": False, "point": point, "key": key}, blobs)
+    assert row["status"] == "ok", row["reason"]
+    assert row["summary"]["controller"] == FMU_NAME and 0 < row["summary"]["torque_cuts"] < 101
+    inst = point.scenario.instances["controller"]
+    other = replace(inst, ports={k: v for k, v in inst.ports.items() if k != "phi1_d"})  # another map: another point
+    assert point_key(replace(point.scenario, instances={**point.scenario.instances, "controller": other}),
+                     {m: d for m, (d, _) in blobs.items()}) != key
+
+
+def test_sweep_refuses_a_point_the_file_would_refuse_before_anything_runs(example, tmp_path, fmu_dir, monkeypatch,
+                                                                          capsys):
+    _vendor(tmp_path / "s", example)
+    _scenario(tmp_path / "s")
+    monkeypatch.chdir(tmp_path)
+    code = main(["sweep", "s/mine.toml", "--set", "controller.Kd=1,-1", "--fmu-dir", str(fmu_dir), "--out", "out"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1, err
+    assert "s/mine.toml: instances.controller.parameters.Kd = -1: outside [0, inf]" in err[0]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s"]
