@@ -208,3 +208,20 @@ def test_sweep_refuses_a_point_the_file_would_refuse_before_anything_runs(exampl
     assert code == 2 and len(err) == 1, err
     assert "s/mine.toml: instances.controller.parameters.Kd = -1: outside [0, inf]" in err[0]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["s"]
+
+
+def test_compare_overlays_it_beside_ours_with_its_own_outputs_under_its_entity(example, tmp_path, fmu_dir, monkeypatch,
+                                                                                capsys):
+    from support.rrd_contents import read_entities, statics
+
+    _vendor(tmp_path / "s", example)
+    _scenario(tmp_path / "s")
+    monkeypatch.chdir(tmp_path)
+    assert main(["compare", "paper", "s/mine.toml", "--stop-time", "0.2", "--fmu-dir", str(fmu_dir),
+                 "--recording", "c.rrd"]) == 0, capsys.readouterr().err
+    names = statics(tmp_path / "c.rrd")["/mine/fmu/controller"]["SeriesLines:names"]
+    assert names == [["u1", "u2", "tau1", "tau2", "torque_cut"]]
+    ents = read_entities(tmp_path / "c.rrd")
+    own = np.array([row for row in ents["/mine/fmu/controller"]["Scalars:scalars"]])
+    assert np.array_equal(np.array(ents["/mine/torques/tau1"]["Scalars:scalars"])[:, 0], own[:, 2])  # what the arm got
+    assert "/paper/fmu/controller" in ents
