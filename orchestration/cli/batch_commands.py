@@ -61,9 +61,12 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
 
 
 def _sweep_into(args: argparse.Namespace, sweep, out: Path) -> int:
+    from orchestration.compliance.contract import check_scenario
     from orchestration.sweep.results import SweepStore, write_doc, write_reports
     from orchestration.sweep.runner import execute
 
+    for point in sweep.points():  # an FMU file with its port map and each point's parameters: exit 2, nothing run
+        check_scenario(point.scenario)
     store = SweepStore(out)
     listener = _SweepListener(sweep, out, args.workers, args.scheduler)
     try:

@@ -48,17 +48,22 @@ def _cmd_scenarios(args: argparse.Namespace) -> int:
 def prepare(names: list, stop_time: float | None, fmu_dir: Path, check=None, fmi: int = 2):
     """Load the scenarios (names, paths or Scenario objects), apply --stop-time, call
     ``check(scenarios)`` (output paths: it raises before anything is built or written), and build the
-    FMUs they need (FMI 2.0 or, ``fmi=3``, FMI 3.0)."""
+    FMUs of ours they need (FMI 2.0 or, ``fmi=3``, FMI 3.0); an FMU file a scenario names is checked
+    (``contract.check_scenario``) and runs as it is."""
+    from orchestration.compliance.contract import check_scenario
     from orchestration.fmu_build.build import ensure_built
     from orchestration.run.parameter_check import check_scenarios
 
     scenarios = [load_scenario(name) if isinstance(name, str) else name for name in names]
     if stop_time is not None:
         scenarios = [s.with_stop_time(stop_time) for s in scenarios]
+    for scenario in scenarios:  # an FMU file and its port map: exit 2 before anything is built or runs
+        check_scenario(scenario)
     if check is not None:
         check(scenarios)
     interrupt.check_before_work()  # a signal during the imports: nothing is built
-    paths = ensure_built(sorted({i.fmu for s in scenarios for i in s.instances.values()}), fmu_dir, fmi)
+    ours = {i.fmu for s in scenarios for i in s.instances.values() if i.file is None}  # a file runs as it is
+    paths = ensure_built(sorted(ours), fmu_dir, fmi)
     check_scenarios(scenarios, paths)  # a value the FMU would refuse: exit 2 before anything runs
     return scenarios, paths
 

@@ -13,19 +13,18 @@ does not read are left out of the map.
 from __future__ import annotations
 
 import math
-import re
 import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from fmu_controller.base import INPUT_UNITS, MEASUREMENT_PORTS, REFERENCE_PORTS, TORQUE_PORTS, TORQUE_UNIT
 from orchestration.exit_codes import UsageError
+from orchestration.run.ported import ELEMENT, element, port_map
 
 INPUTS = MEASUREMENT_PORTS + REFERENCE_PORTS
 UNITS = {**INPUT_UNITS, **dict.fromkeys(TORQUE_PORTS, TORQUE_UNIT)}
 REALS = ("Real", "Float64")  # FMI 2.0, FMI 3.0
 INTEGERS = ("Integer", "Int8", "UInt8", "Int16", "UInt16", "Int32", "UInt32", "Int64", "UInt64")
-_ELEMENT = re.compile(r"([A-Za-z_][A-Za-z0-9_.]*)\[([1-9][0-9]*)\]")  # an FMI 3.0 array's element, from 1
 VERSIONS = ("2.0", "3.0")
 
 
@@ -97,34 +96,13 @@ def _binary_problems(path: Path, md) -> list[str]:
     return [f"no binary for this platform: {name} is missing (binaries for: {', '.join(folders) or 'none'})"]
 
 
-def _element(variables: dict, name: str):
-    """The variable ``name`` names: a variable of that name (FMI 2.0 tools name scalars ``u[1]`` too), or else
-    ``array[i]`` (from 1) of an FMI 3.0 array of fixed size; None: no such variable or element."""
-    m = _ELEMENT.fullmatch(name)
-    if name in variables or m is None:
-        return variables.get(name)
-    array, index = variables.get(m[1]), int(m[2])
-    sizes = [int(d.start) for d in array.dimensions if d.start is not None] if array is not None else []
-    return array if len(sizes) == 1 == len(array.dimensions) and 1 <= index <= sizes[0] else None
-
-
-def _own_name(variables: dict, key: str) -> str | None:
-    """The FMU's variable of the contract name ``key``: itself, or the element of an array of its stem (FMI 3.0
-    ``tau[1]`` for ``tau1``); None if it has neither."""
-    stem, index = key[:-1], key[-1]
-    for name in (key, f"{stem}[{index}]" if index.isdigit() else None):
-        if name is not None and _element(variables, name) is not None:
-            return name
-    return None
-
-
 def _variable_problems(key: str, variable, name: str) -> list[str]:
     want = "output" if key in TORQUE_PORTS else "input"
     where = f"ports.{key} = '{name}'"
     if variable is None:
         return [f"{where}: the FMU has no variable '{name}' (an array's element: name[i], from 1)"]
     found = []
-    if getattr(variable, "dimensions", None) and not _ELEMENT.fullmatch(name):
+    if getattr(variable, "dimensions", None) and not ELEMENT.fullmatch(name):
         found.append(f"{where}: an array; the contract takes one value: name an element, {name}[i] from 1")
     if variable.causality != want:
         found.append(f"{where}: causality '{variable.causality}', the contract needs an {want}")
@@ -157,32 +135,38 @@ def _parameter_problems(name: str, value: float, variable) -> list[str]:
     return found
 
 
+def interface_problems(path: Path, md) -> list[str]:
+    """An FMI version the contract takes, Co-Simulation, and a binary for this platform."""
+    found = []
+    if md.fmiVersion not in VERSIONS:
+        found.append(f"FMI {md.fmiVersion}: the contract takes FMI {' or '.join(VERSIONS)}")
+    if md.coSimulation is None:
+        found.append("no Co-Simulation interface (the contract takes Co-Simulation FMUs)")
+    else:
+        found += _binary_problems(path, md)
+    return found
+
+
 def check(path: Path, ports: dict[str, str] | None = None, parameters: dict[str, float] | None = None) -> Check:
     """``path`` against the contract through ``ports`` (None: the contract's own names, those the FMU has), and
     ``parameters`` (name -> value) against its parameters."""
     md = model_description(path)
     variables = {v.name: v for v in md.modelVariables}
-    if ports is None:
-        ports = {k: _own_name(variables, k) or k for k in UNITS if _own_name(variables, k) or k in TORQUE_PORTS}
+    ports = port_map(variables, ports)
     result = Check(path, dict(ports))
-    if md.fmiVersion not in VERSIONS:
-        result.problems.append(f"FMI {md.fmiVersion}: the contract takes FMI {' or '.join(VERSIONS)}")
-    if md.coSimulation is None:
-        result.problems.append("no Co-Simulation interface (the contract takes Co-Simulation FMUs)")
-    else:
-        result.problems += _binary_problems(path, md)
+    result.problems += interface_problems(path, md)
     for key in TORQUE_PORTS:
         if key not in ports:
             result.problems.append(f"ports.{key}: missing; the contract needs both torques {' and '.join(TORQUE_PORTS)}")
     for key, name in ports.items():
-        result.problems += _variable_problems(key, _element(variables, name), name)
+        result.problems += _variable_problems(key, element(variables, name), name)
     for name in sorted({n for n in ports.values() if list(ports.values()).count(n) > 1}):
         keys = [k for k, n in ports.items() if n == name]
         result.problems.append(f"ports.{keys[1]} = '{name}': {name} is mapped to {' and '.join(keys)}; one variable each")
     for name, value in (parameters or {}).items():
         result.problems += _parameter_problems(name, value, variables.get(name))
     result.parameters = dict(parameters or {})
-    fed = {_ELEMENT.sub(r"\1", n) for n in ports.values()}
+    fed = {ELEMENT.sub(r"\1", n) for n in ports.values()}
     result.unfed = [v.name for v in md.modelVariables if v.causality == "input" and v.name not in fed]
     return result
 
@@ -198,3 +182,26 @@ def report(result: Check) -> str:
                  f"  does not meet the controller contract ({len(result.problems)} "
                  f"problem{'s' if len(result.problems) > 1 else ''})")
     return "\n".join(lines)
+
+
+def check_scenario(scenario) -> None:
+    """The FMU files a scenario names, checked before anything runs: the controller's against the contract
+    through its port map, with its parameters; any other's that it is an FMU. ``ScenarioError`` in one line
+    naming the scenario file and the key, for the first problem found."""
+    from orchestration.run.scenario import ScenarioError
+
+    for inst in scenario.instances.values():
+        if inst.file is None:
+            continue
+        where = f"{scenario.source or scenario.name}: instances.{inst.name}"
+        try:  # a controller against the contract; another instance's file: an FMU that can be read
+            problems = check(inst.file, inst.ports or None, inst.parameters).problems if inst.contract else []
+            if not inst.contract:
+                model_description(inst.file)
+        except ContractError as exc:
+            raise ScenarioError(f"{where}.fmu: {exc}") from None
+        if problems:
+            first, more = problems[0], len(problems) - 1
+            key = first if first.startswith(("ports.", "parameters.")) else f"fmu: {inst.file}: {first}"
+            also = f" (and {more} more: sotc-cosim check-controller names them)" if more else ""
+            raise ScenarioError(f"{where}.{key}{also}")

@@ -19,7 +19,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from fmpy import extract, read_model_description
-from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
+from fmpy.fmi2 import FMU2Slave, defaultCallbacks, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
 from fmpy.logging import addLoggerProxy
 
 _SINKS: dict[int, list[tuple[int, str]]] = {}
@@ -41,6 +41,9 @@ def make_callbacks(messages: list[tuple[int, str]]) -> fmi2CallbackFunctions:
     _SINKS[key] = messages
     callbacks = fmi2CallbackFunctions()
     callbacks.logger = _LOGGER
+    # FMI 2.0 makes both mandatory (pythonfmu never calls them; an FMU in C does, and refuses to be
+    # instantiated without them): fmpy's calloc and free, which live as long as the process
+    callbacks.allocateMemory, callbacks.freeMemory = defaultCallbacks.allocateMemory, defaultCallbacks.freeMemory
     callbacks.componentEnvironment = key
     addLoggerProxy(ctypes.byref(callbacks))
     return callbacks

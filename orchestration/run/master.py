@@ -30,6 +30,7 @@ from fmpy.fmi2 import FMU2Slave, fmi2Real, fmi2True, fmi2ValueReference, fmi2War
 from orchestration.run import interrupt
 from orchestration.run.fmi_direct import forget_callbacks, make_callbacks
 from orchestration.run.parameter_check import model_description, parameter_values, set_parameters
+from orchestration.run.ported import Ported
 from orchestration.run.scenario import Scenario, ScenarioError
 from orchestration.run.unpacked import unpacked
 
@@ -318,9 +319,12 @@ class _Session:
         feedthrough order, (instance, its sample buffer, the inputs set right after reading it)."""
         scenario = self.scenario
         for inst in scenario.instances.values():
-            if inst.fmu not in fmu_paths:
+            path = fmu_paths.get(inst.fmu, inst.file)  # a file: itself, unless the caller gives a copy
+            if path is None:
                 raise ScenarioError(f"instance '{inst.name}': no built FMU for model '{inst.fmu}'")
-            ld = self.loaded[inst.name] = _instance(inst, fmu_paths[inst.fmu], self.logs, self.clock)
+            ld = self.loaded[inst.name] = _instance(inst, path, self.logs, self.clock)
+            if inst.contract:  # a controller from any tool: contract names, its torques bounded (ported)
+                ld = self.loaded[inst.name] = Ported(ld, inst.ports, scenario.torque_limit())
             self.fmus[inst.name] = {"guid": ld.md.guid or "", "version": ld.md.version or "",
                                     "generation_tool": ld.md.generationTool or ""}
         links = _resolve_links(scenario, self.loaded)
@@ -399,7 +403,8 @@ def run(
     block_size: int = 1000,
     keep_samples: bool = True,
 ) -> RunResult:
-    """Run ``scenario`` with the FMUs at ``fmu_paths`` (model identifier -> .fmu file).
+    """Run ``scenario`` with the FMUs at ``fmu_paths`` (model identifier -> .fmu file; an instance whose
+    ``fmu`` is a file runs that file unless ``fmu_paths`` maps it to a copy).
 
     A failing FMI call (or any other error once the scenario is accepted, e.g. an FMU that cannot be
     loaded, or an observer that cannot write) ends the run early; the result then has

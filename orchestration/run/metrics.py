@@ -35,9 +35,13 @@ def _norms(tau: np.ndarray) -> np.ndarray:
 
         return elementary_interpreted.hypot(tau[:, 0], tau[:, 1])
     return np.array([elementary.hypot(a, b) for a, b in tau.tolist()]).reshape(len(tau))
+# the flag the master's actuator writes beside a foreign controller's torques where it cut them
+# (orchestration.run.ported); the run summary counts these samples
+TORQUE_CUT = "torque_cut"
 # controller outputs that flag a sample where the torque limit acts (SOTC: bound (5) on tau^a or
-# chi_vd^a, the actuator limit; CT/LQR: the limit handling; OTC: the torque before the limit is over it)
-LIMIT_FLAG_OUTPUTS = ("tau_a_bounded", "chi_a_bounded", "tau_limited", "saturated", "over_limit")
+# chi_vd^a, the actuator limit; CT/LQR: the limit handling; OTC: the torque before the limit is over it;
+# a foreign controller: the actuator)
+LIMIT_FLAG_OUTPUTS = ("tau_a_bounded", "chi_a_bounded", "tau_limited", "saturated", "over_limit", TORQUE_CUT)
 
 
 def limit_active(outputs: dict[str, np.ndarray], n: int) -> np.ndarray:

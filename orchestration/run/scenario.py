@@ -10,6 +10,10 @@ A scenario is TOML (``orchestration/run/scenarios/<name>.toml``, shipped as pack
     [instances.controller]
     fmu = "CtController"              # model identifier of a built FMU
     parameters = { kp = 100.0 }
+    # or a controller FMU from any tool (docs/benchmark.md): a .fmu path, relative to the scenario file
+    # that writes it, and its port map (contract name -> the FMU's variable); its parameters are its own
+    # fmu = "vendor/MyController.fmu"
+    # ports = { phi1 = "q1", tau1 = "u1", tau2 = "u2" }
     interface = "CoSimulation"        # optional; "ModelExchange": an FMI 3.0 FMU integrated by the master
     [[connect]]                       # every output of `from` feeds the same-named input of `to`
     from = "plant"
@@ -18,16 +22,22 @@ A scenario is TOML (``orchestration/run/scenarios/<name>.toml``, shipped as pack
     from = "reference.x_d"
     to = "other.x_in"
 
-Instances named ``plant``, ``reference`` and ``controller`` are what the summary metrics read.
+Instances named ``plant``, ``reference`` and ``controller`` are what the summary metrics read. A
+``controller`` given as a .fmu file is held to the controller contract: checked against it before anything
+runs (``orchestration.compliance.contract.check_scenario``), its ports renamed and its torques bounded by
+the actuator (``orchestration.run.ported``). A path is only taken from a scenario file: a shipped scenario
+names built FMUs by model.
 """
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, field, replace
 from importlib import resources
 from pathlib import Path
 from typing import Any, Callable
 
+from fmu_controller.base import INPUT_UNITS, TORQUE_PORTS
 from fmu_plant.paper_setting import STEP_SIZE, TORQUE_LIMIT
 from orchestration.exit_codes import UsageError
 from orchestration.toml_files import parse_toml, read_toml, unknown_file
@@ -38,6 +48,9 @@ MAX_STEPS = 1_000_000
 NANOSECOND = 1e-9  # the recordings' time resolution: a step must be a whole number of nanoseconds
 
 _NAME = {"type": "string", "pattern": r"^[A-Za-z_][A-Za-z0-9_-]*$"}
+FMU_FILE = ".fmu"  # an instance's ``fmu`` ending so is a file, else the model identifier of a built FMU
+CONTROLLER = "controller"  # the instance the controller contract (and the summary's torque) is about
+CONTRACT_NAMES = (*INPUT_UNITS, *TORQUE_PORTS)  # what a port map maps (docs/benchmark.md)
 INTERFACES = ("CoSimulation", "ModelExchange")  # an instance's ``interface`` key (FMI 3.0 FMUs may offer both)
 _PORT = {"type": "string", "pattern": r"^[A-Za-z_][A-Za-z0-9_-]*\.[A-Za-z_][A-Za-z0-9_]*$"}
 _TIME = {"type": "number", "exclusiveMinimum": 0}
@@ -58,7 +71,9 @@ SCENARIO_SCHEMA: dict[str, Any] = {
                 "type": "object",
                 "additionalProperties": False,
                 "properties": {
-                    "fmu": _NAME,
+                    "fmu": {"type": "string", "pattern": r"^([A-Za-z_][A-Za-z0-9_-]*|.+\.fmu)$"},
+                    "ports": {"type": "object", "propertyNames": {"enum": list(CONTRACT_NAMES)},
+                              "additionalProperties": {"type": "string", "minLength": 1}},
                     "parameters": {"type": "object", "propertyNames": _NAME,
                                    "additionalProperties": {"type": "number"}},
                     "interface": {"enum": list(INTERFACES)},
@@ -86,6 +101,18 @@ class Instance:
     parameters: dict[str, float] = field(default_factory=dict)
     # "ModelExchange": an FMI 3.0 FMU's Model Exchange interface, integrated by the master over each T
     interface: str = "CoSimulation"
+    # a controller from a file: contract name -> its variable (empty: its variables of the contract's names)
+    ports: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def file(self) -> Path | None:
+        """The FMU file this instance runs (an absolute path), or None for a built FMU of ours."""
+        return Path(self.fmu) if self.fmu.endswith(FMU_FILE) else None
+
+    @property
+    def contract(self) -> bool:
+        """Held to the controller contract: the controller instance, from a file (ours bound themselves)."""
+        return self.name == CONTROLLER and self.file is not None
 
 
 @dataclass(frozen=True)
@@ -105,6 +132,7 @@ class Scenario:
     instances: dict[str, Instance]
     by_name: tuple[tuple[str, str], ...]  # (from instance, to instance): connect same-named ports
     links: tuple[Connection, ...]  # explicit connections
+    source: str = ""  # the scenario file or shipped name it was loaded from (what its errors name)
 
     @property
     def steps(self) -> int:
@@ -132,8 +160,9 @@ class Scenario:
         return _validated({**self.__dict__, "instances": instances, "name": name or self.name})
 
     def controller_fmu(self) -> str | None:
-        inst = self.instances.get("controller")
-        return inst.fmu if inst else None
+        """The controller's model, or the name of its FMU file."""
+        inst = self.instances.get(CONTROLLER)
+        return (inst.file.name if inst.file else inst.fmu) if inst else None
 
     def resolve_connections(self, outputs: dict[str, list[str]], inputs: dict[str, set[str]]) -> list[Connection]:
         """Every output -> input link of the scenario, given each instance's Real outputs and its
@@ -167,7 +196,7 @@ class Scenario:
     def torque_limit(self) -> float:
         """The controller's torque bound ``rho`` as the scenario sets it, else the paper's rho = 4 N.m
         (section 4), which every controller FMU uses by default."""
-        inst = self.instances.get("controller")
+        inst = self.instances.get(CONTROLLER)
         params = inst.parameters if inst else {}
         return float(params.get("rho", TORQUE_LIMIT))
 
@@ -181,15 +210,16 @@ def _read_raw(name_or_path: str, seen: tuple[str, ...] = ()) -> dict[str, Any]:
     path = Path(name_or_path)
     resource = resources.files("orchestration.run.scenarios") / f"{name_or_path}.toml"
     if path.suffix == ".toml" and path.is_file():
-        label, read = str(path), lambda where: read_toml(path, where, ScenarioError)
+        label, read, folder = str(path), lambda where: read_toml(path, where, ScenarioError), path.parent
     elif resource.is_file():
-        label, read = name_or_path, lambda where: parse_toml(resource.read_bytes(), where, ScenarioError)
+        label, read, folder = name_or_path, lambda where: parse_toml(resource.read_bytes(), where, ScenarioError), None
     else:
         raise unknown_file(name_or_path, "scenario", available_scenarios(), ScenarioError)
     if label in seen:
         raise ScenarioError(f"scenario '{label}' extends itself through {' -> '.join(seen)}")
     raw = read(f"scenario '{label}'")
     check_schema(raw, SCENARIO_SCHEMA, f"scenario '{label}'")
+    _files_from(raw, folder, label)
     parent = raw.pop("extends", None)
     if parent is None:
         return raw
@@ -224,7 +254,8 @@ def dotted(path: list) -> str:
 def _schema_message(found) -> str:
     value, rule = found.instance, found.validator
     if rule == "pattern":
-        return f"{value!r} is not a name (letters, digits, _ and -; 'instance.port' for a port)"
+        also = f", or a path ending in {FMU_FILE}" if list(found.absolute_path)[-1:] == ["fmu"] else ""
+        return f"{value!r} is not a name (letters, digits, _ and -; 'instance.port' for a port{also})"
     if rule == "exclusiveMinimum":
         return f"{value!r} must be a number > 0"
     if rule == "format":
@@ -237,8 +268,22 @@ def _schema_message(found) -> str:
     return found.message if len(found.message) <= 200 else found.message[:200] + "..."
 
 
+def _files_from(raw: dict[str, Any], folder: Path | None, label: str) -> None:
+    """Each ``fmu`` that is a file made absolute from ``folder``, the scenario file's own (None: a shipped
+    scenario, which names built FMUs only)."""
+    for name, spec in raw.get("instances", {}).items():
+        fmu = spec.get("fmu", "")
+        if not fmu.endswith(FMU_FILE):
+            continue
+        if folder is None:
+            raise ScenarioError(f"scenario '{label}': instances.{name}.fmu: a shipped scenario names a built FMU "
+                                "by model, not a file")
+        spec["fmu"] = os.path.abspath(folder / Path(fmu).expanduser())
+
+
 def _merge(base: dict[str, Any], override: dict[str, Any]) -> dict[str, Any]:
-    """Deep-merge tables; an instance whose ``fmu`` changes starts from empty parameters."""
+    """Deep-merge tables; an instance whose ``fmu`` changes starts from that FMU's defaults: its parameters
+    and its port map are not carried over."""
     out = dict(base)
     for key, value in override.items():
         if key == "instances":
@@ -258,7 +303,7 @@ def load_scenario(name_or_path: str) -> Scenario:
     raw = _read_raw(name_or_path)
     raw.setdefault("name", Path(name_or_path).stem)
     try:
-        return _validated(_from_raw(raw))
+        return _validated({**_from_raw(raw), "source": name_or_path})
     except ScenarioError as exc:
         if raw["name"] == name_or_path:
             raise
@@ -275,7 +320,11 @@ def _from_raw(raw: dict[str, Any]) -> dict[str, Any]:
         if "fmu" not in spec:
             raise ScenarioError(f"scenario '{raw['name']}': instance '{name}' needs an 'fmu' key")
         params = spec.get("parameters", {})
-        instances[name] = Instance(name, spec["fmu"], dict(params), spec.get("interface", INTERFACES[0]))
+        instances[name] = Instance(name, spec["fmu"], dict(params), spec.get("interface", INTERFACES[0]),
+                                   dict(spec.get("ports", {})))
+        if instances[name].ports and not instances[name].contract:
+            raise ScenarioError(f"scenario '{raw['name']}': instances.{name}.ports: a port map is for a controller "
+                                f"from a file (instances.{CONTROLLER}.fmu = \"....fmu\")")
     links = []
     for item in raw.get("connection", []):
         try:

@@ -13,7 +13,7 @@ from orchestration.outputs import atomic_write
 from orchestration.paths import json_kind
 from orchestration.markdown import number
 from orchestration.run.master import RunResult
-from orchestration.run.metrics import LIMIT_FLAG_OUTPUTS, TrackingMetrics, limit_active
+from orchestration.run.metrics import LIMIT_FLAG_OUTPUTS, TORQUE_CUT, TrackingMetrics, limit_active
 from orchestration.run.scenario import Scenario
 
 CLOSED_LOOP = {"e": (("plant.phi1", "reference.phi1_d"), ("plant.phi2", "reference.phi2_d")),
@@ -21,6 +21,7 @@ CLOSED_LOOP = {"e": (("plant.phi1", "reference.phi1_d"), ("plant.phi2", "referen
 E_DOT = (("plant.dphi1", "reference.dphi1_d"), ("plant.dphi2", "reference.dphi2_d"))
 LIMIT_FLAGS = tuple(f"controller.{name}" for name in LIMIT_FLAG_OUTPUTS)
 WEIGHTS = tuple(f"controller.W{i}" for i in range(1, 11))
+CUT = f"controller.{TORQUE_CUT}"  # the actuator's flag beside a foreign controller (orchestration.run.ported)
 
 
 class SummaryObserver:
@@ -33,6 +34,7 @@ class SummaryObserver:
         self.summary: dict[str, Any] | None = None
         self.where: dict[str, tuple[str, int]] = {}
         self.final: dict[str, float] = {}
+        self.cuts = 0  # samples whose torques the actuator cut (none for our controllers: they bound themselves)
 
     def start(self, scenario: Scenario, columns: dict[str, list[str]], parameters=None) -> None:
         self.where = {f"{inst}.{v}": (inst, i) for inst, names in columns.items() for i, v in enumerate(names)}
@@ -48,6 +50,8 @@ class SummaryObserver:
 
     def add(self, time: np.ndarray, column: Callable[[str], np.ndarray]) -> None:
         """One block: its times and ``column(key)``, the samples of output "instance.variable"."""
+        if CUT in self.where:
+            self.cuts += int(np.count_nonzero(column(CUT)))
         if self.metrics is None or len(time) == 0:
             return
         e = np.column_stack([column(p) - column(r) for p, r in CLOSED_LOOP["e"]])
@@ -74,6 +78,7 @@ class SummaryObserver:
             "status": "interrupted" if result.interrupted else "failed" if result.failed else "ok",
             "error": result.error,
             "wall_time_s": result.wall_time_s,
+            "torque_cuts": self.cuts,
         }
         # a failed run reports no metrics: its last samples may already be diverged (or cut short), and a
         # number computed from them would read like a result
@@ -119,7 +124,7 @@ def fmt_cell(value: Any, spec: str, width: int) -> str:
 
 def format_table(summaries: list[dict[str, Any]]) -> str:
     """A short fixed-width table: one row per run (failed runs too, with '-' where undefined)."""
-    head = f"{'scenario':<16} {'controller':<16} {'status':<7} {'MSE 1':>10} {'MSE 2':>10} {'max|e| 2nd half':>18} {'max||tau||':>10} {'wall s':>7}"
+    head = f"{'scenario':<16} {'controller':<16} {'status':<7} {'MSE 1':>10} {'MSE 2':>10} {'max|e| 2nd half':>18} {'max||tau||':>10} {'cuts':>6} {'wall s':>7}"
     rows = [head, "-" * len(head)]
     for s in summaries:
         mse = s.get("mse") or [None, None]
@@ -127,6 +132,6 @@ def format_table(summaries: list[dict[str, Any]]) -> str:
         rows.append(
             f"{s['scenario']:<16} {str(s['controller']):<16} {s['status']:<7} {fmt_cell(mse[0], '.5f', 10)} "
             f"{fmt_cell(mse[1], '.5f', 10)} {fmt_cell(max(tail) if tail else None, '.2e', 18)} "
-            f"{fmt_cell(s.get('max_norm_tau'), '.4f', 10)} {fmt_cell(s.get('wall_time_s'), '.2f', 7)}"
+            f"{fmt_cell(s.get('max_norm_tau'), '.4f', 10)} {fmt_cell(s.get('torque_cuts'), 'd', 6)} {fmt_cell(s.get('wall_time_s'), '.2f', 7)}"
         )
     return "\n".join(rows)

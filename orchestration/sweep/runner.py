@@ -38,7 +38,7 @@ from orchestration import verified
 from orchestration.fmu_build.build import ensure_built
 from orchestration.outputs import atomic_write, private_folder
 from orchestration.run.parameter_check import check_scenarios
-from orchestration.run.scenario import Scenario
+from orchestration.run.scenario import FMU_FILE, Scenario
 from orchestration.sweep.cluster import follow, open_client, shutdown
 from orchestration.sweep.spec import Point, Sweep
 
@@ -47,9 +47,18 @@ TRACE_POINTS = 2000  # at most this many samples of the tracking error go into t
 STATES = ("phi1", "phi2", "dphi1", "dphi2")
 
 
+def fmu_files(models: list[str], fmu_dir: Path, fmi: int = 2) -> dict[str, Path]:
+    """Build what is missing of ours (FMI 2.0 or 3.0): model -> its file; an FMU file a scenario names is itself."""
+    files = {m: Path(m) for m in models if m.endswith(FMU_FILE)}
+    return {**ensure_built([m for m in models if m not in files], fmu_dir, fmi), **files}
+
+
 def fmu_blobs(models: list[str], fmu_dir: Path, fmi: int = 2) -> dict[str, tuple[str, bytes]]:
     """Build what is missing and read every FMU (FMI 2.0 or 3.0): model -> (SHA-256 digest, file bytes)."""
-    paths = ensure_built(models, fmu_dir, fmi)
+    return _read(fmu_files(models, fmu_dir, fmi))
+
+
+def _read(paths: dict[str, Path]) -> dict[str, tuple[str, bytes]]:
     out = {}
     for model, path in paths.items():
         data = Path(path).read_bytes()
@@ -61,7 +70,8 @@ def point_key(scenario: Scenario, digests: dict[str, str]) -> str:
     """What makes a point's result: its scenario (minus name and description) and its FMUs' digests."""
     identity = {
         "stop_time": scenario.stop_time, "step_size": scenario.step_size,
-        "instances": {n: [i.fmu, dict(sorted(i.parameters.items()))] for n, i in sorted(scenario.instances.items())},
+        "instances": {n: [i.fmu, dict(sorted(i.parameters.items()))] + ([dict(sorted(i.ports.items()))] if i.ports else [])
+                      for n, i in sorted(scenario.instances.items())},
         "connect": list(scenario.by_name),
         "links": [[c.source, c.output, c.target, c.input] for c in scenario.links],
         "fmus": {i.fmu: digests[i.fmu] for i in scenario.instances.values()},
@@ -128,7 +138,7 @@ def _fmu_cache(blobs: dict[str, tuple[str, bytes]]) -> dict[str, Path]:
     root = private_folder(*verified.SENT)
     paths, made = {}, False
     for model, (digest, data) in blobs.items():
-        target = root / digest / f"{model}.fmu"
+        target = root / digest / Path(model).with_suffix(FMU_FILE).name  # a model's, or the file's own name
         for _ in range(verified.ATTEMPTS):
             if verified.hold(target.parent) and target.is_file() and _sha256(target) == digest:
                 break
@@ -221,11 +231,12 @@ def execute(
     stored as they arrive. ``listener`` (optional) gets ``started(outcome)`` before the first point
     and ``finished(row)`` after each. Ctrl-C cancels the pending points, stops the workers and
     returns with ``interrupted`` set. ``fmi=3`` runs the FMI 3.0 FMUs (their digests key the points)."""
-    blobs = fmu_blobs(sweep.model_names(), fmu_dir, fmi)
+    paths = fmu_files(sweep.model_names(), fmu_dir, fmi)
+    blobs = _read(paths)
     digests = {m: d for m, (d, _) in blobs.items()}
     points = sweep.points()
     # a value an FMU would refuse is an error in the sweep, not a failed point: refused before any run
-    check_scenarios([p.scenario for p in points], ensure_built(sweep.model_names(), fmu_dir, fmi))
+    check_scenarios([p.scenario for p in points], paths)
     keys = [point_key(p.scenario, digests) for p in points]
     stored = store.load()
     todo = [(p, k) for p, k in zip(points, keys)
