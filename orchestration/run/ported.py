@@ -11,7 +11,8 @@ their model description parsed once) and presents it to the master as one of our
 * its outputs are every output of the FMU under the FMU's own names (an FMU whose own name is one the
   actuator writes below gets ``_fmu`` appended), then ``tau1 tau2``: the torques the FMU wrote, projected
   radially onto ||tau|| <= rho (``saturation.saturate_norm``) before the arm gets them, and ``torque_cut``:
-  1 at a sample where that projection changed them, else 0 (the summary counts them: ``torque_cuts``).
+  1 at a sample where that projection cut them by more than rounding (``CUT_MARGIN``), else 0 (the summary
+  counts them: ``torque_cuts``).
 
 Our own controllers bound themselves and run without this wrapper (no cost per step for them).
 """
@@ -31,6 +32,10 @@ from orchestration.run.scenario import ScenarioError
 
 ELEMENT = re.compile(r"([A-Za-z_][A-Za-z0-9_.]*)\[([1-9][0-9]*)\]")  # an FMI 3.0 array's element, from 1
 OWN_SUFFIX = "_fmu"  # appended to an output of the FMU named like one the actuator writes
+# relative: a torque no further than this outside the bound is a controller's own radial scaling onto it, off by
+# rounding (an ulp is 2e-16 of it): moved into the disc like any other, but not counted as cut. The count is
+# printed in every summary, and the FMU's libm decides in its last bit whether such a torque lands outside
+CUT_MARGIN = 1e-9
 
 
 def element(variables: dict, name: str):
@@ -85,6 +90,7 @@ class Ported:
             raise ScenarioError(f"instance '{inner.name}': ports {', '.join(missing + wrong)}: not the FMU's "
                                 "real output (torques) or input (sotc-cosim check-controller names why)")
         self.inner, self.name, self.md, self.fmu, self.bound = inner, inner.name, inner.md, inner.fmu, bound
+        self.cut_above = bound * (1.0 + CUT_MARGIN)
         self.callbacks, self.feedthrough, self.raw_set = inner.callbacks, inner.feedthrough, inner.raw_set
         self.instantiated, self.initialized = True, False
         self.initialize, self.do_step = inner.initialize, inner.do_step
@@ -104,5 +110,5 @@ class Ported:
         out, n = self.out_view, self.n_own
         out[:n] = self.inner.out_view
         i1, i2 = self.torque_index
-        t1, t2, _, cut = saturate_norm(float(out[i1]), float(out[i2]), self.bound)
-        out[n], out[n + 1], out[n + 2] = t1, t2, 1.0 if cut else 0.0
+        t1, t2, norm, moved = saturate_norm(float(out[i1]), float(out[i2]), self.bound)
+        out[n], out[n + 1], out[n + 2] = t1, t2, 1.0 if moved and norm > self.cut_above else 0.0
