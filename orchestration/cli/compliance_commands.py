@@ -79,7 +79,23 @@ def _cmd_check_controller(args: argparse.Namespace) -> int:
     result = check(args.fmu, ports, parameters)
     result.problems += [f"fmpy: {p}" for p in fmpy_problems(args.fmu)]
     print(report(result))
-    return exit_codes.OK if not result.problems else exit_codes.FAILED
+    if result.problems:
+        return exit_codes.FAILED
+    return exit_codes.OK if args.no_run else _smoke_run(result, fmu_dir_of(args))
+
+
+def _smoke_run(result, fmu_dir: Path) -> int:
+    """check-controller's 1 s run against our arm, once the interface meets the contract."""
+    from orchestration.compliance.smoke import STOP_TIME, models, scenario_for, smoke
+    from orchestration.fmu_build.build import ensure_built
+
+    interrupt.check_before_work()
+    found = smoke(result, ensure_built(models(scenario_for(result)), fmu_dir))
+    print("\n".join(found.lines))
+    if found.interrupted:
+        return interrupt.exit_code()
+    print(f"  passes the {STOP_TIME:g} s run" if found.ok else f"  fails the {STOP_TIME:g} s run")
+    return exit_codes.OK if found.ok else exit_codes.FAILED
 
 
 def add_commands(sub) -> None:
@@ -91,10 +107,14 @@ def add_commands(sub) -> None:
     p.set_defaults(func=_cmd_validate)
 
     p = sub.add_parser("check-controller", help="check a controller FMU from any tool against the controller contract "
-                       "(docs/benchmark.md): its port map, causalities, types, units, binary; fmpy's validation")
+                       "(docs/benchmark.md): its port map, causalities, types, units, binary; fmpy's validation; "
+                       "then a 1 s run against our arm")
     p.add_argument("fmu", type=Path, metavar="FMU", help="the controller's .fmu file (FMI 2.0 or 3.0 Co-Simulation)")
     p.add_argument("--ports", type=Path, metavar="TOML", help="a file with ports = { contract name = \"FMU variable\" "
                    "} and, if set, parameters = { name = value } (default: the FMU's variables of the contract's names)")
+    p.add_argument("--no-run", action="store_true", help="check the interface only: no 1 s run against our arm "
+                   "(which loads the FMU's binary into this process and builds our arm where missing)")
+    add_fmu_dir(p)
     p.set_defaults(func=_cmd_check_controller)
 
     p = sub.add_parser("cross-check", help="write a reference run of every FMU in the FMI Cross-Check layout")

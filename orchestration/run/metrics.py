@@ -26,7 +26,7 @@ SETTLE_BAND = 0.01  # rad
 TRANSIENT_END = 5.0  # s: "post-transient" metrics use t >= 5 s
 
 
-def _norms(tau: np.ndarray) -> np.ndarray:
+def norms(tau: np.ndarray) -> np.ndarray:
     """||tau|| per row (m, 2) by the cores' hypot, the same bits anywhere: its C function where
     ``elementary`` is compiled, else ``elementary_interpreted``'s (the same bits on the whole column at once;
     one interpreted call per row cost over 1 us a sample)."""
@@ -195,7 +195,7 @@ class TrackingMetrics:
             f = ed + e
             zz = (e[:, 0] ** 2 + e[:, 1] ** 2) + (f[:, 0] ** 2 + f[:, 1] ** 2)  # z'z of ``tracking_cost``
         ae = np.abs(e)
-        norm = _norms(tau)
+        norm = norms(tau)
         e2 = e * e
         late = t >= TRANSIENT_END - 1e-12
         self.late[0] = ordered_sum(e2[late], self.late[0])

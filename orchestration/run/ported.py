@@ -68,6 +68,17 @@ def port_map(variables: dict, ports: dict[str, str] | None) -> dict[str, str]:
     return {k: n or k for k, n in own.items() if n or k in TORQUE_PORTS}
 
 
+def _recorded(name: str) -> str:
+    """The name the master records the FMU's output ``name`` under: its own, unless the actuator writes one so."""
+    return name + OWN_SUFFIX if name in (*TORQUE_PORTS, TORQUE_CUT) else name
+
+
+def written(variables: dict, ports: dict[str, str] | None) -> list[str]:
+    """The recorded names of the torques the FMU itself wrote (before the actuator), ``tau1`` then ``tau2``."""
+    names = port_map(variables, ports)
+    return [_recorded(_scalar(variables, names[key])) for key in TORQUE_PORTS]
+
+
 def _scalar(variables: dict, name: str) -> str:
     """The master's name of the FMU variable a port map names: FMI 3.0 ``u[2]`` is the instance's ``u2``."""
     m = ELEMENT.fullmatch(name)
@@ -95,8 +106,7 @@ class Ported:
         self.instantiated, self.initialized = True, False
         self.initialize, self.do_step = inner.initialize, inner.do_step
         self.parameter_values, self.set_parameters = inner.parameter_values, inner.set_parameters
-        added = (*TORQUE_PORTS, TORQUE_CUT)
-        self.output_names = [n + OWN_SUFFIX if n in added else n for n in inner.output_names] + list(added)
+        self.output_names = [_recorded(n) for n in inner.output_names] + [*TORQUE_PORTS, TORQUE_CUT]
         self.inputs = {k for k in scalars if k not in TORQUE_PORTS}
         self.vars = {k: inner.vars[scalars[k]] for k in self.inputs}
         self.torque_index = [inner.output_names.index(scalars[k]) for k in TORQUE_PORTS]

@@ -1,7 +1,7 @@
 """``sotc-cosim check-controller``: a controller FMU from another tool against the controller contract
 (orchestration/compliance/contract.py, docs/benchmark.md), through the installed console script: the C example
 of examples/pd_controller with its port map, our own controllers without one, and FMUs and maps that break the
-contract, each named in one line."""
+contract, each named in one line; then its 1 s run against our arm (orchestration/compliance/smoke.py)."""
 from __future__ import annotations
 
 import subprocess
@@ -19,7 +19,8 @@ CLI = str(Path(sys.executable).with_name("sotc-cosim"))
 
 
 def _check(fmu: Path, cwd: Path, ports: dict | str | None = None) -> subprocess.CompletedProcess:
-    args = [CLI, "check-controller", str(fmu)]
+    """The interface checks only (``--no-run``); the 1 s run against our arm is tested below."""
+    args = [CLI, "check-controller", str(fmu), "--no-run"]
     if ports is not None:
         text = ports if isinstance(ports, str) else "ports = { " + ", ".join(f'{k} = "{v}"' for k, v in ports.items()) + " }\n"
         (cwd / "ports.toml").write_text(text)
@@ -164,3 +165,61 @@ def test_an_fmi2_scalar_named_like_an_element_is_itself(example, tmp_path):
             out.writestr(item, data)
     done = _check(renamed, tmp_path, {**PORTS, "tau1": "u[1]", "tau2": "u[2]"})
     assert done.returncode == 0, done.stdout
+
+
+def _ports_file(folder: Path, parameters: str) -> Path:
+    (folder / "ports.toml").write_text(_with_parameters(parameters))
+    return folder / "ports.toml"
+
+
+def _main_check(fmu: Path, ports: Path, fmu_dir: Path, capsys) -> tuple[int, str]:
+    from orchestration.cli import main
+
+    code = main(["check-controller", str(fmu), "--ports", str(ports), "--fmu-dir", str(fmu_dir)])
+    return code, capsys.readouterr().out
+
+
+def test_the_example_passes_its_1_s_run_against_our_arm(example, tmp_path, fmu_dir, capsys):
+    """Its own bound 10 N.m over the paper's 4: the actuator cuts some samples, and the run says how many."""
+    code, out = _main_check(example, _ports_file(tmp_path, "{ Kp = 10.0, Kd = 3.0, umax = 10.0 }"), fmu_dir, capsys)
+    assert code == 0, out
+    lines = out.splitlines()
+    assert "  1 s run against our arm (scenario paper, rho = 4 N.m): finished, 101 samples" in lines, out
+    assert "    every torque it wrote (u1, u2) is finite" in lines and lines[-1] == "  passes the 1 s run", out
+    assert "    max ||tau|| it wrote: 10 N.m; samples the actuator cut: " in out, out
+    cuts = int(out.split("samples the actuator cut: ")[1].split(" of ")[0])
+    assert 0 < cuts < 101 and "    tracking error at t = 1 s: e1 = " in out, out
+
+
+def test_a_run_the_fmu_fails_is_exit_1_with_its_reason(example, tmp_path, fmu_dir, capsys):
+    """umax = -1: its modelDescription declares no range, so the contract lets it through; the FMU refuses it."""
+    code, out = _main_check(example, _ports_file(tmp_path, "{ umax = -1.0 }"), fmu_dir, capsys)
+    assert code == 1 and "meets the controller contract" in out, out
+    [failed] = [line for line in out.splitlines() if "FAILED" in line]
+    assert failed.startswith("  1 s run against our arm") and "umax = -1 refused: must be finite and > 0" in failed
+    assert out.splitlines()[-1] == "  fails the 1 s run"
+
+
+def test_a_torque_that_is_not_finite_fails_the_run(example, tmp_path, fmu_dir, capsys, monkeypatch):
+    """What the FMU wrote is what is checked (u1, not the actuator's tau1): a NaN put in its output at t = 0.5 s."""
+    from orchestration.compliance import smoke
+
+    real = smoke.run_controller
+
+    def with_a_nan(scenario, paths):
+        result = real(scenario, paths)
+        result.outputs["controller"]["u1"][50] = float("nan")
+        return result
+
+    monkeypatch.setattr(smoke, "run_controller", with_a_nan)
+    code, out = _main_check(example, _ports_file(tmp_path, "{ Kp = 10.0 }"), fmu_dir, capsys)
+    assert code == 1, out
+    assert "    FAILED: a torque is not finite at t = 0.50 s (sample 50): u1 = nan, u2 = " in out, out
+
+
+def test_an_fmu_that_breaks_the_contract_does_not_run(example, tmp_path, capsys):
+    """A problem in the interface: exit 1 before anything is built or loaded (the FMU folder is not made)."""
+    ports = tmp_path / "ports.toml"
+    ports.write_text('ports = { tau1 = "u1", tau2 = "Kp" }\n')
+    code, out = _main_check(example, ports, tmp_path / "fmus", capsys)
+    assert code == 1 and "run against our arm" not in out and not (tmp_path / "fmus").exists(), out
