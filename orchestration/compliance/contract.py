@@ -193,15 +193,16 @@ def check_scenario(scenario) -> None:
     for inst in scenario.instances.values():
         if inst.file is None:
             continue
-        where = f"{scenario.source or scenario.name}: instances.{inst.name}"
+        # the keys of a controller file (``controller_file``) as written there, else the scenario's
+        where = f"{inst.source}: " if inst.source else f"{scenario.source or scenario.name}: instances.{inst.name}."
         try:  # a controller against the contract; another instance's file: an FMU that can be read
             problems = check(inst.file, inst.ports or None, inst.parameters).problems if inst.contract else []
             if not inst.contract:
                 model_description(inst.file)
         except ContractError as exc:
-            raise ScenarioError(f"{where}.fmu: {exc}") from None
+            raise ScenarioError(f"{where}fmu: {exc}") from None
         if problems:
             first, more = problems[0], len(problems) - 1
             key = first if first.startswith(("ports.", "parameters.")) else f"fmu: {inst.file}: {first}"
             also = f" (and {more} more: sotc-cosim check-controller names them)" if more else ""
-            raise ScenarioError(f"{where}.{key}{also}")
+            raise ScenarioError(f"{where}{key}{also}")

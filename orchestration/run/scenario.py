@@ -54,6 +54,9 @@ CONTRACT_NAMES = (*INPUT_UNITS, *TORQUE_PORTS)  # what a port map maps (docs/ben
 INTERFACES = ("CoSimulation", "ModelExchange")  # an instance's ``interface`` key (FMI 3.0 FMUs may offer both)
 _PORT = {"type": "string", "pattern": r"^[A-Za-z_][A-Za-z0-9_-]*\.[A-Za-z_][A-Za-z0-9_]*$"}
 _TIME = {"type": "number", "exclusiveMinimum": 0}
+# a controller file's port map: contract name -> its variable (docs/benchmark.md)
+PORTS_SCHEMA = {"type": "object", "propertyNames": {"enum": list(CONTRACT_NAMES)},
+                "additionalProperties": {"type": "string", "minLength": 1}}
 # one scenario file as written (``extends`` resolved later, so nothing is required here but shapes)
 SCENARIO_SCHEMA: dict[str, Any] = {
     "type": "object",
@@ -72,8 +75,7 @@ SCENARIO_SCHEMA: dict[str, Any] = {
                 "additionalProperties": False,
                 "properties": {
                     "fmu": {"type": "string", "pattern": r"^([A-Za-z_][A-Za-z0-9_-]*|.+\.fmu)$"},
-                    "ports": {"type": "object", "propertyNames": {"enum": list(CONTRACT_NAMES)},
-                              "additionalProperties": {"type": "string", "minLength": 1}},
+                    "ports": PORTS_SCHEMA,
                     "parameters": {"type": "object", "propertyNames": _NAME,
                                    "additionalProperties": {"type": "number"}},
                     "interface": {"enum": list(INTERFACES)},
@@ -103,6 +105,8 @@ class Instance:
     interface: str = "CoSimulation"
     # a controller from a file: contract name -> its variable (empty: its variables of the contract's names)
     ports: dict[str, str] = field(default_factory=dict)
+    # the controller file (``controller_file``) it was read from, as the check's messages name it; empty: the scenario
+    source: str = ""
 
     @property
     def file(self) -> Path | None:

@@ -66,6 +66,7 @@ import numpy as np
 
 from fmu_controller.base import RENAMED_PARAMETERS
 from fmu_controller.catalog import CORES
+from orchestration.run.controller_file import controller_instance, is_file
 from orchestration.run.scenario import Instance, Scenario, ScenarioError, load_scenario
 from orchestration.sweep.schema import DISTRIBUTIONS, MAX_POINTS, check_sweep_schema
 from orchestration.toml_files import parse_toml, read_toml, unknown_file
@@ -142,6 +143,8 @@ class Sweep:
     state_bound: float
     fixed: dict[str, float]
     per_controller: dict[str, ControllerSettings] = dataclasses.field(default_factory=dict)
+    # a controller axis value that is a file (a controller file or an FMU file): the controller it runs
+    files: dict[str, Instance] = dataclasses.field(default_factory=dict)
 
     def groups(self) -> dict[str, list[Axis]]:
         """The axes of the combination: group name (an ungrouped axis: its own name) -> its axes."""
@@ -186,8 +189,8 @@ class Sweep:
         for axis, value in sorted(applied, key=lambda av: av[0].name != "controller"):  # controller first
             if axis.name == "controller":
                 old, fmu = sc.instances["controller"], self.fmu_of(value)
-                params = old.parameters if fmu == old.fmu else {}
-                sc = dataclasses.replace(sc, instances={**sc.instances, "controller": Instance("controller", fmu, params)})
+                new = self.files.get(value) or Instance("controller", fmu, old.parameters if fmu == old.fmu else {})
+                sc = dataclasses.replace(sc, instances={**sc.instances, "controller": new})
         params: dict[str, float] = {}
         for axis, value in applied:
             if axis.name == "step_size":
@@ -205,9 +208,9 @@ class Sweep:
         return sorted(models)
 
     def fmu_of(self, controller: str) -> str:
-        """The FMU a controller axis value runs (a named entry's ``fmu``, else the value itself)."""
+        """The FMU a controller axis value runs (a named entry's ``fmu``, a file's FMU, else the value itself)."""
         own = self.per_controller.get(controller)
-        return own.fmu if own else controller
+        return own.fmu if own else (self.files[controller].fmu if controller in self.files else controller)
 
 
 def _base_value(base: Scenario, axis: Axis) -> float:
@@ -274,10 +277,23 @@ def parse_sweep(raw: dict[str, Any], label: str, folder: Path | None = None, def
         name=raw.get("name", default_name), description=raw.get("description", ""), base=base, axes=axes,
         combine=raw.get("combine", "grid"), seed=seed, time_limit=float(raw.get("time_limit", DEFAULT_TIME_LIMIT)),
         state_bound=float(raw.get("state_bound", DEFAULT_STATE_BOUND)), fixed=fixed, per_controller=per_controller,
+        files=_controller_files(axes, folder, where),
     )
     _check_shape(sweep, where)
     sweep.points()  # every point's scenario is valid (whole number of steps, known instances)
     return sweep
+
+
+def _controller_files(axes: tuple[Axis, ...], folder: Path | None, where: str) -> dict[str, Instance]:
+    """Each controller axis value that is a file, relative to the sweep file's folder (None: a shipped sweep, which
+    names our controllers only): the controller instance it describes (``controller_file``)."""
+    out = {}
+    for value in (v for a in axes if a.name == "controller" for v in a.values if is_file(v)):
+        here = f"{where}: axis 'controller': {value}"
+        if folder is None:
+            raise SweepError(f"{here}: a shipped sweep names our controllers, not files")
+        out[value] = controller_instance(folder / Path(value).expanduser(), here, SweepError)
+    return out
 
 
 def _controller_settings(raw: dict[str, Any], base: Scenario, axes: tuple[Axis, ...],
@@ -295,6 +311,8 @@ def _controller_settings(raw: dict[str, Any], base: Scenario, axes: tuple[Axis, 
         if label not in runs:
             raise SweepError(f"{here}: no point of this sweep runs controller {label!r}; its controllers: "
                              f"{', '.join(runs) or 'none'}")
+        if is_file(label):
+            raise SweepError(f"{here}: a controller file sets its parameters in its own file (parameters = {{ ... }})")
         fmu, tuning, learning = table.get("fmu", label), table.get("tuning", ""), table.get("learning", True)
         if fmu not in CORES:
             raise SweepError(f"{here}.fmu = {fmu!r}; choose a controller FMU: {', '.join(CORES)}")

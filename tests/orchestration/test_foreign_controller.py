@@ -228,3 +228,81 @@ def test_compare_overlays_it_beside_ours_with_its_own_outputs_under_its_entity(e
     own = np.array([row for row in ents["/mine/fmu/controller"]["Scalars:scalars"]])
     assert np.array_equal(np.array(ents["/mine/torques/tau1"]["Scalars:scalars"])[:, 0], own[:, 2])  # what the arm got
     assert "/paper/fmu/controller" in ents
+
+
+def _controller_file(folder: Path, body: str | None = None) -> None:
+    """``folder/pd.toml``: the example with its map and gains, as docs/benchmark.md writes a controller file (with
+    the [search] table issue 49 reads, which a sweep takes and does not read)."""
+    ports = "ports = { " + ", ".join(f'{k} = "{v}"' for k, v in PORTS.items()) + " }\n"
+    text = f'fmu = "vendor/{FMU_NAME}"\n{ports}parameters = {GAINS}\n[search]\nKp = {{ low = 1.0, high = 100.0 }}\n'
+    (folder / "pd.toml").write_text(text if body is None else body)
+
+
+def _sweep_file(folder: Path, values: list[str]) -> Path:
+    text = ('name = "mix"\nscenario = "paper"\nstop_time = 0.3\n[[axis]]\nname = "controller"\nvalues = ['
+            + ", ".join(f'"{v}"' for v in values) + "]\n")
+    (folder / "sweep.toml").write_text(text)
+    return folder / "sweep.toml"
+
+
+def test_a_controller_axis_mixes_ours_and_a_controller_file(example, tmp_path, fmu_dir):
+    """Each point as a worker runs it (no cluster here), after the contract's check every sweep makes per point."""
+    from orchestration.compliance.contract import check_scenario
+    from orchestration.sweep.runner import fmu_blobs, point_key, run_point
+    from orchestration.sweep.spec import load_sweep
+
+    _vendor(tmp_path, example)
+    _controller_file(tmp_path)
+    sweep = load_sweep(str(_sweep_file(tmp_path, ["CtController", "pd.toml"])))
+    ours, theirs = sweep.points()
+    controller = theirs.scenario.instances["controller"]
+    assert controller.fmu == str(tmp_path / "vendor" / FMU_NAME) and controller.ports == PORTS  # from the file's folder
+    assert controller.parameters == {"Kp": 10.0, "Kd": 3.0, "umax": 10.0} and theirs.settings == {"controller": "pd.toml"}
+    blobs = fmu_blobs(sweep.model_names(), fmu_dir)
+    digests = {m: d for m, (d, _) in blobs.items()}
+    rows = []
+    for point in (ours, theirs):
+        check_scenario(point.scenario)
+        task = {"time_limit": 60.0, "state_bound": 1e3, "record": False, "point": point,
+                "key": point_key(point.scenario, digests)}
+        rows.append(run_point(task, blobs))
+    assert [r["status"] for r in rows] == ["ok", "ok"], [r["reason"] for r in rows]
+    assert [r["summary"]["controller"] for r in rows] == ["CtController", FMU_NAME]
+    assert rows[0]["summary"]["torque_cuts"] == 0 < rows[1]["summary"]["torque_cuts"]
+    assert rows[0]["key"] != rows[1]["key"]
+
+
+@pytest.mark.parametrize("value, body, said", [
+    ("pd.toml", 'fmu = "vendor/PdController.fmu"\ngains = { Kp = 1.0 }\n', "pd.toml: the file: unknown keys ['gains']"),
+    ("pd.toml", "ports = { tau1 = \"u1\" }\n", "pd.toml: the file: 'fmu' is a required property"),
+    ("pd.toml", 'fmu = "vendor/PdController.fmu"\nparameters = { Kp = nan }\n', "pd.toml: parameters.Kp: nan is not finite"),
+    ("pd.toml", 'fmu = "vendor/PdController.fmu"\nports = { tau3 = "u1" }\n', "pd.toml: ports: 'tau3' is not one of"),
+    ("nope.toml", None, "axis 'controller': nope.toml: no such file"),
+    ("pd.toml", 'fmu = "vendor/Nope.fmu"\n', "axis 'controller': pd.toml: fmu: {dir}/vendor/Nope.fmu: no such file"),
+    ("pd.toml", None, "axis 'controller': pd.toml: parameters.Kd = -1: outside [0, inf]"),
+    (f"vendor/{FMU_NAME}", None, f"axis 'controller': vendor/{FMU_NAME}: ports.tau1 = 'tau1': the FMU has no variable"),
+], ids=["unknown key", "no fmu", "nan", "not a contract name", "no such file", "no such fmu", "its parameter's range",
+        "an fmu without the contract's names"])
+def test_a_bad_controller_file_in_a_sweep_is_one_line_and_exit_2(example, tmp_path, fmu_dir, monkeypatch, capsys,
+                                                                 value, body, said):
+    _vendor(tmp_path / "s", example)
+    _controller_file(tmp_path / "s", body or ('fmu = "vendor/PdController.fmu"\nports = { tau1 = "u1", tau2 = "u2" }\n'
+                                              "parameters = { Kd = -1.0 }\n"))
+    _sweep_file(tmp_path / "s", ["CtController", value])
+    monkeypatch.chdir(tmp_path)
+    code = main(["sweep", "s/sweep.toml", "--fmu-dir", str(fmu_dir), "--out", "out"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1, err
+    assert "sweep 's/sweep.toml': axis 'controller': " in err[0] and said.format(dir=tmp_path / "s") in err[0], err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s"]
+
+
+def test_a_shipped_sweep_and_controller_settings_take_no_controller_file(tmp_path):
+    from orchestration.sweep.spec import parse_sweep
+
+    axis = [{"name": "controller", "values": ["CtController", "pd.toml"]}]
+    with pytest.raises(ValueError, match="axis 'controller': pd.toml: a shipped sweep names our controllers, not files"):
+        parse_sweep({"scenario": "paper", "axis": axis}, "shipped")
+    with pytest.raises(ValueError, match="controller_settings.pd.toml: a controller file sets its parameters in its own"):
+        parse_sweep({"scenario": "paper", "axis": axis, "controller_settings": {"pd.toml": {"controller.Kp": 1.0}}},
+                    "mine", tmp_path)
