@@ -34,8 +34,10 @@ A sweep file is TOML (``orchestration/sweep/presets/<name>.toml``, shipped as pa
 Combination over the groups (an axis without ``group`` is a group of its own): ``grid`` is the
 cartesian product in file order (the last axis varies fastest), ``paired`` takes the i-th value of
 every group (equal lengths), ``one-at-a-time`` varies each group alone with the others at the base
-scenario's values. A ``controller`` axis names controller FMUs (model identifiers); the controller
-instance keeps the base scenario's parameters only for the same FMU; ``controller_settings`` gives a
+scenario's values. A ``controller`` axis names controller FMUs (model identifiers), or files relative to
+this file: a controller file (``mine.toml``: ``fmu``, ``ports``, ``parameters``;
+``orchestration.run.controller_file``) or an ``.fmu`` file, a controller from any tool held to the contract
+(docs/benchmark.md); the controller instance keeps the base scenario's parameters only for the same FMU; ``controller_settings`` gives a
 controller FMU its own parameters (a fair comparison tunes each baseline, not only the base scenario's
 controller); a table with ``fmu = "<FMU>"`` is a named entry (any label) that a ``controller`` axis lists
 like an FMU, so one FMU can run twice, e.g. with and without learning, paired on the same points.
