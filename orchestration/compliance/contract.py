@@ -193,7 +193,7 @@ def check_scenario(scenario) -> None:
     for inst in scenario.instances.values():
         if inst.file is None:
             continue
-        # the keys of a controller file (``controller_file``) as written there, else the scenario's
+        # the keys of a controller file (``scenario.controller_instance``) as written there, else the scenario's
         where = f"{inst.source}: " if inst.source else f"{scenario.source or scenario.name}: instances.{inst.name}."
         try:  # a controller against the contract; another instance's file: an FMU that can be read
             problems = check(inst.file, inst.ports or None, inst.parameters).problems if inst.contract else []

@@ -14,6 +14,8 @@ A scenario is TOML (``orchestration/run/scenarios/<name>.toml``, shipped as pack
     # that writes it, and its port map (contract name -> the FMU's variable); its parameters are its own
     # fmu = "vendor/MyController.fmu"
     # ports = { phi1 = "q1", tau1 = "u1", tau2 = "u2" }
+    # or a controller file that holds these three (below), relative to the scenario file; parameters here override
+    # its own: controller = "mine.toml"
     interface = "CoSimulation"        # optional; "ModelExchange": an FMI 3.0 FMU integrated by the master
     [[connect]]                       # every output of `from` feeds the same-named input of `to`
     from = "plant"
@@ -27,6 +29,13 @@ Instances named ``plant``, ``reference`` and ``controller`` are what the summary
 runs (``orchestration.compliance.contract.check_scenario``), its ports renamed and its torques bounded by
 the actuator (``orchestration.run.ported``). A path is only taken from a scenario file: a shipped scenario
 names built FMUs by model.
+
+A controller file (docs/benchmark.md) holds such a controller on its own, for a scenario's ``controller`` key and
+a sweep's controller axis (and issue 49's tuning, which reads its ``[search]`` table; taken and not read here)::
+
+    fmu = "vendor/MyController.fmu"   # relative to this file
+    ports = { phi1 = "q1", tau1 = "u1", tau2 = "u2" }
+    parameters = { Kp = 60.0, Kd = 15.0 }
 """
 from __future__ import annotations
 
@@ -57,6 +66,15 @@ _TIME = {"type": "number", "exclusiveMinimum": 0}
 # a controller file's port map: contract name -> its variable (docs/benchmark.md)
 PORTS_SCHEMA = {"type": "object", "propertyNames": {"enum": list(CONTRACT_NAMES)},
                 "additionalProperties": {"type": "string", "minLength": 1}}
+CONTROLLER_FILE = ".toml"  # a controller named so is a controller file (``FMU_FILE``: an FMU file alone)
+_PARAMETERS = {"type": "object", "propertyNames": _NAME, "additionalProperties": {"type": "number", "format": "finite"}}
+CONTROLLER_FILE_SCHEMA: dict[str, Any] = {
+    "type": "object",
+    "additionalProperties": False,
+    "required": ["fmu"],
+    "properties": {"fmu": {"type": "string", "pattern": r"^.+\.fmu$"}, "ports": PORTS_SCHEMA, "parameters": _PARAMETERS,
+                   "search": {"type": "object"}},
+}
 # one scenario file as written (``extends`` resolved later, so nothing is required here but shapes)
 SCENARIO_SCHEMA: dict[str, Any] = {
     "type": "object",
@@ -75,6 +93,7 @@ SCENARIO_SCHEMA: dict[str, Any] = {
                 "additionalProperties": False,
                 "properties": {
                     "fmu": {"type": "string", "pattern": r"^([A-Za-z_][A-Za-z0-9_-]*|.+\.fmu)$"},
+                    "controller": {"type": "string", "pattern": r"^.+\.toml$"},
                     "ports": PORTS_SCHEMA,
                     "parameters": {"type": "object", "propertyNames": _NAME,
                                    "additionalProperties": {"type": "number"}},
@@ -105,7 +124,7 @@ class Instance:
     interface: str = "CoSimulation"
     # a controller from a file: contract name -> its variable (empty: its variables of the contract's names)
     ports: dict[str, str] = field(default_factory=dict)
-    # the controller file (``controller_file``) it was read from, as the check's messages name it; empty: the scenario
+    # the controller file (``controller_instance``) it was read from, as the check's messages name it; empty: the scenario
     source: str = ""
 
     @property
@@ -272,10 +291,43 @@ def _schema_message(found) -> str:
     return found.message if len(found.message) <= 200 else found.message[:200] + "..."
 
 
+def is_file(controller: str) -> bool:
+    """Whether a controller named so is a file (a controller file or an FMU file), not one of our models."""
+    return controller.endswith((CONTROLLER_FILE, FMU_FILE))
+
+
+def controller_instance(path: Path, what: str, error: type[Exception] = ScenarioError) -> Instance:
+    """The controller the file at ``path`` describes: a controller file, or an FMU file run by the contract's names
+    with its own defaults; ``what`` names it in every message (``error``, one line), the contract's check's too."""
+    if path.name.endswith(FMU_FILE) and path.is_file():
+        return _instance(CONTROLLER, {"fmu": os.path.abspath(path), "source": what})
+    return _instance(CONTROLLER, _controller_file(path, what, error))
+
+
+def _controller_file(path: Path, what: str, error: type[Exception] = ScenarioError) -> dict[str, Any]:
+    """A controller file as an instance's table: its ``fmu`` made absolute from its folder, and ``source``."""
+    if not path.is_file():
+        raise error(f"{what}: {'not a file' if path.exists() else 'no such file'}")
+    raw = read_toml(path, what, error)
+    check_schema(raw, CONTROLLER_FILE_SCHEMA, what, error)
+    return {"fmu": os.path.abspath(path.parent / Path(raw["fmu"]).expanduser()), "ports": raw.get("ports", {}),
+            "parameters": raw.get("parameters", {}), "source": what}
+
+
 def _files_from(raw: dict[str, Any], folder: Path | None, label: str) -> None:
     """Each ``fmu`` that is a file made absolute from ``folder``, the scenario file's own (None: a shipped
-    scenario, which names built FMUs only)."""
+    scenario, which names built FMUs only); a ``controller`` file read into its instance's table, whose
+    ``parameters`` override the file's."""
     for name, spec in raw.get("instances", {}).items():
+        if "controller" in spec:
+            where = f"scenario '{label}': instances.{name}.controller"
+            if name != CONTROLLER or folder is None or {"fmu", "ports"} & set(spec):
+                raise ScenarioError(f"{where}: a controller file is for instances.{CONTROLLER} of a scenario file, "
+                                    "in place of its fmu and ports")
+            value = spec.pop("controller")
+            own = _controller_file(folder / Path(value).expanduser(), f"{where} = {value!r}")
+            spec.update({**own, "parameters": {**own["parameters"], **spec.get("parameters", {})}})
+            continue
         fmu = spec.get("fmu", "")
         if not fmu.endswith(FMU_FILE):
             continue
@@ -323,9 +375,7 @@ def _from_raw(raw: dict[str, Any]) -> dict[str, Any]:
     for name, spec in raw.get("instances", {}).items():
         if "fmu" not in spec:
             raise ScenarioError(f"scenario '{raw['name']}': instance '{name}' needs an 'fmu' key")
-        params = spec.get("parameters", {})
-        instances[name] = Instance(name, spec["fmu"], dict(params), spec.get("interface", INTERFACES[0]),
-                                   dict(spec.get("ports", {})))
+        instances[name] = _instance(name, spec)
         if instances[name].ports and not instances[name].contract:
             raise ScenarioError(f"scenario '{raw['name']}': instances.{name}.ports: a port map is for a controller "
                                 f"from a file (instances.{CONTROLLER}.fmu = \"....fmu\")")
@@ -347,6 +397,11 @@ def _from_raw(raw: dict[str, Any]) -> dict[str, Any]:
         "by_name": by_name,
         "links": tuple(links),
     }
+
+
+def _instance(name: str, spec: dict[str, Any]) -> Instance:
+    return Instance(name, spec["fmu"], dict(spec.get("parameters", {})), spec.get("interface", INTERFACES[0]),
+                    dict(spec.get("ports", {})), spec.get("source", ""))
 
 
 def _validated(fields: dict[str, Any]) -> Scenario:

@@ -36,7 +36,7 @@ cartesian product in file order (the last axis varies fastest), ``paired`` takes
 every group (equal lengths), ``one-at-a-time`` varies each group alone with the others at the base
 scenario's values. A ``controller`` axis names controller FMUs (model identifiers), or files relative to
 this file: a controller file (``mine.toml``: ``fmu``, ``ports``, ``parameters``;
-``orchestration.run.controller_file``) or an ``.fmu`` file, a controller from any tool held to the contract
+``orchestration.run.scenario``) or an ``.fmu`` file, a controller from any tool held to the contract
 (docs/benchmark.md); the controller instance keeps the base scenario's parameters only for the same FMU; ``controller_settings`` gives a
 controller FMU its own parameters (a fair comparison tunes each baseline, not only the base scenario's
 controller); a table with ``fmu = "<FMU>"`` is a named entry (any label) that a ``controller`` axis lists
@@ -68,8 +68,7 @@ import numpy as np
 
 from fmu_controller.base import RENAMED_PARAMETERS
 from fmu_controller.catalog import CORES
-from orchestration.run.controller_file import controller_instance, is_file
-from orchestration.run.scenario import Instance, Scenario, ScenarioError, load_scenario
+from orchestration.run.scenario import Instance, Scenario, ScenarioError, controller_instance, is_file, load_scenario
 from orchestration.sweep.schema import DISTRIBUTIONS, MAX_POINTS, check_sweep_schema
 from orchestration.toml_files import parse_toml, read_toml, unknown_file
 
@@ -288,7 +287,7 @@ def parse_sweep(raw: dict[str, Any], label: str, folder: Path | None = None, def
 
 def _controller_files(axes: tuple[Axis, ...], folder: Path | None, where: str) -> dict[str, Instance]:
     """Each controller axis value that is a file, relative to the sweep file's folder (None: a shipped sweep, which
-    names our controllers only): the controller instance it describes (``controller_file``)."""
+    names our controllers only): the controller instance it describes (``scenario.controller_instance``)."""
     out = {}
     for value in (v for a in axes if a.name == "controller" for v in a.values if is_file(v)):
         here = f"{where}: axis 'controller': {value}"

@@ -306,3 +306,29 @@ def test_a_shipped_sweep_and_controller_settings_take_no_controller_file(tmp_pat
     with pytest.raises(ValueError, match="controller_settings.pd.toml: a controller file sets its parameters in its own"):
         parse_sweep({"scenario": "paper", "axis": axis, "controller_settings": {"pd.toml": {"controller.Kp": 1.0}}},
                     "mine", tmp_path)
+
+
+def test_a_scenario_names_a_controller_file_in_place_of_fmu_and_ports(example, tmp_path, fmu_paths):
+    """Its parameters over the file's; a problem of the file's FMU names the scenario's key and the file's key."""
+    _vendor(tmp_path, example)
+    _controller_file(tmp_path)
+    (tmp_path / "scn.toml").write_text('extends = "paper"\nstop_time = 0.2\n[instances.controller]\n'
+                                       'controller = "pd.toml"\nparameters = { Kd = 4.0 }\n')
+    scenario = load_scenario(str(tmp_path / "scn.toml"))
+    controller = scenario.instances["controller"]
+    assert controller.fmu == str(tmp_path / "vendor" / FMU_NAME) and controller.ports == PORTS
+    assert controller.parameters == {"Kp": 10.0, "Kd": 4.0, "umax": 10.0}
+    result = run(scenario, fmu_paths)
+    assert not result.failed and summarize(result)["controller"] == FMU_NAME, result.error
+
+    from orchestration.compliance.contract import check_scenario
+
+    _controller_file(tmp_path, 'fmu = "vendor/PdController.fmu"\nports = { tau1 = "u1", tau2 = "y2" }\n')
+    with pytest.raises(ValueError, match=r"scn.toml': instances.controller.controller = 'pd.toml': ports.tau2 = 'y2': "
+                                         "the FMU has no variable 'y2'"):
+        check_scenario(load_scenario(str(tmp_path / "scn.toml")))
+    (tmp_path / "both.toml").write_text('extends = "paper"\n[instances.controller]\ncontroller = "pd.toml"\n'
+                                        f'fmu = "vendor/{FMU_NAME}"\n')
+    with pytest.raises(ValueError, match="instances.controller.controller: a controller file is for instances.controller "
+                                         "of a scenario file, in place of its fmu and ports"):
+        load_scenario(str(tmp_path / "both.toml"))
