@@ -19,7 +19,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from fmpy import extract, read_model_description
-from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
+from fmpy.fmi2 import FMU2Slave, defaultCallbacks, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
 from fmpy.logging import addLoggerProxy
 
 _SINKS: dict[int, list[tuple[int, str]]] = {}
@@ -41,6 +41,8 @@ def make_callbacks(messages: list[tuple[int, str]]) -> fmi2CallbackFunctions:
     _SINKS[key] = messages
     callbacks = fmi2CallbackFunctions()
     callbacks.logger = _LOGGER
+    # fmpy's calloc and free: FMI 2.0 requires them, and an FMU written to it (a C one) refuses to instantiate without
+    callbacks.allocateMemory, callbacks.freeMemory = defaultCallbacks.allocateMemory, defaultCallbacks.freeMemory
     callbacks.componentEnvironment = key
     addLoggerProxy(ctypes.byref(callbacks))
     return callbacks
