@@ -6,8 +6,12 @@ lives on, no child process is left and nothing is left in TMPDIR. The hostile FM
 from __future__ import annotations
 
 import dataclasses
+import json
 import os
 import signal
+import subprocess
+import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -153,3 +157,49 @@ def test_the_master_in_this_process_runs_a_plain_c_fmu_up_to_its_error(hostile_p
     result = master.run(hostile.scenario("error"), hostile_paths)
     assert result.error.startswith("fmi2DoStep failed with status 3 (error). at t = 1.00 s (sample 100)")
     assert result.samples == SAMPLES_BEFORE
+
+
+KILLED_PARENT = """
+import json, sys
+from pathlib import Path
+sys.path.insert(0, sys.argv[1])
+from support import hostile
+from orchestration.run import isolated
+isolated.run(hostile.scenario("loop"), {m: Path(p) for m, p in json.loads(sys.argv[2]).items()}, answer_s=600)
+"""
+
+
+def _state(pid: int) -> str | None:
+    """The process's state letter (Z: a zombie), None once it is gone."""
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except (OSError, IndexError):
+        return None
+
+
+def test_a_child_whose_parent_is_killed_dies_with_it(hostile_paths, tmp_path):
+    """SIGKILL of the process that runs a hung FMU in its child: the kernel kills the child too."""
+    if not sys.platform.startswith("linux"):
+        pytest.skip("the parent-death signal is Linux's")
+    paths = json.dumps({m: str(p) for m, p in hostile_paths.items()})
+    parent = subprocess.Popen([sys.executable, "-c", KILLED_PARENT, str(Path(__file__).parents[1]), paths])
+    deadline = time.monotonic() + 120  # a bound for a broken test, not a timing assumption
+    child = None
+    while child is None and time.monotonic() < deadline and parent.poll() is None:
+        for status in Path("/proc").glob("[0-9]*/cmdline"):
+            try:
+                if b"_child_main" in status.read_bytes() and _ppid(int(status.parent.name)) == parent.pid:
+                    child = int(status.parent.name)
+            except (OSError, ValueError):
+                continue
+        time.sleep(0.05)
+    assert child is not None, "the run's child never started"
+    parent.kill()
+    parent.wait()
+    while _state(child) not in (None, "Z") and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert _state(child) in (None, "Z")
+
+
+def _ppid(pid: int) -> int:
+    return int(Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[1])
