@@ -203,3 +203,30 @@ def test_a_child_whose_parent_is_killed_dies_with_it(hostile_paths, tmp_path):
 
 def _ppid(pid: int) -> int:
     return int(Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[1])
+
+
+def test_a_binary_for_another_platform_only_fails_the_run_during_set_up(hostile_paths, tmp_path):
+    import zipfile
+
+    import fmpy
+
+    moved = tmp_path / "HostileNan.fmu"
+    with zipfile.ZipFile(hostile_paths["HostileNan"]) as src, zipfile.ZipFile(moved, "w") as out:
+        for item in src.infolist():
+            out.writestr(item.filename.replace(f"binaries/{fmpy.platform}/", "binaries/win64/"), src.read(item))
+    seen = Seen()
+    result = isolated.run(hostile.scenario("nan"), {**hostile_paths, "HostileNan": moved}, seen)
+    assert result.failed and "during set-up" in result.error and "HostileNan" in result.error, result.error
+    assert result.samples == seen.samples == 0 and seen.finished is result
+
+
+def test_an_observer_that_fails_in_this_process_stops_the_child(fmu_paths):
+    def refuse():
+        raise OSError(28, "No space left on device")
+
+    before = _children()
+    seen = Seen(on_block=refuse)
+    result = isolated.run(load_scenario("paper"), fmu_paths, seen, block_size=10)
+    assert result.failed and result.error == "observer failed: OSError: [Errno 28] No space left on device"
+    assert seen.finished is result and result.samples >= 10 and len(seen.times) == 1
+    assert _children() == before
