@@ -164,3 +164,28 @@ def test_an_fmi2_scalar_named_like_an_element_is_itself(example, tmp_path):
             out.writestr(item, data)
     done = _check(renamed, tmp_path, {**PORTS, "tau1": "u[1]", "tau2": "u[2]"})
     assert done.returncode == 0, done.stdout
+
+
+def test_a_pythonfmu_controller_written_as_a_user_would_meets_the_contract_and_runs(fmu_paths, tmp_path):
+    """pythonfmu alone, none of our FMU framework (``tests/support/user_pythonfmu/user_pd.py``): checked, then run
+    in place of our controller in a child process (``orchestration.run.isolated``)."""
+    from support import hostile, user_pythonfmu
+
+    from orchestration.run import isolated
+
+    fmu = user_pythonfmu.build(tmp_path)
+    done = _check(fmu, tmp_path)
+    assert done.returncode == 0 and "meets the controller contract" in done.stdout, done.stdout
+    result = isolated.run(hostile.controlled_by("UserPd"), {**fmu_paths, "UserPd": fmu})
+    assert not result.failed and result.samples == 201, result.error
+    torques = result.outputs["controller"]
+    assert torques["tau1"][0] == 0.0 and all(abs(torques[t][1:]).min() > 0 for t in ("tau1", "tau2"))
+
+
+def test_a_hostile_controller_meets_the_contract_until_it_runs(tmp_path, monkeypatch):
+    """The check reads the interface: a controller that crashes in its doStep passes it; its run fails alone
+    (``tests/faults/test_isolated_runs.py``)."""
+    from support import hostile
+
+    done = _check(hostile.build("segv", tmp_path, monkeypatch), tmp_path)
+    assert done.returncode == 0 and "meets the controller contract" in done.stdout, done.stdout

@@ -55,7 +55,12 @@ def build(fault: str, folder: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
 
 def scenario(fault: str) -> Scenario:
     """The paper's scenario for 2 s with the hostile controller in place of ours (its own gains)."""
+    return controlled_by(identifier(fault))
+
+
+def controlled_by(model: str) -> Scenario:
+    """The paper's scenario for 2 s with the controller FMU ``model`` in place of ours, with its own defaults."""
     paper = load_scenario("paper")
-    instances = {**paper.instances, "controller": dataclasses.replace(paper.instances["controller"],
-                                                                      fmu=identifier(fault), parameters={})}
+    instances = {**paper.instances, "controller": dataclasses.replace(paper.instances["controller"], fmu=model,
+                                                                      parameters={})}
     return dataclasses.replace(paper, instances=instances).with_stop_time(STOP_TIME)
