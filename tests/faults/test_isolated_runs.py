@@ -230,3 +230,21 @@ def test_an_observer_that_fails_in_this_process_stops_the_child(fmu_paths):
     assert result.failed and result.error == "observer failed: OSError: [Errno 28] No space left on device"
     assert seen.finished is result and result.samples >= 10 and len(seen.times) == 1
     assert _children() == before
+
+
+def test_a_recording_of_a_run_whose_fmu_crashed_holds_every_sample_before_it(hostile_paths, tmp_path):
+    """The recorder of ``sotc-cosim run`` in this process, with its blocks of 1000: all 101 samples come from
+    the child's shared tail after the crash."""
+    from support.rrd_contents import read_entities
+
+    from orchestration.recording import BLOCK_SIZE
+    from orchestration.recording.writer_process import recorder_for
+
+    target = tmp_path / "crashed.rrd"
+    with recorder_for(target, 1, None) as recorder:
+        result = isolated.run(hostile.scenario("segv"), hostile_paths, recorder, block_size=BLOCK_SIZE)
+    assert result.error == f"crashed: SIGSEGV {AT}" and BLOCK_SIZE > SAMPLES_BEFORE
+    steps = {entity: list(rows["step"]) for entity, rows in read_entities(target).items()}
+    instances = {f"/fmu/{name}" for name in ("plant", "reference", "controller")}
+    assert instances <= set(steps) and all(steps[e] == list(range(SAMPLES_BEFORE)) for e in instances)
+    assert steps["/events/run"] == [hostile.FAULT_SAMPLE]  # the failure, at the last sample recorded
