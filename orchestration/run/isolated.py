@@ -66,8 +66,8 @@ class _SharedClock(master._Clock):
     """The master's clock, written through to the shared header."""
 
     def __init__(self, header: np.ndarray, scenario: Scenario):
-        self.header = header
-        self.codes = {call: code for code, call in enumerate(_calls(scenario), 1)}
+        self.header, self.calls = header, _calls(scenario)
+        self.codes = {call: code for code, call in enumerate(self.calls, 1)}
 
     @property
     def sample(self) -> int:
@@ -78,8 +78,9 @@ class _SharedClock(master._Clock):
         self.header[SAMPLE] = k
 
     @property
-    def call(self):
-        return self.header[CALL]
+    def call(self) -> tuple[str, str]:
+        code = int(self.header[CALL])
+        return self.calls[code - 1] if code >= 1 else ("", "")
 
     @call.setter
     def call(self, value: tuple[str, str]) -> None:
