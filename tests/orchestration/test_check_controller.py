@@ -189,3 +189,23 @@ def test_a_hostile_controller_meets_the_contract_until_it_runs(tmp_path, monkeyp
 
     done = _check(hostile.build("segv", tmp_path, monkeypatch), tmp_path)
     assert done.returncode == 0 and "meets the controller contract" in done.stdout, done.stdout
+
+
+def test_a_plain_c_fmi3_controller_meets_the_contract_and_runs_as_its_fmi2_twin(fmu_paths, tmp_path, monkeypatch):
+    """The example's PD controller as FMI 3.0 in plain C (``tests/support/fmi3_pd``): checked, then run in a child
+    process; its torques are those of the same C code as FMI 2.0 (a hostile twin, until its fault at t = 1 s)."""
+    import numpy as np
+    from support import fmi3_pd, hostile
+
+    from orchestration.run import isolated, master
+
+    fmu = fmi3_pd.build(tmp_path)
+    done = _check(fmu, tmp_path)
+    assert done.returncode == 0 and "meets the controller contract" in done.stdout, done.stdout
+    result = isolated.run(hostile.controlled_by(fmi3_pd.IDENTIFIER), {**fmu_paths, fmi3_pd.IDENTIFIER: fmu})
+    assert not result.failed and result.samples == 201, result.error
+    twin = master.run(hostile.scenario("error"), {**fmu_paths, "HostileError": hostile.build("error", tmp_path, monkeypatch)})
+    n = twin.samples
+    assert n == hostile.FAULT_SAMPLE + 1
+    for torque in ("tau1", "tau2"):
+        assert np.array_equal(result.outputs["controller"][torque][:n], twin.outputs["controller"][torque])
