@@ -204,7 +204,8 @@ def test_a_plain_c_fmi3_controller_meets_the_contract_and_runs_as_its_fmi2_twin(
     assert done.returncode == 0 and "meets the controller contract" in done.stdout, done.stdout
     result = isolated.run(hostile.controlled_by(fmi3_pd.IDENTIFIER), {**fmu_paths, fmi3_pd.IDENTIFIER: fmu})
     assert not result.failed and result.samples == 201, result.error
-    twin = master.run(hostile.scenario("error"), {**fmu_paths, "HostileError": hostile.build("error", tmp_path, monkeypatch)})
+    twin_fmu = hostile.build("error", tmp_path, monkeypatch)
+    twin = master.run(hostile.scenario("error"), {**fmu_paths, "HostileError": twin_fmu})
     n = twin.samples
     assert n == hostile.FAULT_SAMPLE + 1
     for torque in ("tau1", "tau2"):

@@ -7,6 +7,7 @@ from __future__ import annotations
 import importlib.util
 from pathlib import Path
 
+import fmpy
 import pytest
 
 from support.example_controller import BUILD, compiler
@@ -22,9 +23,9 @@ def build(folder: Path) -> Path:
     script = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(script)
     headers, _, extension = script._fmpy_headers()
-    import fmpy
-
-    script.SOURCE, script.DESCRIPTION, script.IDENTIFIER = HERE / "pd_controller3.c", HERE / "modelDescription.xml", IDENTIFIER
+    script.SOURCE, script.DESCRIPTION, script.IDENTIFIER = HERE / "pd_controller3.c", HERE / "modelDescription.xml", \
+        IDENTIFIER
+    # FMI 3.0's names: the binaries' folder, and the instantiation token in place of the guid
     script._fmpy_headers = lambda: (headers, fmpy.platform_tuple, extension)
     script._guid = lambda: script.ET.parse(script.DESCRIPTION).getroot().get("instantiationToken")
     return script.build(folder)
