@@ -5,7 +5,6 @@ lives on, no child process is left and nothing is left in TMPDIR. The hostile FM
 (``tests/support/hostile``), built once per session; they misbehave from their doStep at t = 1.00 s."""
 from __future__ import annotations
 
-import dataclasses
 import json
 import os
 import signal
@@ -149,7 +148,7 @@ def test_a_wrong_scenario_is_raised_as_in_this_process(hostile_paths):
     with pytest.raises(ScenarioError, match="instance 'controller': no built FMU for model 'HostileNan'"):
         isolated.run(scenario, missing)
     with pytest.raises(ScenarioError, match="answer_s must be > 0"):
-        isolated.run(dataclasses.replace(scenario), hostile_paths, answer_s=0.0)
+        isolated.run(scenario, hostile_paths, answer_s=0.0)
 
 
 def test_the_master_in_this_process_runs_a_plain_c_fmu_up_to_its_error(hostile_paths):
