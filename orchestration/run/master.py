@@ -91,9 +91,11 @@ class _ObserverFailed(Exception):
 
 
 class _Clock:
-    """The sample the run is at, for stamping log messages (-1 during set-up)."""
+    """The sample the run is at, for stamping log messages (-1 during set-up), and the call under way,
+    (instance, "get" | "set" | "step"), which ``orchestration.run.isolated`` shares with its parent."""
 
     sample = -1
+    call = ("", "")
 
 
 class _LogSink:
@@ -289,10 +291,10 @@ class _Session:
     """One run: the loaded instances, one sample buffer per instance, and how far the samples were
     recorded and handed to the observer."""
 
-    def __init__(self, scenario: Scenario, observer, block_size: int, keep_samples: bool):
+    def __init__(self, scenario: Scenario, observer, block_size: int, keep_samples: bool, clock: _Clock | None):
         self.scenario, self.observer, self.block_size, self.keep = scenario, observer, block_size, keep_samples
         self.logs: list[LogRecord] = []
-        self.clock = _Clock()
+        self.clock = clock or _Clock()
         self.parameters: dict[str, dict[str, float]] = {}
         self.fmus: dict[str, dict[str, str]] = {}
         n_steps = scenario.steps
@@ -352,9 +354,11 @@ class _Session:
         for k in range(n_steps + 1):
             self.k = clock.sample = k
             for ld, record, pushes in targets:
+                clock.call = ld.name, "get"
                 ld.read_outputs()
                 record[row] = ld.out_view
                 for link in pushes:
+                    clock.call = link.target.name, "set"
                     link.push()
             self.recorded = k + 1
             row += 1
@@ -368,6 +372,7 @@ class _Session:
                 return True
             t = k * T  # t_k = k T, the same double as np.arange(...) * T
             for ld in instances:
+                clock.call = ld.name, "step"
                 ld.do_step(t, T)
         return False
 
@@ -402,6 +407,7 @@ def run(
     observer: RunObserver | Sequence[RunObserver] | None = None,
     block_size: int = 1000,
     keep_samples: bool = True,
+    clock: _Clock | None = None,
 ) -> RunResult:
     """Run ``scenario`` with the FMUs at ``fmu_paths`` (model identifier -> .fmu file; an instance whose
     ``fmu`` is a file runs that file unless ``fmu_paths`` maps it to a copy).
@@ -414,12 +420,13 @@ def run(
     the end. ``keep_samples=False`` streams: the master then holds one block per instance, not the
     run (memory bounded for any stop time), and the result carries no sample arrays. The FMUs run
     from this user's cache of unpacked FMUs, checked at every load (``orchestration.run.unpacked``).
+    ``clock``: where the run keeps its sample and call under way (``orchestration.run.isolated``'s child).
     """
     if block_size < 1:
         raise ScenarioError(f"block_size must be >= 1, got {block_size}")
     if observer is not None and not hasattr(observer, "block"):
         observer = _Fanout(observer)
-    session = _Session(scenario, observer, block_size, keep_samples)
+    session = _Session(scenario, observer, block_size, keep_samples, clock)
     error: str | None = None
     interrupted, observer_ok = False, True
     started = time.perf_counter()

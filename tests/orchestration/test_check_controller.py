@@ -223,3 +223,49 @@ def test_an_fmu_that_breaks_the_contract_does_not_run(example, tmp_path, capsys)
     ports.write_text('ports = { tau1 = "u1", tau2 = "Kp" }\n')
     code, out = _main_check(example, ports, tmp_path / "fmus", capsys)
     assert code == 1 and "run against our arm" not in out and not (tmp_path / "fmus").exists(), out
+
+
+def test_a_pythonfmu_controller_written_as_a_user_would_meets_the_contract_and_runs(fmu_paths, tmp_path):
+    """pythonfmu alone, none of our FMU framework (``tests/support/user_pythonfmu/user_pd.py``): checked, then run
+    in place of our controller in a child process (``orchestration.run.isolated``)."""
+    from support import hostile, user_pythonfmu
+
+    from orchestration.run import isolated
+
+    fmu = user_pythonfmu.build(tmp_path)
+    done = _check(fmu, tmp_path)
+    assert done.returncode == 0 and "meets the controller contract" in done.stdout, done.stdout
+    result = isolated.run(hostile.controlled_by("UserPd"), {**fmu_paths, "UserPd": fmu})
+    assert not result.failed and result.samples == 201, result.error
+    torques = result.outputs["controller"]
+    assert torques["tau1"][0] == 0.0 and all(abs(torques[t][1:]).min() > 0 for t in ("tau1", "tau2"))
+
+
+def test_a_hostile_controller_meets_the_contract_until_it_runs(tmp_path, monkeypatch):
+    """The check reads the interface: a controller that crashes in its doStep passes it; its run fails alone
+    (``tests/faults/test_isolated_runs.py``)."""
+    from support import hostile
+
+    done = _check(hostile.build("segv", tmp_path, monkeypatch), tmp_path)
+    assert done.returncode == 0 and "meets the controller contract" in done.stdout, done.stdout
+
+
+def test_a_plain_c_fmi3_controller_meets_the_contract_and_runs_as_its_fmi2_twin(fmu_paths, tmp_path, monkeypatch):
+    """The example's PD controller as FMI 3.0 in plain C (``tests/support/fmi3_pd``): checked, then run in a child
+    process; its torques are those of the same C code as FMI 2.0 (a hostile twin, until its fault at t = 1 s)."""
+    import numpy as np
+    from support import fmi3_pd, hostile
+
+    from orchestration.run import isolated, master
+
+    fmu = fmi3_pd.build(tmp_path)
+    done = _check(fmu, tmp_path)
+    assert done.returncode == 0 and "meets the controller contract" in done.stdout, done.stdout
+    result = isolated.run(hostile.controlled_by(fmi3_pd.IDENTIFIER), {**fmu_paths, fmi3_pd.IDENTIFIER: fmu})
+    assert not result.failed and result.samples == 201, result.error
+    twin_fmu = hostile.build("error", tmp_path, monkeypatch)
+    twin = master.run(hostile.scenario("error"), {**fmu_paths, "HostileError": twin_fmu})
+    n = twin.samples
+    assert n == hostile.FAULT_SAMPLE + 1
+    for torque in ("tau1", "tau2"):
+        assert np.array_equal(result.outputs["controller"][torque][:n], twin.outputs["controller"][torque])
