@@ -14,21 +14,12 @@ from dataclasses import dataclass
 from typing import Any, ClassVar, Sequence
 
 from fmi_slave.parameters import ParameterError, ParameterSpec, check_all
+from fmu_controller.ports import TORQUE_PORTS
 from fmu_plant.dynamics import ARM_PARAMETER_SPECS, ArmParameters
 
 # Parameters renamed in 0.2.0 (CHANGELOG.md): the torque limit is ``rho`` in every controller, as in the paper.
 RENAMED_PARAMETERS = {"tau_max": "rho", "tau_limit": "rho"}
 
-# Port names: inputs are named exactly like the outputs that feed them.
-MEASUREMENT_PORTS = ("phi1", "phi2", "dphi1", "dphi2")
-REFERENCE_PORTS = ("phi1_d", "phi2_d", "dphi1_d", "dphi2_d", "ddphi1_d", "ddphi2_d")
-TORQUE_PORTS = ("tau1", "tau2")
-TORQUE_UNIT = "N.m"
-INPUT_UNITS = {
-    "phi1": "rad", "phi2": "rad", "dphi1": "rad/s", "dphi2": "rad/s",
-    "phi1_d": "rad", "phi2_d": "rad", "dphi1_d": "rad/s", "dphi2_d": "rad/s",
-    "ddphi1_d": "rad/s2", "ddphi2_d": "rad/s2",
-}
 
 # The nominal model a model-based controller uses: the plant's physical constants (not l1, l2).
 MODEL_PARAMETER_SPECS: tuple[ParameterSpec, ...] = tuple(

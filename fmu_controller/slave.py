@@ -19,14 +19,8 @@ import numpy as np
 
 from fmi_slave.parameters import ParameterError
 from fmi_slave.slave import DescribedSlave, all_finite
-from fmu_controller.base import (
-    INPUT_UNITS,
-    MEASUREMENT_PORTS,
-    MODEL_PARAMETER_SPECS,
-    REFERENCE_PORTS,
-    TORQUE_UNIT,
-    ControllerCore,
-)
+from fmu_controller.base import MODEL_PARAMETER_SPECS, ControllerCore
+from fmu_controller.ports import INPUT_UNITS, MEASUREMENT_PORTS, REFERENCE_PORTS, TORQUE_UNIT
 from fmu_plant.dynamics import STEP_SIZE, ArmParameters
 
 INPUT_PORTS = MEASUREMENT_PORTS + REFERENCE_PORTS

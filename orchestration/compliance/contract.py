@@ -17,7 +17,7 @@ import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from fmu_controller.base import INPUT_UNITS, MEASUREMENT_PORTS, REFERENCE_PORTS, TORQUE_PORTS, TORQUE_UNIT
+from fmu_controller.ports import INPUT_UNITS, MEASUREMENT_PORTS, REFERENCE_PORTS, TORQUE_PORTS, TORQUE_UNIT
 from orchestration.exit_codes import UsageError
 from orchestration.run.ported import ELEMENT, element, port_map
 

@@ -46,7 +46,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any, Callable
 
-from fmu_controller.base import INPUT_UNITS, TORQUE_PORTS
+from fmu_controller.ports import INPUT_UNITS, TORQUE_PORTS
 from fmu_plant.paper_setting import STEP_SIZE, TORQUE_LIMIT
 from orchestration.exit_codes import UsageError
 from orchestration.toml_files import parse_toml, read_toml, unknown_file

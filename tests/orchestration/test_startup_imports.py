@@ -46,7 +46,9 @@ PARSED = """
 import sys
 from orchestration.cli import build_parser
 build_parser().parse_args(["run", "paper"])
-print(" ".join(sorted({m.split(".")[0] for m in sys.modules} & {"numpy", "fmpy", "rerun", "fmu_controller"})))
+heavy = {m.split(".")[0] for m in sys.modules} & {"numpy", "fmpy", "rerun"}
+cores = {m for m in sys.modules if m.startswith("fmu_controller.") and m != "fmu_controller.ports"}  # ports: names only
+print(" ".join(sorted(heavy | cores)))
 """
 
 
