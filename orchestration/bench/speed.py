@@ -231,9 +231,10 @@ def plumbing_floor(scenario, paths) -> dict:
 def _fmi_timed(timer: Timer):
     """The master's get, doStep and set calls timed under those labels."""
     from orchestration.run import master
+    from orchestration.run.fmi2_instance import Instance2
 
-    with patched(master._Loaded, "read_outputs", timer.wrap("get", master._Loaded.read_outputs)), \
-            patched(master._Loaded, "do_step", timer.wrap("doStep", master._Loaded.do_step)), \
+    with patched(Instance2, "read_outputs", timer.wrap("get", Instance2.read_outputs)), \
+            patched(Instance2, "do_step", timer.wrap("doStep", Instance2.do_step)), \
             patched(master._Inputs, "push", timer.wrap("set", master._Inputs.push)):
         yield
 

@@ -19,7 +19,7 @@ from fmpy.fmi3 import FMU3Slave, fmi3Boolean, fmi3Float64, fmi3ValueReference
 
 from fmi3_slave.arrays import element_names
 from orchestration.run.fmi3_direct import element_count, element_starts
-from orchestration.run.parameter_check import model_description, parameter_values, set_parameters
+from orchestration.run.parameter_check import parameter_values, set_parameters
 from orchestration.run.scenario import ScenarioError
 from orchestration.run.unpacked import unpacked
 
@@ -32,11 +32,11 @@ def _checked(status: int, function: str) -> None:
 
 
 class Instance3:
-    """``master._Loaded`` for an FMI 3.0 FMU (``sink.append((status, message))`` receives its log)."""
+    """``fmi2_instance.Instance2`` for an FMI 3.0 FMU (``sink.append((status, message))`` receives its log; ``md``:
+    its model description, parsed once by the master)."""
 
-    def __init__(self, name: str, fmu_file: Path, sink):
-        self.name = name
-        self.md = model_description(fmu_file)
+    def __init__(self, name: str, fmu_file: Path, md, sink):
+        self.name, self.md = name, md
         if getattr(self.md, self.INTERFACE) is None:
             raise ScenarioError(f"{fmu_file} does not support {self.INTERFACE}")
         self.unzipdir = unpacked(fmu_file)

@@ -25,14 +25,14 @@ from typing import Protocol, Sequence
 
 import numpy as np
 from fmpy.fmi1 import FMICallException
-from fmpy.fmi2 import FMU2Slave, fmi2Real, fmi2True, fmi2ValueReference, fmi2Warning
+from fmpy.fmi2 import fmi2Real, fmi2ValueReference, fmi2Warning
 
 from orchestration.run import interrupt
-from orchestration.run.fmi_direct import forget_callbacks, make_callbacks
-from orchestration.run.parameter_check import model_description, parameter_values, set_parameters
+from orchestration.run.fmi2_instance import Instance2
+from orchestration.run.fmi_direct import forget_callbacks
+from orchestration.run.parameter_check import model_description
 from orchestration.run.ported import Ported
 from orchestration.run.scenario import Scenario, ScenarioError
-from orchestration.run.unpacked import unpacked
 
 STATUS_LABELS = ("OK", "WARNING", "DISCARD", "ERROR", "FATAL", "PENDING")
 
@@ -110,85 +110,30 @@ class _LogSink:
         self.logs.append(LogRecord(self.instance, label, message, self.clock.sample))
 
 
-class _Loaded:
-    """One FMU instance with its value references and preallocated ctypes buffers."""
-
-    def __init__(self, name: str, fmu_file: Path, logs: list[LogRecord], clock: _Clock):
-        self.name = name
-        self.md = model_description(fmu_file)  # parsed once per FMU file (runs, sweep points, the CLI's check)
-        if self.md.coSimulation is None:
-            raise ScenarioError(f"{fmu_file} does not support co-simulation")
-        self.unzipdir = unpacked(fmu_file)
-        self.vars = {v.name: v for v in self.md.modelVariables}
-        self.output_names = [v.name for v in self.md.modelVariables if v.causality == "output" and v.type == "Real"]
-        self.inputs = {v.name for v in self.md.modelVariables if v.causality == "input"}
-        self.feedthrough = any(u.dependencies for u in self.md.outputs)
-        self.out_vr = (fmi2ValueReference * len(self.output_names))(*(self.vars[n].valueReference for n in self.output_names))
-        self.out_buf = (fmi2Real * len(self.output_names))()
-        self.out_view = np.ctypeslib.as_array(self.out_buf)
-        self.fmu = FMU2Slave(
-            guid=self.md.guid, unzipDirectory=self.unzipdir,
-            modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=name,
-        )
-        # fmpy keeps one process-wide logger: fmi_direct routes each instance's messages to its sink
-        self.callbacks = make_callbacks(_LogSink(name, logs, clock))
-        self.fmu.instantiate(callbacks=self.callbacks, loggingOn=True)
-        self.instantiated = True
-        self.initialized = False
-
-        # fmpy's raw ctypes functions: its per-call wrapper costs more than the call; each status is
-        # checked as it checks it (anything worse than a warning raises)
-        self.raw_get = self.fmu._functions["fmi2GetReal"]
-        self.raw_set = self.fmu._functions["fmi2SetReal"]
-        self.raw_step = self.fmu._functions["fmi2DoStep"]
-        self.n_out = len(self.output_names)
-        self.get_args = (self.fmu.component, self.out_vr, self.n_out, self.out_buf)  # looked up once, not per call
-
-    def initialize(self, stop_time: float) -> None:
-        self.fmu.setupExperiment(startTime=0.0, stopTime=stop_time)
-        self.fmu.enterInitializationMode()
-        self.fmu.exitInitializationMode()
-
-    def read_outputs(self) -> None:
-        status = self.raw_get(*self.get_args)
-        if status > fmi2Warning:
-            raise FMICallException(function="fmi2GetReal", status=status)
-
-    def do_step(self, t: float, h: float) -> None:
-        status = self.raw_step(self.fmu.component, t, h, fmi2True)
-        if status > fmi2Warning:
-            raise FMICallException(function="fmi2DoStep", status=status)
-
-    def parameter_values(self) -> dict[str, float]:
-        """Every Real and Integer parameter as the instance holds it now."""
-        return parameter_values(self.md, {"Real": self.fmu.getReal, "Integer": self.fmu.getInteger})
-
-    def set_parameters(self, values: dict[str, float]) -> None:
-        set_parameters(self.md, self.name, values, {"Real": (self.fmu.setReal, float),
-                                                     "Integer": (self.fmu.setInteger, int)})
-
 def _instance(inst, fmu_file: Path, logs: list[LogRecord], clock: _Clock):
-    """The instance of an FMI 2.0 FMU, or of an FMI 3.0 one (``fmi3_instance``: the same interface;
-    ``fmi3_exchange`` for its Model Exchange interface)."""
-    fmi3 = model_description(fmu_file).fmiVersion.startswith("3")
+    """The instance of an FMI 2.0 FMU (``fmi2_instance``) or of an FMI 3.0 one (``fmi3_instance``; ``fmi3_exchange``
+    for its Model Exchange interface): one interface, each handed the model description parsed once here."""
+    md = model_description(fmu_file)  # parsed once per FMU file (runs, sweep points, the CLI's check)
+    fmi3 = md.fmiVersion.startswith("3")
+    sink = _LogSink(inst.name, logs, clock)
     if inst.interface == "ModelExchange":
         if not fmi3:
             raise ScenarioError(f"instance '{inst.name}': interface = \"ModelExchange\" needs an FMI 3.0 FMU; "
                                 f"{fmu_file} is FMI 2.0 (run with --fmi 3)")
         from orchestration.run.fmi3_exchange import ExchangeInstance
 
-        return ExchangeInstance(inst.name, fmu_file, _LogSink(inst.name, logs, clock))
+        return ExchangeInstance(inst.name, fmu_file, md, sink)
     if fmi3:
         from orchestration.run.fmi3_instance import Instance3
 
-        return Instance3(inst.name, fmu_file, _LogSink(inst.name, logs, clock))
-    return _Loaded(inst.name, fmu_file, logs, clock)
+        return Instance3(inst.name, fmu_file, md, sink)
+    return Instance2(inst.name, fmu_file, md, sink)
 
 
 class _Link:
     """All connections from one source instance to one target instance."""
 
-    def __init__(self, source: _Loaded, target: _Loaded, pairs: list[tuple[str, str]]):
+    def __init__(self, source: Instance2, target: Instance2, pairs: list[tuple[str, str]]):
         self.source, self.target = source, target
         self.src_index = np.array([source.output_names.index(o) for o, _ in pairs], dtype=np.intp)
         self.target_vrs = [target.vars[i].valueReference for _, i in pairs]
@@ -200,7 +145,7 @@ class _Inputs:
     consecutive outputs of a single source (the arm's torques), the call reads them where the source's
     outputs were read into: nothing is copied."""
 
-    def __init__(self, target: _Loaded, links: list[_Link]):
+    def __init__(self, target: Instance2, links: list[_Link]):
         self.target, self.raw_set = target, target.raw_set
         vrs = [vr for link in links for vr in link.target_vrs]
         self.n = len(vrs)
@@ -241,7 +186,7 @@ def _input_pushes(order: list[str], links: list[_Link]) -> dict[str, list[_Input
     return pushes
 
 
-def _resolve_links(scenario: Scenario, loaded: dict[str, _Loaded]) -> list[_Link]:
+def _resolve_links(scenario: Scenario, loaded: dict[str, Instance2]) -> list[_Link]:
     """The scenario's connections grouped by (source, target) instance pair."""
     connections = scenario.resolve_connections(
         {n: ld.output_names for n, ld in loaded.items()}, {n: ld.inputs for n, ld in loaded.items()})
@@ -251,7 +196,7 @@ def _resolve_links(scenario: Scenario, loaded: dict[str, _Loaded]) -> list[_Link
     return [_Link(loaded[s], loaded[d], p) for (s, d), p in pairs.items()]
 
 
-def _feedthrough_order(loaded: dict[str, _Loaded], links: list[_Link]) -> list[str]:
+def _feedthrough_order(loaded: dict[str, Instance2], links: list[_Link]) -> list[str]:
     """Instances ordered so that each feedthrough instance comes after every instance feeding it."""
     deps = {name: set() for name in loaded}
     for link in links:
@@ -300,7 +245,7 @@ class _Session:
         n_steps = scenario.steps
         self.rows = n_steps + 1 if keep_samples else min(block_size, n_steps + 1)  # rows held per instance
         self.times = np.arange(n_steps + 1, dtype=float) * scenario.step_size if keep_samples else None
-        self.loaded: dict[str, _Loaded] = {}
+        self.loaded: dict[str, Instance2] = {}
         self.records: dict[str, np.ndarray] = {}
         self.k = -1  # the sample being computed
         self.recorded = 0  # samples t_0 .. t_{recorded-1} hold every output of every instance
@@ -464,7 +409,7 @@ def _describe_failure(exc: Exception, k: int, step: float, n_steps: int, logs: l
     return f"{what} {where}" + (f" -- {reasons}" if reasons else "")
 
 
-def _free(loaded: dict[str, _Loaded]) -> None:
+def _free(loaded: dict[str, Instance2]) -> None:
     for ld in loaded.values():
         if not ld.instantiated:
             continue

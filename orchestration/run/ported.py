@@ -3,7 +3,7 @@ and the actuator between it and the arm.
 
 The scenario's port map names the FMU's own variable for each contract name it uses (``ports``; without one,
 its variables of the contract's own names, ``port_map``). ``Ported`` wraps the master's instance of the FMU
-(``master._Loaded`` for FMI 2.0, ``fmi3_instance.Instance3`` for FMI 3.0, loaded through the same path and
+(``fmi2_instance.Instance2`` for FMI 2.0, ``fmi3_instance.Instance3`` for FMI 3.0, loaded through the same path and
 their model description parsed once) and presents it to the master as one of ours:
 
 * its mapped inputs are the contract's names (``phi1`` ... ``ddphi2_d``), so the scenario's ``[[connect]]``
@@ -24,7 +24,7 @@ import re
 import numpy as np
 
 from fmi3_slave.arrays import element_names
-from fmu_controller.base import INPUT_UNITS, TORQUE_PORTS
+from fmu_controller.ports import INPUT_UNITS, TORQUE_PORTS
 from fmu_controller.saturation import saturate_norm
 from orchestration.run.fmi3_direct import element_count
 from orchestration.run.metrics import TORQUE_CUT
@@ -89,7 +89,7 @@ def _scalar(variables: dict, name: str) -> str:
 
 class Ported:
     """The master's instance ``inner`` of a controller FMU from any tool, under the contract's names, with the
-    actuator that bounds its torques to ``bound`` (the interface of ``master._Loaded``)."""
+    actuator that bounds its torques to ``bound`` (the interface of ``fmi2_instance.Instance2``)."""
 
     def __init__(self, inner, ports: dict[str, str], bound: float):
         variables = {v.name: v for v in inner.md.modelVariables}
