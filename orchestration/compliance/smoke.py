@@ -40,10 +40,11 @@ def models(scenario: Scenario) -> list[str]:
 
 
 def run_controller(scenario: Scenario, fmu_paths: dict):
-    """The one place this check runs the FMU (``master.run``'s signature)."""
-    from orchestration.run.master import run
+    """The one place this check runs the FMU: in a child process, so that a crash or a hang of the FMU fails the
+    run with its reason (``isolated``), not the command."""
+    from orchestration.run.isolated import run_any
 
-    return run(scenario, fmu_paths)
+    return run_any(scenario, fmu_paths)
 
 
 def smoke(checked: Check, fmu_paths: dict) -> Smoke:

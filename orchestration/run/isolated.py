@@ -331,6 +331,21 @@ def run(
     return result
 
 
+def hosted(scenario: Scenario) -> bool:
+    """Whether ``scenario`` runs an FMU given as a file (a controller from any tool): such code is hostile
+    until shown otherwise, so its runs go into a child process; our built FMUs run in this one."""
+    return any(inst.file is not None for inst in scenario.instances.values())
+
+
+def run_any(scenario: Scenario, fmu_paths: dict[str, Path], observer: RunObserver | Sequence[RunObserver] | None = None,
+            block_size: int = 1000, keep_samples: bool = True, answer_s: float = ANSWER_S) -> RunResult:
+    """The run every command makes: ``run`` (a child process) where the scenario is ``hosted``, else
+    ``master.run`` in this process, at its speed."""
+    if hosted(scenario):
+        return run(scenario, fmu_paths, observer, block_size, keep_samples, answer_s)
+    return master.run(scenario, fmu_paths, observer, block_size, keep_samples)
+
+
 def _unlinked_file() -> int:
     """Where there is no memfd: a temporary file already unlinked."""
     with tempfile.TemporaryFile() as f:

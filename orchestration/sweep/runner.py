@@ -156,8 +156,10 @@ def _sha256(path: Path) -> str:
 
 
 def run_point(task: dict[str, Any], blobs: dict[str, tuple[str, bytes]]) -> dict[str, Any]:
-    """One point: run, summarise, and return its row (never raises: a failure is a row)."""
-    from orchestration.run.master import run
+    """One point: run, summarise, and return its row (never raises: a failure is a row). A point with an FMU file
+    from elsewhere runs in a child process (``isolated``): its crash or hang fails the point, not the worker; it
+    gets no more time without an answer than the point's time limit."""
+    from orchestration.run.isolated import ANSWER_S, run_any
     from orchestration.run.summary import summarize
 
     point: Point = task["point"]
@@ -169,6 +171,11 @@ def run_point(task: dict[str, Any], blobs: dict[str, tuple[str, bytes]]) -> dict
     scratch = Path(tempfile.mkdtemp(prefix="sotc_point_", dir=private_folder("scratch", task.get("scratch", "points"))))
     rrd_file = scratch / "point.rrd" if task["record"] else None
     guard = None
+    answer_s = min(ANSWER_S, task["time_limit"])
+
+    def run(scenario, paths, observer, block_size):
+        return run_any(scenario, paths, observer, block_size, answer_s=answer_s)
+
     try:
         paths = _fmu_cache({m: blobs[m] for m in {i.fmu for i in scenario.instances.values()}})
         if rrd_file is None:

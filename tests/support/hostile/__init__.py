@@ -40,8 +40,9 @@ def _description(fault: str, folder: Path) -> Path:
     return path
 
 
-def build(fault: str, folder: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
-    """``<identifier>.fmu`` in ``folder``, built by the example's build.py with ``HOSTILE_FAULT`` set."""
+def build(fault: str, folder: Path, monkeypatch: pytest.MonkeyPatch, sample: int = FAULT_SAMPLE) -> Path:
+    """``<identifier>.fmu`` in ``folder``, built by the example's build.py with ``HOSTILE_FAULT`` set; it misbehaves
+    from the doStep of ``sample`` on (at T = 0.01 s)."""
     cc = compiler()
     if cc is None:
         pytest.skip("no C compiler ($CC, cc or gcc) to build the hostile controller FMUs")
@@ -49,7 +50,8 @@ def build(fault: str, folder: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     script = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(script)
     script.SOURCE, script.DESCRIPTION, script.IDENTIFIER = SOURCE, _description(fault, folder), identifier(fault)
-    monkeypatch.setenv("CC", f"{cc} -DHOSTILE_FAULT={FAULTS[fault]}")  # build.py takes options in $CC
+    start = f" -DFAULT_FROM={sample - 0.5}e-2" if sample != FAULT_SAMPLE else ""  # between two samples
+    monkeypatch.setenv("CC", f"{cc} -DHOSTILE_FAULT={FAULTS[fault]}{start}")  # build.py takes options in $CC
     return script.build(folder)
 
 

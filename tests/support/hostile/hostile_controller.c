@@ -21,7 +21,9 @@
 #error "compile with -DHOSTILE_FAULT=1..6 (the fault of fmi2DoStep)"
 #endif
 
-#define FAULT_FROM 0.995 /* the step from t = 1.00 s (sample 100 at T = 0.01 s) on */
+#ifndef FAULT_FROM
+#define FAULT_FROM 0.995 /* the step from t = 1.00 s (sample 100 at T = 0.01 s) on; -DFAULT_FROM=... moves it */
+#endif
 
 fmi2Status pd_do_step(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean noSetPrior);
 
