@@ -77,7 +77,7 @@ def run_each(scenarios, paths, recording_for=None, keep_samples: bool = True, re
     ``keep_samples=False`` streams each run (bounded memory: the summary is computed on the way
     and the result holds no samples)."""
     from orchestration.progress import Progress
-    from orchestration.run.master import run
+    from orchestration.run.isolated import run_any as run
     from orchestration.run.summary import SummaryObserver, summarize
 
     progress = Progress(len(scenarios), progress_label) if progress_label else None
@@ -187,6 +187,22 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     return exit_code(summaries)
 
 
+def _also(names: list[str]) -> list:
+    """The scenarios of ``--with`` (a controller of one's own beside ours: every table, the recording), each
+    under a name no run of reproduce has."""
+    from orchestration.study.reproduce import REPRODUCE_SCENARIOS
+
+    scenarios, taken = [], set(REPRODUCE_SCENARIOS)
+    for name in names:
+        scenario = load_scenario(name)
+        if scenario.name in taken:
+            raise ScenarioError(f"--with {name}: its name '{scenario.name}' is already a run of this reproduce; "
+                                "give the scenario file another name = \"...\"")
+        taken.add(scenario.name)
+        scenarios.append(scenario)
+    return scenarios
+
+
 def _cmd_reproduce(args: argparse.Namespace) -> int:
     from orchestration.recording.overlays import record_comparison
     from orchestration.study.reproduce import chaos_notes, compact_table, reproduce_scenarios, write_table
@@ -195,7 +211,8 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
         check_output_folder(args.out, "--out")
         _check_recording(args, within=args.out)
 
-    results, summaries = zip(*run_each(*prepare(reproduce_scenarios(), args.stop_time, fmu_dir_of(args), check, args.fmi),
+    scenarios = [*reproduce_scenarios(), *_also(args.also)]
+    results, summaries = zip(*run_each(*prepare(scenarios, args.stop_time, fmu_dir_of(args), check, args.fmi),
                                         progress_label="reproduce"))
     notes = chaos_notes(summaries)
     md, cs = write_table(summaries, args.out, notes)
@@ -246,6 +263,9 @@ def add_commands(sub) -> None:
     p.add_argument("--out", type=Path, default=OUTPUTS, help="where table1.md/.csv go (default recordings/)")
     p.add_argument("--recording", type=Path, metavar="PATH", default=OUTPUTS / "reproduce.rrd",
                    help="the comparison recording of all runs (default recordings/reproduce.rrd)")
+    p.add_argument("--with", dest="also", action="append", default=[], metavar="SCENARIO",
+                   help="also run this scenario (a name or .toml, e.g. one whose controller is an FMU file of your "
+                   "own) and give it its row in every table and its place in the recording; may be repeated")
     add_force(p, RRD.name)
     add_stop_time(p, "override every scenario's stop time, s (default: the paper's 100 s)")
     add_fmu_dir(p)

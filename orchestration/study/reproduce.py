@@ -163,6 +163,8 @@ COLUMNS: list[tuple[str, str, Callable[[dict[str, Any]], str]]] = [
     ("TV(tau1)/s", "N.m/s", _joint("tau_total_variation_rate", 0, ".3f")),
     ("TV(tau2)/s", "N.m/s", _joint("tau_total_variation_rate", 1, ".3f")),
     ("own cost int (cost_rate)", "", _scalar("cost_integral", ".3f")),
+    # the actuator's cuts of a controller from an FMU file (reproduce --with; docs/benchmark.md): 0 for ours
+    ("samples cut", "", _scalar("torque_cuts", "d")),
 ]
 
 
@@ -266,8 +268,9 @@ def compact_table(summaries: list[dict[str, Any]], notes: dict[str, str]) -> str
         if s["scenario"] in notes:
             first = f"{'chaotic: see below':>39}"
         controller = str(s["controller"]).removesuffix("Controller")  # SotcController: Sotc, as the paper's SOTC
+        controller = "FMU file" if controller.endswith(".fmu") else controller  # reproduce --with: its row's name says
         lines.append(
-            f"{s['scenario']:<{w}} {controller:<10} {str(s.get('limit_handling')):<6} {first} "
+            f"{s['scenario']:<{w}} {controller:<10} {s.get('limit_handling') or '-':<6} {first} "
             f"{fmt_cell(s.get('tracking_cost'), '.4g', 8)} "
             f"{fmt_cell(s.get('max_norm_tau'), '.4g', 10)} {fmt_cell(s.get('samples_over_limit'), 'd', 10)}"
         )

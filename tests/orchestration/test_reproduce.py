@@ -40,8 +40,11 @@ def test_reproduce_writes_the_table_from_its_own_runs(fmu_dir, tmp_path, monkeyp
     monkeypatch.chdir(tmp_path)
     rrd = tmp_path / "out" / "reproduce.rrd"
     rrd.parent.mkdir()  # a file output outside recordings/ must be in an existing folder (issue 47)
+    # a controller of one's own beside ours: here our CT given as an FMU file, so the actuator stands before it
+    (tmp_path / "mine.toml").write_text(f'extends = "paper-ct"\nname = "mine"\n[instances.controller]\n'
+                                        f'fmu = "{fmu_dir / "CtController.fmu"}"\n')
     code = main(["reproduce", "--stop-time", "3", "--fmu-dir", str(fmu_dir), "--out", str(tmp_path / "out"),
-                 "--recording", str(rrd)])
+                 "--recording", str(rrd), "--with", "mine.toml"])
     printed = capsys.readouterr().out
     assert code == 0
     header, rows = _read(tmp_path / "out" / "table1.csv")
@@ -52,12 +55,16 @@ def test_reproduce_writes_the_table_from_its_own_runs(fmu_dir, tmp_path, monkeyp
     paper_rows = [r for r in rows if r[0] == "paper Table 1"]
     ours = [r for r in rows if r[0] == "this run"]
     assert [(r[2], float(r[5]), float(r[6])) for r in paper_rows] == [(k, *v) for k, v in PAPER_TABLE1.items()]
-    assert [r[1] for r in ours] == list(REPRODUCE_SCENARIOS)
-    assert [s["scenario"] for s in captured] == list(REPRODUCE_SCENARIOS)
+    assert [r[1] for r in ours] == [*REPRODUCE_SCENARIOS, "mine"]
+    assert [s["scenario"] for s in captured] == [*REPRODUCE_SCENARIOS, "mine"]
+    assert [r[header.index("samples cut")] for r in ours] == ["0"] * len(ours)  # the CT bounds itself
+    # the same torques and metrics; the limit handling of a file's controller is not ours to name
+    assert ours[-1][2] == "CtController.fmu" and ours[-1][4] == ""
+    assert ours[-1][5:] == ours[REPRODUCE_SCENARIOS.index("paper-ct")][5:]
     for row, s in zip(ours, captured):
         assert s["stop_time"] == 3.0 and s["samples"] == 301
         assert row[4:] == [get(s, True) for _, _, get in COLUMNS]  # table1.csv: full precision
-        assert row[4] == s["limit_handling"] and float(row[5]) == s["mse"][0]
+        assert row[4] == (s["limit_handling"] or "") and float(row[5]) == s["mse"][0]
         assert s["mse_after_5s"] is None and row[header.index("MSE1 t>=5s [rad^2]")] == ""  # a 3 s run
         after = s["mse_after_limit"]
         assert row[header.index("MSE2 after last limit [rad^2]")] == ("" if after is None else repr(after[1]))
@@ -96,8 +103,16 @@ def test_reproduce_writes_the_table_from_its_own_runs(fmu_dir, tmp_path, monkeyp
     assert {on.name for on, _ in learning_pairs()} == {"paper", "paper-tuned-accel", "paper-tuned-radial"}
     # the comparison recording overlays every run of this invocation (paper Figs 10-12)
     entities = {c.entity_path for c in RrdReader(rrd).stream().to_chunks()}
-    for name in REPRODUCE_SCENARIOS:
+    for name in [*REPRODUCE_SCENARIOS, "mine"]:
         assert f"/{name}/fmu/plant" in entities, sorted(entities)[:20]
+
+
+def test_a_scenario_with_a_name_reproduce_runs_is_refused(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert main(["reproduce", "--with", "paper-ct", "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("sotc-cosim: error: --with paper-ct: its name 'paper-ct' is already a run of this reproduce")
+    assert len(err.splitlines()) == 1 and list(tmp_path.iterdir()) == []
 
 
 def test_a_chaotic_reading_is_reported_as_not_tracking_with_its_sensitivity(monkeypatch):
