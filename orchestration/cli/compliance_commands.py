@@ -113,7 +113,7 @@ def add_commands(sub) -> None:
     p.add_argument("--ports", type=Path, metavar="TOML", help="a file with ports = { contract name = \"FMU variable\" "
                    "} and, if set, parameters = { name = value } (default: the FMU's variables of the contract's names)")
     p.add_argument("--no-run", action="store_true", help="check the interface only: no 1 s run against our arm "
-                   "(which loads the FMU's binary into this process and builds our arm where missing)")
+                   "(which runs the FMU in a process of its own and builds our arm where missing)")
     add_fmu_dir(p)
     p.set_defaults(func=_cmd_check_controller)
 

@@ -125,6 +125,8 @@ def _parameter_problems(name: str, value: float, variable) -> list[str]:
                 "a host may set (a fixed or tunable parameter)"]
     if variable.type not in (*REALS, "Float32", *INTEGERS):
         return [f"{where}: type {variable.type}, not a number"]
+    if not math.isfinite(value):  # no FMU is asked to take one (TOML writes nan and inf; 1e400 reads as inf)
+        return [f"{where}: not a finite number"]
     found = []
     if variable.type in INTEGERS and value != int(value):
         found.append(f"{where}: {name} is an integer ({variable.type})")

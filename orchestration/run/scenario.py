@@ -208,7 +208,8 @@ class Scenario:
 
         for src, dst in self.by_name:
             matched = [n for n in outputs[src] if n in inputs[dst]]
-            if not matched:
+            # a controller from a file reads what its port map names: a group it leaves out is not fed
+            if not matched and not (self.instances[dst].contract or self.instances[src].contract):
                 raise ScenarioError(f"[[connect]] {src} -> {dst}: no output of {src} matches an input of {dst}")
             for name in matched:
                 add(Connection(src, name, dst, name))
@@ -218,9 +219,10 @@ class Scenario:
 
     def torque_limit(self) -> float:
         """The controller's torque bound ``rho`` as the scenario sets it, else the paper's rho = 4 N.m
-        (section 4), which every controller FMU uses by default."""
+        (section 4), which every controller FMU uses by default. A controller from a file is held to the
+        paper's: a parameter of its own named ``rho`` sets nothing of the harness (it would set its own bound)."""
         inst = self.instances.get(CONTROLLER)
-        params = inst.parameters if inst else {}
+        params = inst.parameters if inst and not inst.contract else {}
         return float(params.get("rho", TORQUE_LIMIT))
 
 
@@ -246,6 +248,8 @@ def _read_raw(name_or_path: str, seen: tuple[str, ...] = ()) -> dict[str, Any]:
     parent = raw.pop("extends", None)
     if parent is None:
         return raw
+    if folder is not None and parent.endswith(".toml") and not Path(parent).is_absolute():
+        parent = os.path.normpath(folder / parent)  # relative to the file that writes it, as its fmu paths are
     return _merge(_read_raw(parent, seen + (label,)), raw)
 
 

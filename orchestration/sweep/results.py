@@ -35,6 +35,16 @@ TABLE_METRICS = (  # (column, summary key, joint index or None)
 )
 
 
+# the actuator's cuts of a controller from an FMU file (docs/benchmark.md), a column where a point runs one
+CUT_METRIC = ("samples_cut", "torque_cuts", None)
+
+
+def table_metrics(sweep: Sweep) -> tuple:
+    """``TABLE_METRICS``, and ``CUT_METRIC`` where a point's controller is an FMU file (ours bound themselves: 0)."""
+    hosted = bool(sweep.files) or any(inst.contract for inst in sweep.base.instances.values())
+    return TABLE_METRICS + (CUT_METRIC,) if hosted else TABLE_METRICS
+
+
 ROW_FIELDS = {"index": int, "key": str, "settings": dict, "status": str}  # what a stored point has at least
 
 
@@ -156,10 +166,11 @@ def table_csv(sweep: Sweep, rows: list[dict[str, Any]]) -> str:
     labels = [a.label for a in sweep.axes]
     buf = io.StringIO()
     writer = csv.writer(buf, lineterminator="\n")
-    writer.writerow(["index", "key", *labels, "status", "reason", *(c for c, _, _ in TABLE_METRICS)])
+    columns = table_metrics(sweep)
+    writer.writerow(["index", "key", *labels, "status", "reason", *(c for c, _, _ in columns)])
     for r in rows:
         # a failed point's partial metrics depend on where it stopped (a time limit): left blank
-        metrics = [_cell(metric(r, k, j)) if r["status"] == "ok" else "" for _, k, j in TABLE_METRICS]
+        metrics = [_cell(metric(r, k, j)) if r["status"] == "ok" else "" for _, k, j in columns]
         reason = " ".join((r.get("reason") or "").split())
         writer.writerow([r["index"], r["key"][:16], *(_cell(r["settings"].get(lb)) for lb in labels), r["status"],
                          reason, *metrics])

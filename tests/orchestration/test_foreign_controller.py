@@ -125,11 +125,12 @@ def _no_cosimulation(md: bytes) -> bytes:
      "instances.controller.parameters.gain = 1: the FMU has no variable 'gain'"),
     (f"vendor/{FMU_NAME}", None, "{ q1 = 0.5 }", "", "instances.controller.parameters.q1 = 0.5: causality 'input'"),
     (f"vendor/{FMU_NAME}", None, "{ Kd = -1.0 }", "", "instances.controller.parameters.Kd = -1: outside [0, inf]"),
+    (f"vendor/{FMU_NAME}", None, "{ Kp = nan }", "", "instances.controller.parameters.Kp = nan: not a finite number"),
     ("SotcController", None, "{ rho = 4.0 }", None, "instances.controller.ports: a port map is for a controller "
      "from a file"),
     (f"vendor/{FMU_NAME}", {"foo": "q1"}, GAINS, "", "instances.controller.ports: 'foo' is not one of"),
 ], ids=["missing", "not a zip", "model exchange only", "causality", "no such variable", "unit", "no such parameter",
-        "not a parameter", "a parameter's range", "ports without a file", "not a contract name"])
+        "not a parameter", "a parameter's range", "not finite", "ports without a file", "not a contract name"])
 def test_a_controller_file_that_breaks_the_contract_is_one_line_and_exit_2(
         example, tmp_path, fmu_dir, monkeypatch, capsys, fmu, ports, parameters, vendor, said):
     folder = tmp_path / "s"
@@ -147,6 +148,36 @@ def test_a_controller_file_that_breaks_the_contract_is_one_line_and_exit_2(
     lines = captured.err.strip().splitlines()
     assert len(lines) == 1 and "s/mine.toml" in lines[0] and said.format(dir=folder) in lines[0], captured.err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["s"]  # no summary, no recording
+
+
+def test_a_parameter_of_the_file_named_rho_sets_its_own_bound_not_the_harness(tmp_path):
+    """The bound is the same for everyone: a controller from a file with a parameter ``rho`` of its own (which may
+    mean anything to it) leaves the actuator's and the metrics' bound at the paper's 4 N.m; ours set it."""
+    path = _scenario(tmp_path, parameters="{ rho = 100.0 }")
+    assert load_scenario(str(path)).torque_limit() == TORQUE_LIMIT
+    assert load_scenario("paper").with_parameters({"controller.rho": 3.0}).torque_limit() == 3.0
+
+
+def test_a_map_that_leaves_the_reference_out_runs_without_it(example, tmp_path, fmu_paths):
+    """Contract inputs the FMU does not read are left out of the map: no reference at all is a controller too
+    (``[[connect]] reference -> controller`` then links nothing, as the contract allows)."""
+    _vendor(tmp_path / "s", example)
+    ports = {k: v for k, v in PORTS.items() if not k.endswith("_d")}
+    scenario = load_scenario(str(_scenario(tmp_path / "s", ports=ports))).with_stop_time(0.2)
+    result = run(scenario, fmu_paths)
+    assert not result.failed, result.error
+    assert np.any(result.outputs["controller"]["u1"] != 0.0)  # it steers the arm to its references' start, 0
+
+
+def test_extends_takes_a_path_from_the_file_that_writes_it(example, tmp_path, monkeypatch):
+    """As the fmu paths do: ``extends = "../mine.toml"`` in s/child/c.toml is s/mine.toml, from any folder."""
+    _vendor(tmp_path / "s", example)
+    _scenario(tmp_path / "s")
+    (tmp_path / "s" / "child").mkdir()
+    (tmp_path / "s" / "child" / "c.toml").write_text('extends = "../mine.toml"\nname = "child"\nstop_time = 0.5\n')
+    monkeypatch.chdir(tmp_path / "s" / "child")  # where a path taken from the working folder would miss
+    child = load_scenario(str(tmp_path / "s" / "child" / "c.toml"))
+    assert child.stop_time == 0.5 and child.instances["controller"].file == tmp_path / "s" / "vendor" / FMU_NAME
 
 
 def test_a_port_map_beside_a_plant_is_refused(tmp_path):
@@ -270,6 +301,12 @@ def test_a_controller_axis_mixes_ours_and_a_controller_file(example, tmp_path, f
     assert [r["summary"]["controller"] for r in rows] == ["CtController", FMU_NAME]
     assert rows[0]["summary"]["torque_cuts"] == 0 < rows[1]["summary"]["torque_cuts"]
     assert rows[0]["key"] != rows[1]["key"]
+    # points.csv counts the cuts where a point runs a file (ours only: no column of zeros)
+    from orchestration.sweep.results import table_csv
+
+    table = [line.split(",") for line in table_csv(sweep, [{**r, "index": i} for i, r in enumerate(rows)]).splitlines()]
+    assert table[0][-1] == "samples_cut" and [t[-1] for t in table[1:]] == ["0", str(rows[1]["summary"]["torque_cuts"])]
+    assert "samples_cut" not in table_csv(load_sweep(str(_sweep_file(tmp_path, ["CtController"]))), [])
 
 
 @pytest.mark.parametrize("value, body, said", [
