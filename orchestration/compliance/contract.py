@@ -44,15 +44,20 @@ class Check:
     problems: list[str] = field(default_factory=list)
 
 
-def read_ports(path: Path) -> tuple[dict[str, str], dict[str, float]]:
-    """The ``ports`` table of a TOML file (contract name -> the FMU's variable name) and its ``parameters``
-    table, if any (the FMU's parameter -> a number to set it to)."""
+def read_ports(path: Path) -> tuple[dict[str, str] | None, dict[str, float]]:
+    """The ``ports`` table of a TOML file (contract name -> the FMU's variable name; None without one: the FMU's
+    variables of the contract's names) and its ``parameters`` table, if any (the FMU's parameter -> a number to
+    set it to); one of the two at least. A controller file (``fmu``, ``search`` besides) is read so too."""
     from orchestration.toml_files import read_toml
 
     raw = read_toml(path, str(path), ContractError)
-    ports, parameters = raw.get("ports"), raw.get("parameters", {})
-    if not isinstance(ports, dict) or not ports:
-        raise ContractError(f"{path}: needs a table ports = {{ contract name = \"FMU variable\", ... }}")
+    unknown = sorted(set(raw) - {"ports", "parameters", "fmu", "search"})  # a controller file's keys are read too
+    if unknown or not {"ports", "parameters"} & set(raw):
+        raise ContractError(f"{path}: a table ports = {{ contract name = \"FMU variable\", ... }} and/or parameters = "
+                            f"{{ name = value, ... }}" + (f"; unknown keys {unknown}" if unknown else ""))
+    ports, parameters = raw.get("ports", {}), raw.get("parameters", {})
+    if not isinstance(ports, dict):
+        raise ContractError(f"{path}: ports: a table {{ contract name = \"FMU variable\", ... }}")
     for key, value in ports.items():
         if key not in UNITS:
             raise ContractError(f"{path}: ports.{key}: not a contract name ({', '.join(UNITS)})")
@@ -63,7 +68,7 @@ def read_ports(path: Path) -> tuple[dict[str, str], dict[str, float]]:
     for key, value in parameters.items():
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
             raise ContractError(f"{path}: parameters.{key}: a finite number")
-    return dict(ports), {k: float(v) for k, v in parameters.items()}
+    return dict(ports) or None, {k: float(v) for k, v in parameters.items()}  # no map: the contract's own names
 
 
 def model_description(path: Path):

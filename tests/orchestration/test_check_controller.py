@@ -95,12 +95,13 @@ def test_a_binary_for_another_platform_only_is_named(example, tmp_path):
 @pytest.mark.parametrize("ports, said", [
     ('ports = { foo = "q1" }\n', "ports.foo: not a contract name"),
     ('ports = { tau1 = 3 }\n', "ports.tau1: the FMU's variable name, a non-empty string"),
-    ("tau1 = 'u1'\n", "needs a table ports = {"),
+    ("tau1 = 'u1'\n", "a table ports = { contract name = \"FMU variable\", ... } and/or parameters = "),
+    ('ports = { tau1 = "u1" }\nextra = 1\n', "unknown keys ['extra']"),
     ("ports = {\n", "ports.toml"),
     ('ports = { tau1 = "u1" }\nparameters = { Kp = "a" }\n', "parameters.Kp: a finite number"),
     ('ports = { tau1 = "u1" }\nparameters = { Kp = nan }\n', "parameters.Kp: a finite number"),
     ('ports = { tau1 = "u1" }\nparameters = 3\n', "parameters: a table"),
-], ids=["not a contract name", "not a name", "no ports table", "not TOML", "a parameter not a number", "nan",
+], ids=["not a contract name", "not a name", "no ports table", "an unknown key", "not TOML", "a parameter not a number", "nan",
         "parameters not a table"])
 def test_a_bad_port_map_is_one_line_and_exit_2(example, tmp_path, ports, said):
     done = _check(example, tmp_path, ports)
@@ -116,6 +117,14 @@ def test_a_file_that_is_no_fmu_is_one_line_and_exit_2(tmp_path, content):
     done = _check(fmu, tmp_path)
     assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1 and "x.fmu" in done.stderr, done.stderr
     assert "Traceback" not in done.stderr
+
+
+def test_a_file_of_parameters_alone_keeps_the_contracts_own_names(fmu_paths, tmp_path):
+    """An FMU of the contract's names needs no map, only the values to set (a controller file's form is read too)."""
+    done = _check(fmu_paths["CtController"], tmp_path, 'fmu = "CtController.fmu"\nparameters = { kp = 50.0 }\n')
+    assert done.returncode == 0 and "tau1      -> tau1" in done.stdout and "meets the controller contract" in done.stdout
+    done = _check(fmu_paths["CtController"], tmp_path, "parameters = { kp = -1.0 }\n")
+    assert done.returncode == 1 and "parameters.kp = -1: outside" in done.stdout, done.stdout
 
 
 @pytest.mark.slow
