@@ -188,7 +188,7 @@ def run_point(task: dict[str, Any], blobs: dict[str, tuple[str, bytes]]) -> dict
                 guard = PointGuard(task["time_limit"], task["state_bound"], stride, recorder)
                 result = run(scenario, paths, observer=guard, block_size=GUARD_BLOCK)
         summary = summarize(result)
-        reason = guard.reason or (result.error if result.failed else None)
+        reason = _reason(guard.reason, result.error if result.failed else None)
     except Exception as exc:  # a refused scenario, an FMU that cannot load, a bug: this point fails
         summary = {"scenario": scenario.name, "controller": scenario.controller_fmu(),
                    "traceback": traceback.format_exc(limit=4)}
@@ -202,6 +202,15 @@ def run_point(task: dict[str, Any], blobs: dict[str, tuple[str, bytes]]) -> dict
         row["rrd"] = rrd_file.read_bytes()
     shutil.rmtree(scratch, ignore_errors=True)
     return row
+
+
+def _reason(stopped: str | None, error: str | None) -> str | None:
+    """Why a point failed: the guard's own stop (time limit, divergence) in its words, unless the run failed of
+    something else first (an FMU file's run in its child: no answer, a crash), whose error says where."""
+    first = error.split("; observer failed: ", 1)[0] if error else None  # what ended the run, before the guard
+    if stopped is not None and (first is None or stopped in first):
+        return stopped
+    return first or stopped
 
 
 def _json_safe(value: Any) -> Any:

@@ -25,6 +25,13 @@ def segv(tmp_path_factory) -> Path:
         return hostile.build("segv", folder, patch, sample=AT)
 
 
+@pytest.fixture(scope="module")
+def loop(tmp_path_factory) -> Path:
+    folder = tmp_path_factory.mktemp("loop")
+    with pytest.MonkeyPatch.context() as patch:
+        return hostile.build("loop", folder, patch, sample=AT)
+
+
 def _scenario(folder: Path, fmu: Path) -> Path:
     path = folder / "hostile.toml"
     path.write_text(f'extends = "paper"\nname = "hostile"\nstop_time = {hostile.STOP_TIME}\n'
@@ -73,3 +80,17 @@ def test_a_sweep_point_with_a_crashed_controller_fails_alone(segv, fmu_dir, tmp_
                        "key": point_key(point.scenario, {m: d for m, (d, _) in blobs.items()})}, blobs)
             for point in sweep.points()]
     assert [(r["status"], r["reason"]) for r in rows] == [("failed", CRASH)] * 2
+
+
+def test_a_sweep_point_whose_controller_hangs_says_where_within_its_time_limit(loop, fmu_dir, tmp_path):
+    """An endless loop in its doStep: the point's child gets no more time without an answer than the point's time
+    limit, and the reason names the call and the time (not only "time limit exceeded")."""
+    from orchestration.sweep.runner import fmu_blobs, point_key, run_point
+    from orchestration.sweep.spec import grid_from_assignments
+
+    [point] = grid_from_assignments(str(_scenario(tmp_path, loop)), ["controller.Kp=10"]).points()
+    blobs = fmu_blobs([i.fmu for i in point.scenario.instances.values()], fmu_dir)
+    row = run_point({"time_limit": 2.0, "state_bound": 1e3, "record": False, "point": point,
+                     "key": point_key(point.scenario, {m: d for m, (d, _) in blobs.items()})}, blobs)
+    assert row["status"] == "failed"
+    assert row["reason"] == f"no answer in 2 s in fmi2DoStep of 'controller' at t = 0.50 s (sample {AT}): the process was killed"
