@@ -82,10 +82,24 @@ def model_description(path: Path):
     unsafe = archive_problems(path)
     if unsafe:
         raise ContractError(f"{path}: {unsafe[0]}")
+    version = _declared_version(path)
+    if version is not None and version not in VERSIONS:  # fmpy reads FMI 1.0 with other rules, or fails on it
+        raise ContractError(f"{path}: FMI {version}: the contract takes FMI {' or '.join(VERSIONS)} Co-Simulation")
     try:
         return read_model_description(str(path), validate=False)
     except Exception as exc:  # noqa: BLE001 - whatever a foreign archive makes fmpy raise, one line
         raise ContractError(f"{path}: cannot read its modelDescription.xml: {exc}") from None
+
+
+def _declared_version(path: Path) -> str | None:
+    """The ``fmiVersion`` its modelDescription.xml declares, or None where it cannot be read so."""
+    import xml.etree.ElementTree as ET
+
+    try:
+        with zipfile.ZipFile(path) as z:
+            return ET.fromstring(z.read("modelDescription.xml")).get("fmiVersion")
+    except (OSError, KeyError, zipfile.BadZipFile, ET.ParseError):
+        return None
 
 
 def _binary_problems(path: Path, md) -> list[str]:

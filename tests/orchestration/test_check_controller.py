@@ -109,7 +109,20 @@ def test_a_bad_port_map_is_one_line_and_exit_2(example, tmp_path, ports, said):
     assert len(done.stderr.strip().splitlines()) == 1 and said in done.stderr and "Traceback" not in done.stderr
 
 
-@pytest.mark.parametrize("content", [None, b"not a zip", b"PK\x05\x06" + b"\0" * 18], ids=["missing", "text", "empty zip"])
+def _fmi1() -> bytes:
+    """A zip whose modelDescription declares FMI 1.0 (fmpy read it with a Python error text)."""
+    import io
+    import zipfile
+
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w") as z:
+        z.writestr("modelDescription.xml", '<?xml version="1.0"?>\n<fmiModelDescription fmiVersion="1.0" modelName="m" '
+                   'modelIdentifier="m" guid="{0}"/>\n')
+    return buf.getvalue()
+
+
+@pytest.mark.parametrize("content", [None, b"not a zip", b"PK\x05\x06" + b"\0" * 18, _fmi1()],
+                         ids=["missing", "text", "empty zip", "FMI 1.0"])
 def test_a_file_that_is_no_fmu_is_one_line_and_exit_2(tmp_path, content):
     fmu = tmp_path / "x.fmu"
     if content is not None:
@@ -117,6 +130,8 @@ def test_a_file_that_is_no_fmu_is_one_line_and_exit_2(tmp_path, content):
     done = _check(fmu, tmp_path)
     assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1 and "x.fmu" in done.stderr, done.stderr
     assert "Traceback" not in done.stderr
+    if content is not None and content.startswith(b"PK\x03"):  # the FMI 1.0 one: said as such
+        assert "FMI 1.0: the contract takes FMI 2.0 or 3.0 Co-Simulation" in done.stderr, done.stderr
 
 
 def test_a_file_of_parameters_alone_keeps_the_contracts_own_names(fmu_paths, tmp_path):
