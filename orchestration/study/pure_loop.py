@@ -91,6 +91,14 @@ class LoopResult:
         return self.outputs[:, :2]
 
 
+def steps(stop_time: float, step: float) -> int:
+    """N = stop_time / T; ValueError unless stop_time is a positive whole multiple of the step."""
+    n = int(round(stop_time / step))
+    if n < 1 or abs(n * step - stop_time) > 1e-9 * max(1.0, stop_time):
+        raise ValueError(f"stop_time {stop_time} must be a positive integer multiple of step {step}")
+    return n
+
+
 def simulate(
     controller_core: ControllerCore,
     stop_time: float = 100.0,
@@ -106,9 +114,7 @@ def simulate(
     default from section 4's initial state with the plant FMU's substeps (``fmu_plant.paper_setting``)."""
     arm = arm if arm is not None else ArmParameters()
     trajectory = trajectory if trajectory is not None else CircleTrajectory()
-    n = int(round(stop_time / step))
-    if n < 1 or abs(n * step - stop_time) > 1e-9 * max(1.0, stop_time):
-        raise ValueError(f"stop_time {stop_time} must be a positive integer multiple of step {step}")
+    n = steps(stop_time, step)
     names = controller_core.output_names()
     ts = np.empty(n + 1)
     ys = np.empty((n + 1, 4))

@@ -1,0 +1,69 @@
+"""The benchmark's loop (orchestration.study.foreign_loop): a controller FMU from any tool against the arm and
+reference cores in-process equals `sotc-cosim run` of the scenario with that FMU as its controller, bit for bit,
+run after run of one loaded FMU (reset between them), and falls back to a new instance where the reset fails.
+The example of examples/pd_controller (plain C, FMI 2.0) is built once for the module."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from fmpy.fmi1 import FMICallException
+from support.example_controller import PORTS, built_fmu
+
+from orchestration.run.master import run
+from orchestration.run.scenario import load_scenario
+from orchestration.study.foreign_loop import ForeignLoop
+from orchestration.study.pure_loop import metrics
+
+STOP = 2.0
+# Kp 10, Kd 3, its own bound 10 N.m: the actuator cuts; Kp 60, Kd 15 within 4 N.m: another run
+GAINS = ({"Kp": 10.0, "Kd": 3.0, "umax": 10.0}, {"Kp": 60.0, "Kd": 15.0, "umax": 4.0})
+
+
+@pytest.fixture(scope="module")
+def example(tmp_path_factory) -> Path:
+    return built_fmu(tmp_path_factory.mktemp("pd"))
+
+
+def _master_run(fmu: Path, parameters: dict, folder: Path, fmu_paths):
+    """`sotc-cosim run`'s master on ``paper`` with the example as its controller (docs/benchmark.md)."""
+    text = (f'extends = "paper"\nname = "mine"\nstop_time = {STOP}\n[instances.controller]\nfmu = "{fmu}"\n'
+            "ports = { " + ", ".join(f'{k} = "{v}"' for k, v in PORTS.items()) + " }\n"
+            "parameters = { " + ", ".join(f"{k} = {v!r}" for k, v in parameters.items()) + " }\n")
+    (folder / "mine.toml").write_text(text)
+    result = run(load_scenario(str(folder / "mine.toml")), fmu_paths)
+    assert not result.failed, result.error
+    return result
+
+
+def test_runs_of_one_loaded_fmu_equal_the_master_bit_for_bit(example, tmp_path, fmu_paths):
+    with ForeignLoop(example, PORTS) as loop:
+        runs = [loop.run(p, stop_time=STOP) for p in GAINS]
+        assert loop.reinstantiated == 0
+    for parameters, mine in zip(GAINS, runs):
+        fmu = _master_run(example, parameters, tmp_path, fmu_paths)
+        plant, ctrl = fmu.outputs["plant"], fmu.outputs["controller"]
+        assert np.array_equal(mine.t, fmu.time)
+        assert np.array_equal(mine.y, np.column_stack([plant[k] for k in ("phi1", "phi2", "dphi1", "dphi2")]))
+        assert mine.names == ("tau1", "tau2", "u1", "u2", "torque_cut")
+        for name in mine.names:
+            assert np.array_equal(mine.out(name), ctrl[name]), name
+        assert mine.cuts == int(np.count_nonzero(ctrl["torque_cut"]))
+    assert runs[0].cuts > 0 and runs[1].cuts == 0  # the actuator acted in one and not the other
+    assert not np.array_equal(runs[0].y, runs[1].y)
+    assert metrics(runs[0])["max_tau_norm"] <= 4.0
+
+
+def test_a_failed_reset_instantiates_the_fmu_again(example, monkeypatch):
+    with ForeignLoop(example, PORTS) as loop:
+        first = loop.run(GAINS[0], stop_time=0.5)
+        old = loop.ported
+
+        def refused():
+            raise FMICallException(function="fmi2Reset", status=3)
+
+        monkeypatch.setattr(old.fmu, "reset", refused)
+        again = loop.run(GAINS[0], stop_time=0.5)
+        assert loop.reinstantiated == 1 and loop.ported is not old and not old.instantiated
+        assert np.array_equal(again.y, first.y) and np.array_equal(again.outputs, first.outputs)
