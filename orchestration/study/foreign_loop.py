@@ -39,6 +39,7 @@ from orchestration.run.metrics import TORQUE_CUT
 from orchestration.run.ported import Ported
 from orchestration.study.pure_loop import NO_PERTURBATION, LoopResult, Perturbation, steps
 
+UNDISTURBED = (0.0, 0.0)
 NAME = "controller"  # the instance's name, as in a scenario (its log records carry it)
 
 
@@ -48,6 +49,11 @@ class ForeignResult(LoopResult):
     outputs, then ``torque_cut``), and the samples whose torques the actuator cut."""
 
     cuts: int = 0
+
+
+def _undisturbed(t: float) -> tuple[float, float]:
+    """``Perturbation.disturbance`` where it does not disturb: the same (0.0, 0.0), without its sine."""
+    return UNDISTURBED
 
 
 class _Samples:
@@ -131,7 +137,8 @@ class ForeignLoop:
         """The hot loop: everything looked up once, no per-step allocation of ours beyond the cores' tuples."""
         arm, trajectory, substeps, perturbation = model
         ys, refs, outs = records
-        sample, measure, disturbance = trajectory.sample, perturbation.measure, perturbation.disturbance
+        sample, measure = trajectory.sample, perturbation.measure
+        disturbance = perturbation.disturbance if perturbation.disturbs else _undisturbed
         noise = NoiseSequence(perturbation.seed)
         ported, push, src, clock = self.ported, self.push, self.samples.out_buf, self.clock
         read, do_step, out, view = ported.read_outputs, ported.do_step, ported.out_buf, ported.out_view

@@ -19,6 +19,7 @@ controller is advanced.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -52,6 +53,11 @@ class Perturbation:
     std_phi: float = _DEFAULT["std_phi"]
     std_dphi: float = _DEFAULT["std_dphi"]
     seed: int = 0  # the MeasurementNoise FMU's default seed
+
+    @property
+    def disturbs(self) -> bool:
+        """False where ``disturbance`` is (0.0, 0.0) at every t: no amplitude other than +0.0."""
+        return any(a != 0.0 or math.copysign(1.0, a) < 0.0 for a in (self.step1, self.step2, self.sin1, self.sin2))
 
     def disturbance(self, t: float) -> tuple[float, float]:
         return disturbance_torque(t, self.step1, self.step2, self.step_time, self.sin1, self.sin2, self.omega)
