@@ -109,16 +109,19 @@ class ForeignLoop:
             self.reinstantiated += 1
             self._open()
 
-    def run(self, parameters: dict[str, float] | None = None, stop_time: float = 2.0, step: float = STEP_SIZE,
+    def run(self, parameters: dict[str, float] | None = None, stop_time: float = 100.0, step: float = STEP_SIZE,
             arm: ArmParameters | None = None, trajectory: CircleTrajectory | None = None,
             phi0: tuple[float, float] = INITIAL_ANGLES, dphi0: tuple[float, float] = INITIAL_VELOCITIES,
             substeps: int = SUBSTEPS, perturbation: Perturbation = NO_PERTURBATION) -> ForeignResult:
         """One closed-loop run (module docstring) with the FMU's ``parameters`` set, from section 4's initial
         state by default (``pure_loop.simulate``'s arguments). A refusal of the FMU raises ``FMICallException``
-        and one of the arm ``IntegrationError``, as ``pure_loop.simulate`` raises; the next run resets the FMU."""
+        and one of the arm ``IntegrationError``, as ``pure_loop.simulate`` raises; the next run resets the FMU.
+        ``logs`` holds this run's log records of the FMU (its sample stamped, -1 while it is set up)."""
         if self.ported is None:
             raise ValueError(f"{self.fmu_file}: the loop was closed")
         n = steps(stop_time, step)
+        self.logs.clear()  # the sinks hold this list: one run's records at a time, however many runs
+        self.clock.sample = -1
         self._restart()
         self.fresh = False
         ported = self.ported

@@ -56,6 +56,7 @@ def _assert_equal(mine, fmu) -> None:
 def test_runs_of_one_loaded_fmu_equal_the_master_bit_for_bit(example, tmp_path, fmu_paths):
     with ForeignLoop(example, PORTS) as loop:
         runs = [loop.run(p, stop_time=STOP) for p in GAINS]
+        assert loop.logs == []  # the example logs nothing on a good run
         perturbed = loop.run(GAINS[1], stop_time=STOP, arm=ArmParameters(**PLANT), phi0=(-1.0, 1.5),
                              perturbation=Perturbation(**DISTURBANCE, **NOISE))
         assert loop.reinstantiated == 0
@@ -81,3 +82,17 @@ def test_a_failed_reset_instantiates_the_fmu_again(example, monkeypatch):
         again = loop.run(GAINS[0], stop_time=0.5)
         assert loop.reinstantiated == 1 and loop.ported is not old and not old.instantiated
         assert np.array_equal(again.y, first.y) and np.array_equal(again.outputs, first.outputs)
+
+
+def test_an_fmi3_controller_runs_as_its_fmi2_twin(example, tmp_path):
+    """The same C as FMI 3.0 (``tests/support/fmi3_pd``: the contract's own names, no map) gives the example's
+    runs bit for bit, reset between parameter sets as well (fmi3Reset)."""
+    from support import fmi3_pd
+
+    with ForeignLoop(fmi3_pd.build(tmp_path)) as loop3, ForeignLoop(example, PORTS) as loop2:
+        for parameters in GAINS:
+            mine, twin = loop3.run(parameters, stop_time=1.0), loop2.run(parameters, stop_time=1.0)
+            assert mine.names == ("tau1", "tau2", "tau1_fmu", "tau2_fmu", "torque_cut")
+            assert np.array_equal(mine.y, twin.y) and np.array_equal(mine.outputs, twin.outputs)
+            assert mine.cuts == twin.cuts
+        assert loop3.reinstantiated == 0
