@@ -19,6 +19,7 @@ controller is advanced.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -52,6 +53,11 @@ class Perturbation:
     std_phi: float = _DEFAULT["std_phi"]
     std_dphi: float = _DEFAULT["std_dphi"]
     seed: int = 0  # the MeasurementNoise FMU's default seed
+
+    @property
+    def disturbs(self) -> bool:
+        """False where ``disturbance`` is (0.0, 0.0) at every t: no amplitude other than +0.0."""
+        return any(a != 0.0 or math.copysign(1.0, a) < 0.0 for a in (self.step1, self.step2, self.sin1, self.sin2))
 
     def disturbance(self, t: float) -> tuple[float, float]:
         return disturbance_torque(t, self.step1, self.step2, self.step_time, self.sin1, self.sin2, self.omega)
@@ -91,6 +97,14 @@ class LoopResult:
         return self.outputs[:, :2]
 
 
+def steps(stop_time: float, step: float) -> int:
+    """N = stop_time / T; ValueError unless stop_time is a positive whole multiple of the step."""
+    n = int(round(stop_time / step))
+    if n < 1 or abs(n * step - stop_time) > 1e-9 * max(1.0, stop_time):
+        raise ValueError(f"stop_time {stop_time} must be a positive integer multiple of step {step}")
+    return n
+
+
 def simulate(
     controller_core: ControllerCore,
     stop_time: float = 100.0,
@@ -106,9 +120,7 @@ def simulate(
     default from section 4's initial state with the plant FMU's substeps (``fmu_plant.paper_setting``)."""
     arm = arm if arm is not None else ArmParameters()
     trajectory = trajectory if trajectory is not None else CircleTrajectory()
-    n = int(round(stop_time / step))
-    if n < 1 or abs(n * step - stop_time) > 1e-9 * max(1.0, stop_time):
-        raise ValueError(f"stop_time {stop_time} must be a positive integer multiple of step {step}")
+    n = steps(stop_time, step)
     names = controller_core.output_names()
     ts = np.empty(n + 1)
     ys = np.empty((n + 1, 4))
