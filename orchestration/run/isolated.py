@@ -21,14 +21,12 @@ parent still has every sample before the fault and says where it happened:
 """
 from __future__ import annotations
 
-import ctypes
 import mmap
 import os
 import signal
 import socket
 import subprocess
 import sys
-import tempfile
 import time
 from multiprocessing.connection import Connection
 from pathlib import Path
@@ -36,7 +34,8 @@ from typing import Sequence
 
 import numpy as np
 
-from orchestration.run import interrupt, master
+from orchestration.run import child, interrupt, master
+from orchestration.run.child import BASE, CALL, COUNT, PAGE, SAMPLE
 from orchestration.run.master import RunObserver, RunResult
 from orchestration.run.parameter_check import model_description
 from orchestration.run.scenario import Scenario, ScenarioError
@@ -45,46 +44,7 @@ ANSWER_S = 30.0  # s without progress before the child is killed
 SETUP_S = 60.0  # s at least for loading, instantiating and initializing the FMUs (imports, unpacking)
 GRACE_S = 5.0  # s for the child to stop after a forwarded signal
 POLL_S = 0.05
-PAGE = mmap.PAGESIZE  # the header's page; the samples not yet sent follow it
-SAMPLE, CALL, BASE, COUNT = range(4)  # the header: int64 each
-KINDS = {"get": ("fmi2GetReal", "fmi3GetFloat64"), "set": ("fmi2SetReal", "fmi3SetFloat64"),
-         "step": ("fmi2DoStep", "fmi3DoStep")}
 ENDING = -1  # the call code once the last sample was recorded: terminating and freeing the FMUs
-# the child's program: this package from where the parent has it (also when the parent found it in its working
-# folder, which -P keeps off the child's path), then _child_main
-CHILD = ("import sys; sys.path[:0] = [] if sys.argv[1] in sys.path else [sys.argv[1]]; "
-         "from orchestration.run.isolated import _child_main; _child_main()")
-_PR_SET_PDEATHSIG = 1
-
-
-def _calls(scenario: Scenario) -> list[tuple[str, str]]:
-    """(instance, kind) for each call code from 1 on."""
-    return [(name, kind) for name in scenario.instances for kind in KINDS]
-
-
-class _SharedClock(master._Clock):
-    """The master's clock, written through to the shared header."""
-
-    def __init__(self, header: np.ndarray, scenario: Scenario):
-        self.header, self.calls = header, _calls(scenario)
-        self.codes = {call: code for code, call in enumerate(self.calls, 1)}
-
-    @property
-    def sample(self) -> int:
-        return int(self.header[SAMPLE])
-
-    @sample.setter
-    def sample(self, k: int) -> None:
-        self.header[SAMPLE] = k
-
-    @property
-    def call(self) -> tuple[str, str]:
-        code = int(self.header[CALL])
-        return self.calls[code - 1] if code >= 1 else ("", "")
-
-    @call.setter
-    def call(self, value: tuple[str, str]) -> None:
-        self.header[CALL] = self.codes[value]
 
 
 class _Tail:
@@ -103,10 +63,6 @@ class _Tail:
 
     def split(self, block: np.ndarray) -> dict[str, np.ndarray]:
         return {name: block[:, s] for name, s in self.slices.items()}
-
-
-def _header(fd: int) -> np.ndarray:
-    return np.frombuffer(mmap.mmap(fd, PAGE), dtype=np.int64, count=4)
 
 
 # ---- the child ----
@@ -160,20 +116,16 @@ class _Forward:
 
 
 def _child_main() -> None:
-    """The child's entry (``CHILD``): argv = the package's folder, parent pid, socket fd, shared file fd."""
-    parent, sock, fd = (int(a) for a in sys.argv[2:5])
-    if sys.platform.startswith("linux"):
-        ctypes.CDLL(None).prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
-    if os.getppid() != parent:  # the parent died before the line above
-        os._exit(1)
+    """The child's entry (``child.start``): the socket's and the shared file's fds in argv."""
+    sock, fd = child.attach()
     conn = Connection(sock)
     scenario, fmu_paths, block_size = conn.recv()
-    header = _header(fd)
+    header = child.header(fd)
     forward = _Forward(conn, fd, header, block_size, scenario)
     with interrupt.signals_deferred():
         try:
             result = master.run(scenario, fmu_paths, forward, block_size=1, keep_samples=False,
-                                clock=_SharedClock(header, scenario))
+                                clock=child.SharedClock(header, child.calls(scenario.instances)))
         except ScenarioError as exc:
             conn.send(("refused", str(exc)))
         else:
@@ -253,10 +205,9 @@ class _Parent:
             return f"after the last sample ({at[3:]}), while the FMUs were terminated and freed"
         if code < 1:
             return at
-        name, kind = _calls(self.scenario)[code - 1]
+        name, kind = child.calls(self.scenario.instances)[code - 1]
         path = self.fmu_paths.get(self.scenario.instances[name].fmu)
-        fmi3 = path is not None and model_description(path).fmiVersion.startswith("3")
-        return f"in {KINDS[kind][fmi3]} of '{name}' {at}"
+        return f"in {child.call_name(kind, model_description(path).fmiVersion if path else '2.0')} of '{name}' {at}"
 
     def build(self, wall: float, error: str | None, interrupted: bool) -> RunResult:
         got = self.result
@@ -295,18 +246,15 @@ def run(
     if observer is not None and not hasattr(observer, "block"):
         observer = master._Fanout(observer)
     started = time.perf_counter()
-    fd = os.memfd_create("sotc-cosim-run") if hasattr(os, "memfd_create") else _unlinked_file()
+    fd = child.shared_file("sotc-cosim-run")
     ours, theirs = socket.socketpair()
     proc = None
     try:
-        os.ftruncate(fd, PAGE)
-        header = _header(fd)
+        header = child.header(fd)
         header[SAMPLE] = -1
         parent = _Parent(scenario, {m: Path(p).resolve() for m, p in fmu_paths.items()}, observer, keep_samples,
                          block_size, fd, header)
-        proc = subprocess.Popen([sys.executable, "-P", "-c", CHILD, str(Path(__file__).resolve().parents[2]),
-                                 str(os.getpid()), str(theirs.fileno()), str(fd)],
-                                pass_fds=(theirs.fileno(), fd), stdin=subprocess.DEVNULL, start_new_session=True)
+        proc = child.start(__name__, "_child_main", (theirs.fileno(), fd))
         theirs.close()
         conn = Connection(ours.detach())
         try:
@@ -321,7 +269,7 @@ def run(
         ours.close()
         theirs.close()
         if proc is not None and proc.poll() is None:
-            _kill(proc)
+            child.kill(proc)
         os.close(fd)  # the maps go with the objects that hold them
     if parent.refused is not None:
         raise ScenarioError(parent.refused)
@@ -346,21 +294,6 @@ def run_any(scenario: Scenario, fmu_paths: dict[str, Path], observer: RunObserve
     return master.run(scenario, fmu_paths, observer, block_size, keep_samples)
 
 
-def _unlinked_file() -> int:
-    """Where there is no memfd: a temporary file already unlinked."""
-    with tempfile.TemporaryFile() as f:
-        return os.dup(f.fileno())
-
-
-def _kill(proc: subprocess.Popen) -> None:
-    """The child's process group, then the child reaped."""
-    try:
-        os.killpg(proc.pid, signal.SIGKILL)
-    except ProcessLookupError:
-        pass
-    proc.wait()
-
-
 def _follow(proc: subprocess.Popen, conn: Connection, parent: _Parent, answer_s: float) -> tuple[str | None, bool]:
     """Until the child sent its result or ended; (error, interrupted) when it gave no result."""
     last, since, forwarded = None, time.monotonic(), None
@@ -374,7 +307,7 @@ def _follow(proc: subprocess.Popen, conn: Connection, parent: _Parent, answer_s:
                 proc.wait()
                 return None, False
             if parent.observer_error is not None:
-                _kill(proc)
+                child.kill(proc)
                 return None, False
             since = time.monotonic()  # the time in the observer is not the child's
         now = time.monotonic()
@@ -389,7 +322,7 @@ def _follow(proc: subprocess.Popen, conn: Connection, parent: _Parent, answer_s:
             last, since = progress, now
         elif now - since > limit:
             where = parent.where()
-            _kill(proc)
+            child.kill(proc)
             parent.recover(conn)
             return f"no answer in {limit:g} s {where}: the process was killed", False
 
@@ -400,14 +333,11 @@ def _ended(proc: subprocess.Popen, conn: Connection, parent: _Parent) -> tuple[s
     parent.recover(conn)
     if interrupt.requested():
         return f"interrupted by {interrupt.signal_name()} {where}", True
-    if code < 0:
-        name = signal.Signals(-code).name if -code in signal.valid_signals() else f"signal {-code}"
-        return f"crashed: {name} {where}", False
-    return f"ended with exit code {code} {where}", False
+    return f"{child.ending(code)} {where}", False
 
 
 def _stopped(proc: subprocess.Popen, conn: Connection, parent: _Parent) -> tuple[str, bool]:
     where = parent.where()
-    _kill(proc)
+    child.kill(proc)
     parent.recover(conn)
     return f"interrupted by {interrupt.signal_name()} {where}: the process did not stop and was killed", True
