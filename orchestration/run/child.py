@@ -97,6 +97,15 @@ def call_name(kind: str, fmi_version: str) -> str:
     return KINDS[kind][fmi_version.startswith("3")]
 
 
+def in_call(name: str, kind: str, fmi_version: str, k: int, step: float) -> str:
+    """Where a child was: ``in fmi2DoStep of 'controller' at t = 1.00 s (sample 100)``."""
+    return f"in {call_name(kind, fmi_version)} of '{name}' {at(k, step)}"
+
+
+def at(k: int, step: float) -> str:
+    return f"at t = {k * step:.2f} s (sample {k})"
+
+
 def kill(proc: subprocess.Popen) -> None:
     """The child's process group, then the child reaped."""
     try:

@@ -198,7 +198,7 @@ class _Parent:
 
     def where(self) -> str:
         k, code = int(self.header[SAMPLE]), int(self.header[CALL])
-        at = f"at t = {k * self.scenario.step_size:.2f} s (sample {k})"
+        at = child.at(k, self.scenario.step_size)
         if k < 0:
             return "during set-up (loading, instantiating or initializing the FMUs)"
         if code == ENDING:
@@ -207,7 +207,8 @@ class _Parent:
             return at
         name, kind = child.calls(self.scenario.instances)[code - 1]
         path = self.fmu_paths.get(self.scenario.instances[name].fmu)
-        return f"in {child.call_name(kind, model_description(path).fmiVersion if path else '2.0')} of '{name}' {at}"
+        return child.in_call(name, kind, model_description(path).fmiVersion if path else "2.0", k,
+                             self.scenario.step_size)
 
     def build(self, wall: float, error: str | None, interrupted: bool) -> RunResult:
         got = self.result
