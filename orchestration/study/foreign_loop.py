@@ -41,6 +41,7 @@ from orchestration.study.pure_loop import NO_PERTURBATION, LoopResult, Perturbat
 
 UNDISTURBED = (0.0, 0.0)
 NAME = "controller"  # the instance's name, as in a scenario (its log records carry it)
+SET, GET, STEP = ((NAME, kind) for kind in ("set", "get", "step"))  # the call under way, as the master's clock has it
 
 
 @dataclass
@@ -71,12 +72,14 @@ class _Samples:
 class ForeignLoop:
     """The controller FMU ``fmu_file`` (FMI 2.0 or 3.0 co-simulation) under the port map ``ports`` (None: its
     variables of the contract's names), loaded once, its torques bounded to ``bound``; ``run`` runs it from a
-    point. ``reinstantiated`` counts the resets that failed. Close it (or use it in a ``with``) to free it."""
+    point. ``reinstantiated`` counts the resets that failed. ``clock`` (a ``master._Clock``) is kept at the
+    sample and the FMI call under way, as the master keeps it. Close it (or use it in a ``with``) to free it."""
 
-    def __init__(self, fmu_file: Path, ports: dict[str, str] | None = None, bound: float = TORQUE_LIMIT):
+    def __init__(self, fmu_file: Path, ports: dict[str, str] | None = None, bound: float = TORQUE_LIMIT,
+                 clock: master._Clock | None = None):
         self.fmu_file, self.ports, self.bound = Path(fmu_file), ports, bound
         self.logs: list[master.LogRecord] = []
-        self.clock = master._Clock()
+        self.clock = clock if clock is not None else master._Clock()
         self.samples = _Samples()
         self.reinstantiated = 0
         self.ported: Ported | None = None
@@ -153,7 +156,9 @@ class ForeignLoop:
             src[0:4] = measure(state, noise, k)
             src[4:] = ref
             if push is not None:
+                clock.call = SET
                 push()
+            clock.call = GET
             read()
             ys[k] = state
             refs[k] = ref
@@ -162,6 +167,7 @@ class ForeignLoop:
                 return
             d1, d2 = disturbance(t)
             state = integrate(state, out[i1] + d1, out[i2] + d2, step, substeps, arm)
+            clock.call = STEP
             do_step(t, step)
 
     def _result(self, n: int, step: float, ys: np.ndarray, refs: np.ndarray, outs: np.ndarray) -> ForeignResult:
