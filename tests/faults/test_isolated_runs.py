@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from support import hostile
+from support.children import children as _children
 from support.cli import leftovers
 
 from orchestration.run import interrupt, isolated, master
@@ -66,19 +67,6 @@ class Seen:
     @property
     def samples(self) -> int:
         return sum(len(t) for t in self.times)
-
-
-def _children() -> set[int]:
-    """The live processes whose parent is this one."""
-    found = set()
-    for status in Path("/proc").glob("[0-9]*/status"):
-        try:
-            fields = dict(line.split(":\t", 1) for line in status.read_text().splitlines() if ":\t" in line)
-        except OSError:
-            continue
-        if int(fields.get("PPid", "0")) == os.getpid() and not fields.get("State", "").startswith("Z"):
-            found.add(int(status.parent.name))
-    return found
 
 
 def test_our_fmus_in_a_child_give_the_samples_of_the_run_in_this_process(fmu_paths):
