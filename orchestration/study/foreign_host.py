@@ -13,7 +13,9 @@ samples themselves only when asked. A run fails, the host going on with a new ch
 - nothing moved for ``answer_s`` seconds (``isolated.SETUP_S`` at least while the FMU is loaded): the child is
   killed, ``no answer in 1 s in fmi2DoStep of ...: the process was killed``;
 - the run raised in the child (an FMI error, the arm's ``IntegrationError`` on a torque that is not a finite
-  number): its reason as ``master.run`` words it; this child goes on (the next run resets the FMU).
+  number): its reason as ``master.run`` words it; this child goes on (the next run resets the FMU);
+- a signal the command defers (``orchestration.run.interrupt``) came: the child is killed at once (the loop
+  does not stop between two steps), ``interrupted by SIGTERM in ...``, and the run is ``interrupted``.
 """
 from __future__ import annotations
 
@@ -27,7 +29,7 @@ from multiprocessing.connection import Connection
 from pathlib import Path
 
 from fmu_plant.paper_setting import TORQUE_LIMIT
-from orchestration.run import child, master
+from orchestration.run import child, interrupt, master
 from orchestration.run.child import CALL, SAMPLE
 from orchestration.run.isolated import ANSWER_S, GRACE_S, POLL_S, SETUP_S
 from orchestration.run.parameter_check import model_description
@@ -51,6 +53,7 @@ class HostedRun:
     cuts: int = 0
     samples: ForeignResult | None = None
     logs: list[master.LogRecord] = field(default_factory=list)
+    interrupted: bool = False
 
 
 # ---- the child ----
@@ -153,7 +156,7 @@ class ForeignHost:
         self.header[SAMPLE] = -1  # before the request: the child writes the header once it has it
         answer = self._request((parameters or {}, arguments, samples, late_from), self.answer_s)
         if isinstance(answer, str):
-            return HostedRun(True, answer)
+            return HostedRun(True, answer, interrupted=answer.startswith("interrupted by "))
         if answer[0] == "failed":
             return HostedRun(True, answer[1], logs=answer[2])
         return HostedRun(False, None, *answer[1:])
@@ -178,6 +181,10 @@ class ForeignHost:
                     self._drop()
                     return f"{child.ending(code)} {where}"
             now, progress = time.monotonic(), tuple(self.header)
+            if interrupt.requested():
+                where = self._where()
+                self._drop()
+                return f"interrupted by {interrupt.signal_name()} {where}: the process was killed"
             if progress != last:
                 last, since = progress, now
             elif now - since > limit:

@@ -5,6 +5,7 @@ was lost); no child is left after close and nothing in TMPDIR. The hostile FMUs 
 misbehave from their doStep at sample 10 (t = 0.10 s); a run of 0.05 s ends before it."""
 from __future__ import annotations
 
+import signal
 from pathlib import Path
 
 import numpy as np
@@ -14,6 +15,7 @@ from support.children import children
 from support.cli import leftovers
 from support.example_controller import PORTS, built_fmu
 
+from orchestration.run import interrupt
 from orchestration.study.foreign_host import ForeignHost
 from orchestration.study.foreign_loop import ForeignLoop
 from orchestration.study.pure_loop import metrics
@@ -95,3 +97,18 @@ def test_a_wrong_argument_is_raised_here_and_the_host_goes_on(built):
         assert not host.run(GAINS, stop_time=BEFORE).failed and host.runs == 1
     with pytest.raises(ValueError, match="answer_s must be > 0"):
         ForeignHost(built["example"], PORTS, answer_s=0.0)
+
+
+def test_a_deferred_signal_kills_the_child_and_the_run_is_interrupted(built, tmpdir_env):
+    """The flag a deferred SIGTERM sets (``orchestration.run.interrupt``), up while the child runs a hang."""
+    before = children()
+    try:
+        with ForeignHost(built["loop"]) as host:
+            interrupt.STATE.requested, interrupt.STATE.signum = True, signal.SIGTERM
+            result = host.run(stop_time=STOP)
+            assert host.proc is None
+    finally:
+        interrupt.STATE.requested, interrupt.STATE.signum = False, None
+    assert result.failed and result.interrupted
+    assert result.error.startswith("interrupted by SIGTERM ") and result.error.endswith(": the process was killed")
+    assert children() == before
