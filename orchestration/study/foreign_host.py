@@ -37,6 +37,7 @@ from orchestration.study.foreign_loop import NAME, ForeignLoop, ForeignResult
 from orchestration.study.pure_loop import metrics, steps
 
 CALLS = child.calls([NAME])
+_RUN = inspect.signature(ForeignLoop.run)  # the arguments a run takes, checked here before the child gets them
 LOADING = "while the FMU was loaded and instantiated"
 SETTING_UP = "during set-up (resetting the FMU, setting its parameters, initializing it)"
 
@@ -227,5 +228,3 @@ class ForeignHost:
     def __exit__(self, *exc) -> None:
         self.close()
 
-
-_RUN = inspect.signature(ForeignLoop.run)

@@ -88,7 +88,7 @@ def test_a_nan_torque_fails_its_run_in_the_same_child(built):
     assert not ok.failed and ok.cuts == 0
 
 
-def test_a_wrong_argument_is_raised_here_and_the_host_goes_on(built):
+def test_a_wrong_argument_or_port_map_is_raised_here(built):
     with ForeignHost(built["example"], PORTS) as host:
         with pytest.raises(TypeError):
             host.run(GAINS, stop_tme=STOP)
@@ -97,6 +97,10 @@ def test_a_wrong_argument_is_raised_here_and_the_host_goes_on(built):
         assert not host.run(GAINS, stop_time=BEFORE).failed and host.runs == 1
     with pytest.raises(ValueError, match="answer_s must be > 0"):
         ForeignHost(built["example"], PORTS, answer_s=0.0)
+    before = children()
+    with pytest.raises(ValueError, match=r"PdController.fmu: ScenarioError: instance 'controller': ports tau1, tau2"):
+        ForeignHost(built["example"])  # its own names, not the contract's: the child refused to load it
+    assert children() == before
 
 
 def test_a_deferred_signal_kills_the_child_and_the_run_is_interrupted(built, tmpdir_env):
