@@ -21,6 +21,7 @@ LONGEST_FIRST = (
     "tests/shipped/test_shipped_tune.py",
     "tests/orchestration/test_sweep_acceptance.py",
     "tests/faults/test_tune_journal.py",
+    "tests/orchestration/test_check_controller.py",
     "tests/orchestration/test_bench.py",
     "tests/unit/test_swap_margin.py",
     "tests/fmu/test_compiled_cores.py",
