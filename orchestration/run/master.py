@@ -287,23 +287,26 @@ class _Session:
         if self.observer is not None:
             _call_observer(self.observer.start, scenario,
                            {n: list(ld.output_names) for n, ld in self.loaded.items()}, self.parameters)
-        return [(self.loaded[name], self.records[name], pushes[name]) for name in order]
+        # the clock's call records (``_Clock.call``) made once here, not per step
+        return [(self.loaded[name], self.records[name], [(link, (link.target.name, "set")) for link in pushes[name]],
+                 (name, "get")) for name in order]
 
     def loop(self, targets: list) -> bool:
         """Every communication point: read, record, set inputs, step (lists only: no lookups per
         step). True if a signal (orchestration.run.interrupt) stopped it between two steps."""
         n_steps, T, rows = self.scenario.steps, self.scenario.step_size, self.rows
-        instances, clock, stop = list(self.loaded.values()), self.clock, interrupt.STATE
+        instances = [(ld, (name, "step")) for name, ld in self.loaded.items()]
+        clock, stop = self.clock, interrupt.STATE
         streaming_observer = self.observer is not None
         row = 0
         for k in range(n_steps + 1):
             self.k = clock.sample = k
-            for ld, record, pushes in targets:
-                clock.call = ld.name, "get"
+            for ld, record, pushes, get_call in targets:
+                clock.call = get_call
                 ld.read_outputs()
                 record[row] = ld.out_view
-                for link in pushes:
-                    clock.call = link.target.name, "set"
+                for link, set_call in pushes:
+                    clock.call = set_call
                     link.push()
             self.recorded = k + 1
             row += 1
@@ -316,8 +319,8 @@ class _Session:
             if stop.requested:  # SIGINT/SIGTERM/SIGHUP: stop here, between two steps
                 return True
             t = k * T  # t_k = k T, the same double as np.arange(...) * T
-            for ld in instances:
-                clock.call = ld.name, "step"
+            for ld, step_call in instances:
+                clock.call = step_call
                 ld.do_step(t, T)
         return False
 
