@@ -206,7 +206,8 @@ class _Parent:
         if code < 1:
             return at
         name, kind = child.calls(self.scenario.instances)[code - 1]
-        path = self.fmu_paths.get(self.scenario.instances[name].fmu)
+        inst = self.scenario.instances[name]
+        path = self.fmu_paths.get(inst.fmu, inst.file)  # a file runs as itself, as master._Session.load takes it
         return child.in_call(name, kind, model_description(path).fmiVersion if path else "2.0", k,
                              self.scenario.step_size)
 
