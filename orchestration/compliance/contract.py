@@ -19,12 +19,12 @@ from pathlib import Path
 
 from fmu_controller.ports import INPUT_UNITS, MEASUREMENT_PORTS, REFERENCE_PORTS, TORQUE_PORTS, TORQUE_UNIT
 from orchestration.exit_codes import UsageError
+from orchestration.run.parameter_check import SETTABLE_TYPES, WHOLE_TYPES
 from orchestration.run.ported import ELEMENT, element, port_map
 
 INPUTS = MEASUREMENT_PORTS + REFERENCE_PORTS
 UNITS = {**INPUT_UNITS, **dict.fromkeys(TORQUE_PORTS, TORQUE_UNIT)}
 REALS = ("Real", "Float64")  # FMI 2.0, FMI 3.0
-INTEGERS = ("Integer", "Int8", "UInt8", "Int16", "UInt16", "Int32", "UInt32", "Int64", "UInt64")
 VERSIONS = ("2.0", "3.0")
 
 
@@ -142,12 +142,12 @@ def _parameter_problems(name: str, value: float, variable) -> list[str]:
     if variable.causality != "parameter" or variable.variability not in ("fixed", "tunable"):
         return [f"{where}: causality '{variable.causality}', variability '{variable.variability}': not a parameter "
                 "a host may set (a fixed or tunable parameter)"]
-    if variable.type not in (*REALS, "Float32", *INTEGERS):
-        return [f"{where}: type {variable.type}, not a number"]
+    if variable.type not in SETTABLE_TYPES:  # what the master's runs can set
+        return [f"{where}: type {variable.type}: a run sets parameters of type {', '.join(SETTABLE_TYPES)} only"]
     if not math.isfinite(value):  # no FMU is asked to take one (TOML writes nan and inf; 1e400 reads as inf)
         return [f"{where}: not a finite number"]
     found = []
-    if variable.type in INTEGERS and value != int(value):
+    if variable.type in WHOLE_TYPES and value != int(value):
         found.append(f"{where}: {name} is an integer ({variable.type})")
     low, high = (float(b) if b not in (None, "") else None for b in (variable.min, variable.max))
     if (low is not None and value < low) or (high is not None and value > high):

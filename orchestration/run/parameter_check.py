@@ -33,6 +33,10 @@ def model_description(fmu: Path):
         raise ScenarioError(f"{fmu}: not a readable FMU ({type(exc).__name__}: {exc})") from None
 
 
+SETTABLE_TYPES = ("Real", "Integer", "Float64", "Int32")  # the parameter types the master sets (FMI 2.0, 3.0)
+WHOLE_TYPES = ("Integer", "Int32")
+
+
 def parameter_problem(md, name: str, value: float, check_range: bool = True) -> str | None:
     """Why ``value`` cannot be given to parameter ``name`` of the FMU described by ``md``, or None.
     ``check_range=False``: name and type only, the range is left to the FMU (the master's own
@@ -43,9 +47,9 @@ def parameter_problem(md, name: str, value: float, check_range: bool = True) -> 
         if RENAMED_PARAMETERS.get(name) in known:
             return f"'{name}' was renamed '{RENAMED_PARAMETERS[name]}' in 0.2.0 (see CHANGELOG.md)"
         return f"'{name}' is not a parameter of {md.modelName}; known: {', '.join(known)}"
-    if var.type not in ("Real", "Integer", "Float64", "Int32"):
+    if var.type not in SETTABLE_TYPES:
         return f"'{name}': parameters of type {var.type} are not supported"
-    if var.type in ("Integer", "Int32") and (not math.isfinite(value) or float(value) != int(value)):
+    if var.type in WHOLE_TYPES and (not math.isfinite(value) or float(value) != int(value)):
         return f"'{name}' must be a whole number, got {value!r}"
     if not check_range:
         return None

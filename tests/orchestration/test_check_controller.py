@@ -76,6 +76,22 @@ def test_the_parameters_to_set_are_checked_against_the_fmus(example, tmp_path):
     assert _check(example, tmp_path, _with_parameters("{ Kp = 30.0, umax = 3 }")).returncode == 0
 
 
+def test_a_parameter_of_a_type_a_run_cannot_set_is_a_problem(example, tmp_path):
+    """The check holds a parameter to what the master's runs set (parameter_check.SETTABLE_TYPES): a Boolean Kp
+    passed the check and then refused every run."""
+    edited = tmp_path / "bool.fmu"
+    with zipfile.ZipFile(example) as src, zipfile.ZipFile(edited, "w") as out:
+        for item in src.infolist():
+            data = src.read(item)
+            if item.filename == "modelDescription.xml":
+                data = data.replace(b'<Real unit="N.m/rad" min="0" start="60.0"/>', b'<Boolean start="true"/>')
+                assert b"<Boolean" in data
+            out.writestr(item, data)
+    done = _check(edited, tmp_path, _with_parameters("{ Kp = 1 }"))
+    assert done.returncode == 1, done.stdout
+    assert "parameters.Kp = 1: type Boolean: a run sets parameters of type Real, Integer, Float64, Int32 only" in done.stdout
+
+
 def test_a_map_without_both_torques_is_refused(example, tmp_path):
     done = _check(example, tmp_path, {k: v for k, v in PORTS.items() if k != "tau2"})
     assert done.returncode == 1 and "ports.tau2: missing" in done.stdout, done.stdout
