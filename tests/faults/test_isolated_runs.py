@@ -235,3 +235,20 @@ def test_a_recording_of_a_run_whose_fmu_crashed_holds_every_sample_before_it(hos
     instances = {f"/fmu/{name}" for name in ("plant", "reference", "controller")}
     assert instances <= set(steps) and all(steps[e] == list(range(SAMPLES_BEFORE)) for e in instances)
     assert steps["/events/run"] == [hostile.FAULT_SAMPLE]  # the failure, at the last sample recorded
+
+
+def test_a_crash_of_an_fmi3_controller_file_is_said_in_fmi3_terms(tmp_path):
+    """Where the child was, for a controller given as a file (not in ``fmu_paths``): its own model description
+    says FMI 3.0, so the call is fmi3DoStep (it fell back to FMI 2.0's names)."""
+    from types import SimpleNamespace
+
+    from support import fmi3_pd
+
+    from orchestration.run import child
+
+    fmu = fmi3_pd.build(tmp_path)
+    (tmp_path / "s.toml").write_text(f'extends = "paper"\n[instances.controller]\nfmu = "{fmu}"\n')
+    scenario = load_scenario(str(tmp_path / "s.toml"))
+    code = child.calls(scenario.instances).index(("controller", "step")) + 1
+    parent = SimpleNamespace(header=np.array([100, code, 0, 0]), scenario=scenario, fmu_paths={})
+    assert isolated._Parent.where(parent) == "in fmi3DoStep of 'controller' at t = 1.00 s (sample 100)"
