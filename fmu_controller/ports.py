@@ -11,3 +11,5 @@ INPUT_UNITS = {
     "phi1_d": "rad", "phi2_d": "rad", "dphi1_d": "rad/s", "dphi2_d": "rad/s",
     "ddphi1_d": "rad/s2", "ddphi2_d": "rad/s2",
 }
+# every name a port map may map: what a controller reads, then what it writes (docs/benchmark.md)
+CONTRACT_NAMES = (*INPUT_UNITS, *TORQUE_PORTS)

@@ -17,7 +17,7 @@ import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from fmu_controller.ports import INPUT_UNITS, MEASUREMENT_PORTS, REFERENCE_PORTS, TORQUE_PORTS, TORQUE_UNIT
+from fmu_controller.ports import CONTRACT_NAMES, INPUT_UNITS, MEASUREMENT_PORTS, REFERENCE_PORTS, TORQUE_PORTS, TORQUE_UNIT
 from orchestration.exit_codes import UsageError
 from orchestration.run.parameter_check import SETTABLE_TYPES, WHOLE_TYPES
 from orchestration.run.ported import ELEMENT, element, port_map
@@ -59,8 +59,8 @@ def read_ports(path: Path) -> tuple[dict[str, str] | None, dict[str, float]]:
     if not isinstance(ports, dict):
         raise ContractError(f"{path}: ports: a table {{ contract name = \"FMU variable\", ... }}")
     for key, value in ports.items():
-        if key not in UNITS:
-            raise ContractError(f"{path}: ports.{key}: not a contract name ({', '.join(UNITS)})")
+        if key not in CONTRACT_NAMES:
+            raise ContractError(f"{path}: ports.{key}: not a contract name ({', '.join(CONTRACT_NAMES)})")
         if not isinstance(value, str) or not value:
             raise ContractError(f"{path}: ports.{key}: the FMU's variable name, a non-empty string")
     if not isinstance(parameters, dict):

@@ -24,7 +24,7 @@ import re
 import numpy as np
 
 from fmi3_slave.arrays import element_names
-from fmu_controller.ports import INPUT_UNITS, TORQUE_PORTS
+from fmu_controller.ports import CONTRACT_NAMES, TORQUE_PORTS
 from fmu_controller.saturation import saturate_norm
 from orchestration.run.fmi3_direct import element_count
 from orchestration.run.metrics import TORQUE_CUT
@@ -64,7 +64,7 @@ def port_map(variables: dict, ports: dict[str, str] | None) -> dict[str, str]:
     names (the torques always, found or not, so that a check names them)."""
     if ports:
         return dict(ports)
-    own = {k: own_name(variables, k) for k in (*INPUT_UNITS, *TORQUE_PORTS)}
+    own = {k: own_name(variables, k) for k in CONTRACT_NAMES}
     return {k: n or k for k, n in own.items() if n or k in TORQUE_PORTS}
 
 

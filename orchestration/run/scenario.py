@@ -46,7 +46,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any, Callable
 
-from fmu_controller.ports import INPUT_UNITS, TORQUE_PORTS
+from fmu_controller.ports import CONTRACT_NAMES
 from fmu_plant.paper_setting import STEP_SIZE, TORQUE_LIMIT
 from orchestration.exit_codes import UsageError
 from orchestration.toml_files import parse_toml, read_toml, unknown_file
@@ -59,7 +59,6 @@ NANOSECOND = 1e-9  # the recordings' time resolution: a step must be a whole num
 _NAME = {"type": "string", "pattern": r"^[A-Za-z_][A-Za-z0-9_-]*$"}
 FMU_FILE = ".fmu"  # an instance's ``fmu`` ending so is a file, else the model identifier of a built FMU
 CONTROLLER = "controller"  # the instance the controller contract (and the summary's torque) is about
-CONTRACT_NAMES = (*INPUT_UNITS, *TORQUE_PORTS)  # what a port map maps (docs/benchmark.md)
 INTERFACES = ("CoSimulation", "ModelExchange")  # an instance's ``interface`` key (FMI 3.0 FMUs may offer both)
 _PORT = {"type": "string", "pattern": r"^[A-Za-z_][A-Za-z0-9_-]*\.[A-Za-z_][A-Za-z0-9_]*$"}
 _TIME = {"type": "number", "exclusiveMinimum": 0}
