@@ -69,6 +69,15 @@ def test_check_controller_says_the_run_crashed(segv, fmu_dir, tmp_path):
     assert f"  1 s run against our arm (scenario paper, rho = 4 N.m): FAILED: {CRASH}" in proc.stdout.splitlines()
 
 
+def test_check_controller_says_a_torque_was_not_finite(fmu_dir, tmp_path, monkeypatch):
+    """NaN torques from t = 0.5 s on: the 1 s run fails there, naming the output, the time and the sample."""
+    fmu = hostile.build("nan", tmp_path, monkeypatch, sample=AT)
+    monkeypatch.delenv("CC")
+    proc = run(["check-controller", str(fmu), "--fmu-dir", str(fmu_dir)], tmp_path)
+    assert proc.returncode == 1, proc.stdout + proc.stderr
+    assert "FAILED: controller.tau1_fmu is nan at t = 0.51 s (sample 51)" in proc.stdout, proc.stdout
+
+
 def test_a_sweep_point_with_a_crashed_controller_fails_alone(segv, fmu_dir, tmp_path):
     """The point's task as a Dask worker runs it (no cluster here: the worker is this process, which lives on)."""
     from orchestration.sweep.runner import fmu_blobs, point_key, run_point

@@ -240,23 +240,6 @@ def test_a_run_the_fmu_fails_is_exit_1_with_its_reason(example, tmp_path, fmu_di
     assert out.splitlines()[-1] == "  fails the 1 s run"
 
 
-def test_a_torque_that_is_not_finite_fails_the_run(example, tmp_path, fmu_dir, capsys, monkeypatch):
-    """What the FMU wrote is what is checked (u1, not the actuator's tau1): a NaN put in its output at t = 0.5 s."""
-    from orchestration.compliance import smoke
-
-    real = smoke.run_controller
-
-    def with_a_nan(scenario, paths):
-        result = real(scenario, paths)
-        result.outputs["controller"]["u1"][50] = float("nan")
-        return result
-
-    monkeypatch.setattr(smoke, "run_controller", with_a_nan)
-    code, out = _main_check(example, _ports_file(tmp_path, "{ Kp = 10.0 }"), fmu_dir, capsys)
-    assert code == 1, out
-    assert "    FAILED: a torque is not finite at t = 0.50 s (sample 50): u1 = nan, u2 = " in out, out
-
-
 def test_an_fmu_that_breaks_the_contract_does_not_run(example, tmp_path, capsys):
     """A problem in the interface: exit 1 before anything is built or loaded (the FMU folder is not made)."""
     ports = tmp_path / "ports.toml"
