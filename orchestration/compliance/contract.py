@@ -12,6 +12,7 @@ does not read are left out of the map.
 """
 from __future__ import annotations
 
+import functools
 import math
 import zipfile
 from dataclasses import dataclass, field
@@ -72,13 +73,20 @@ def read_ports(path: Path) -> tuple[dict[str, str] | None, dict[str, float]]:
 
 
 def model_description(path: Path):
-    """The FMU's parsed modelDescription (``ContractError`` if the file is no FMU that can be read)."""
+    """The FMU's parsed modelDescription (``ContractError`` if the file is no FMU that can be read), read once per
+    file as it is (a sweep checks each point: one file, many points)."""
+    if not path.is_file():
+        raise ContractError(f"{path}: {'not a file' if path.exists() else 'no such file'}")
+    st = path.stat()
+    return _model_description(path, st.st_mtime_ns, st.st_size)
+
+
+@functools.lru_cache(maxsize=32)
+def _model_description(path: Path, mtime_ns: int, size: int):
     from fmpy import read_model_description
 
     from orchestration.compliance.validate import archive_problems
 
-    if not path.is_file():
-        raise ContractError(f"{path}: {'not a file' if path.exists() else 'no such file'}")
     unsafe = archive_problems(path)
     if unsafe:
         raise ContractError(f"{path}: {unsafe[0]}")

@@ -292,3 +292,16 @@ def test_a_plain_c_fmi3_controller_meets_the_contract_and_runs_as_its_fmi2_twin(
     assert n == hostile.FAULT_SAMPLE + 1
     for torque in ("tau1", "tau2"):
         assert np.array_equal(result.outputs["controller"][torque][:n], twin.outputs["controller"][torque])
+
+
+def test_a_model_description_is_read_once_per_file_as_it_is(example, tmp_path):
+    """A sweep checks each of its points against the contract: one file is parsed once, again once it changed."""
+    from orchestration.compliance.contract import model_description
+
+    fmu = tmp_path / "c.fmu"
+    fmu.write_bytes(example.read_bytes())
+    first = model_description(fmu)
+    assert model_description(fmu) is first
+    with zipfile.ZipFile(fmu, "a") as z:
+        z.writestr("documentation/note.txt", "changed")
+    assert model_description(fmu) is not first and model_description(fmu).guid == first.guid
