@@ -22,8 +22,6 @@ stale).
 """
 from __future__ import annotations
 
-import hashlib
-import json
 import math
 import warnings
 from pathlib import Path
@@ -34,8 +32,8 @@ from optuna.storages import JournalStorage
 from optuna.storages.journal import JournalFileBackend, JournalFileOpenLock
 from optuna.trial import TrialState
 
-from fmu_controller.saturation import LIMIT_HANDLINGS
 from orchestration.exit_codes import UsageError
+from orchestration.run.search_space import Dimension
 from orchestration.study import tuning
 
 # a run that fails completes its trial with an infinite criterion: a failed trial is one cut off (by
@@ -47,21 +45,13 @@ class JournalError(UsageError):
     """A journal that cannot be resumed by this code (another protocol, or numbers that changed)."""
 
 
-def study_name(fmu: str, handling: int, seed: int) -> str:
-    return f"{fmu}/{LIMIT_HANDLINGS[handling]}/seed{seed}"
+def study_name(problem, seed: int) -> str:
+    """The study of one search of ``problem`` (``tuning.Ours``, or a foreign controller's): its name and seed."""
+    return f"{problem.name}/seed{seed}"
 
 
 def storage(journal: Path) -> JournalStorage:
     return JournalStorage(JournalFileBackend(str(journal), lock_obj=JournalFileOpenLock(str(journal))))
-
-
-def protocol(fmu: str, seed: int) -> str:
-    """A digest of everything a search's trials depend on besides the code of the loop (which the first
-    trial's check covers)."""
-    text = json.dumps({"space": tuning.SEARCH_SPACES[fmu], "points": tuning.training_points(),
-                       "stop": tuning.STOP_TIME, "initial": tuning.initial_design(fmu, seed),
-                       "prune_after": tuning.PRUNE_AFTER, "prune_percentile": tuning.PRUNE_PERCENTILE, "optuna": optuna.__version__.split(".")[0]}, sort_keys=True)
-    return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
 def generator_seed(seed: int, stream: int) -> int:
@@ -89,10 +79,10 @@ def open_study(journal: Path, name: str, digest: str, opened: JournalStorage | N
     return study
 
 
-def _open(journal: Path, fmu: str, handling: int, seed: int, opened: JournalStorage | None = None) -> optuna.Study:
+def _open(journal: Path, problem, seed: int, opened: JournalStorage | None = None) -> optuna.Study:
     pruner = optuna.pruners.PercentilePruner(tuning.PRUNE_PERCENTILE, n_startup_trials=tuning.INITIAL_DESIGN,
                                              n_warmup_steps=tuning.PRUNE_AFTER - 1)
-    study = open_study(journal, study_name(fmu, handling, seed), protocol(fmu, seed), opened, pruner=pruner)
+    study = open_study(journal, study_name(problem, seed), problem.digest(seed), opened, pruner=pruner)
     for t in study.get_trials(deepcopy=False, states=(TrialState.RUNNING,)):  # cut off by an interruption
         study.tell(t.number, state=TrialState.FAIL)
     return study
@@ -109,61 +99,80 @@ def _state(t: optuna.trial.FrozenTrial) -> str:
     return "complete" if math.isfinite(t.value) else "failed"
 
 
-def _verify(study: optuna.Study, fmu: str, handling: int, trials: list) -> None:
+def _verify(study: optuna.Study, problem, trials: list) -> None:
     """The first trial (the nominal design) must give its first training number again, bit for bit:
     the running criterion after the first point, as the trial reported it (the geometric mean of one
     MSE, exp(log(mse)), which is not the MSE itself in the last bit for about half of all doubles)."""
     first = trials[0]
     if 0 not in first.intermediate_values:
         return
-    params = tuning.parameters(fmu, tuning.initial_design(fmu, 0)[0], handling)
-    again = next(tuning.running_criterion(fmu, params))  # runs the first training point only
+    again = next(problem.running(problem.initial(0)[0]))  # runs the first training point only
     if again != first.intermediate_values[0]:
         raise JournalError(f"the journal's search {study.study_name} no longer reproduces its first trial "
                            f"({first.intermediate_values[0]!r}, now {again!r}): the code changed since it ran; "
                            "give another --out (or remove the journal)")
 
 
-def _trial(study: optuna.Study, fmu: str, handling: int) -> None:
-    """Ask for one trial, run its training points (pruned or failed early where it must), tell it."""
+def distribution(dim: Dimension) -> optuna.distributions.BaseDistribution:
+    """The Optuna distribution ``suggest`` draws a dimension from (for a trial added by the CMA-ES phase)."""
+    if dim.kind == "choice":
+        return optuna.distributions.CategoricalDistribution(list(dim.choices))
+    if dim.kind == "int":
+        return optuna.distributions.IntDistribution(int(dim.low), int(dim.high), log=dim.log)
+    return optuna.distributions.FloatDistribution(dim.low, dim.high, log=dim.log)
+
+
+def suggest(trial: optuna.Trial, dim: Dimension) -> float:
+    """The trial's value of one dimension: a float or a whole number in its range (log-scaled if it says so),
+    or one of its choices."""
+    if dim.kind == "choice":
+        return trial.suggest_categorical(dim.name, list(dim.choices))
+    if dim.kind == "int":
+        return trial.suggest_int(dim.name, int(dim.low), int(dim.high), log=dim.log)
+    return trial.suggest_float(dim.name, dim.low, dim.high, log=dim.log)
+
+
+def _trial(study: optuna.Study, problem) -> None:
+    """Ask for one trial, run its training points (pruned or failed early where it must), tell it; a failed
+    run's reason (``problem.failure``, where the problem gives one) is kept with the trial."""
     trial = study.ask()
-    design = {name: trial.suggest_float(name, low, high, log=True)
-              for name, (low, high, _) in tuning.SEARCH_SPACES[fmu].items()}
+    design = {name: suggest(trial, dim) for name, dim in problem.space.items()}
     value = math.inf
-    for step, value in enumerate(tuning.running_criterion(fmu, tuning.parameters(fmu, design, handling))):
+    for step, value in enumerate(problem.running(design)):
         trial.report(value, step)
         if math.isfinite(value) and trial.should_prune():
             study.tell(trial, state=TrialState.PRUNED)
             return
+    if not math.isfinite(value) and getattr(problem, "failure", None):
+        trial.set_user_attr("failure", problem.failure)
     study.tell(trial, value)
 
 
-def run_search(journal: Path, fmu: str, handling: int, seed: int, budget: int,
-               opened: JournalStorage | None = None) -> int:
-    """Run (or resume) one search until ``budget`` trials count; return how many ran now. ``opened``: the
-    journal's storage if the caller has it open (opening one reads the whole journal)."""
-    study = _open(journal, fmu, handling, seed, opened)
+def run_search(journal: Path, problem, seed: int, budget: int, opened: JournalStorage | None = None) -> int:
+    """Run (or resume) one search of ``problem`` until ``budget`` trials count; return how many ran now.
+    ``opened``: the journal's storage if the caller has it open (opening one reads the whole journal)."""
+    study = _open(journal, problem, seed, opened)
     done = finished_trials(study)
     if done:
-        _verify(study, fmu, handling, done)
-    initial = tuning.initial_design(fmu, seed)
+        _verify(study, problem, done)
+    initial = problem.initial(seed)
     ran = 0
     while len(done) < budget:
         i = len(done)
         study.sampler = _sampler(seed, i)
         if i < len(initial) and not study.get_trials(deepcopy=False, states=(TrialState.WAITING,)):
             study.enqueue_trial(initial[i])
-        _trial(study, fmu, handling)
+        _trial(study, problem)
         ran += 1
         done = finished_trials(study)
     return ran
 
 
-def record(journal: JournalStorage, fmu: str, handling: int, seed: int, budget: int) -> dict[str, Any] | None:
+def record(journal: JournalStorage, problem, seed: int, budget: int) -> dict[str, Any] | None:
     """The store's record of one search (its first ``budget`` trials), None if it has none yet."""
-    if study_name(fmu, handling, seed) not in {s.study_name for s in journal.get_all_studies()}:
+    if study_name(problem, seed) not in {s.study_name for s in journal.get_all_studies()}:
         return None
-    study = optuna.load_study(study_name=study_name(fmu, handling, seed), storage=journal)
+    study = optuna.load_study(study_name=study_name(problem, seed), storage=journal)
     trials = finished_trials(study)[:budget]
     if not trials:
         return None
@@ -171,7 +180,9 @@ def record(journal: JournalStorage, fmu: str, handling: int, seed: int, budget: 
     finite = [(v, i) for i, v in enumerate(values) if v is not None]
     best = min(finite)[1] if finite else 0
     seconds = sum((t.datetime_complete - t.datetime_start).total_seconds() for t in trials)
-    return {"criterion": values, "state": [_state(t) for t in trials], "best": best,
-            "best_design": dict(trials[best].params), "trials": len(trials), "trial_seconds": round(seconds, 1),
-            "started": min(t.datetime_start for t in trials).isoformat(timespec="seconds"),
-            "finished": max(t.datetime_complete for t in trials).isoformat(timespec="seconds")}
+    failures = {str(i): t.user_attrs["failure"] for i, t in enumerate(trials) if "failure" in t.user_attrs}
+    out = {"criterion": values, "state": [_state(t) for t in trials], "best": best,
+           "best_design": dict(trials[best].params), "trials": len(trials), "trial_seconds": round(seconds, 1),
+           "started": min(t.datetime_start for t in trials).isoformat(timespec="seconds"),
+           "finished": max(t.datetime_complete for t in trials).isoformat(timespec="seconds")}
+    return out | ({"failures": failures} if failures else {})  # a failed run's reason, by trial number

@@ -49,8 +49,9 @@ def _search(job: tuple[str, int, str]) -> tuple[str, int, dict[str, Any]]:
 
     fmu, seed, journal = job
     with larger_training_set():
-        polish.search(Path(journal), fmu, HANDLING, seed, BUDGET, POLISH)
-        return fmu, seed, polish.record(optimize.storage(Path(journal)), fmu, HANDLING, seed, BUDGET, POLISH)
+        problem = tuning.Ours(fmu, HANDLING)
+        polish.search(Path(journal), problem, seed, BUDGET, POLISH)
+        return fmu, seed, polish.record(optimize.storage(Path(journal)), problem, seed, BUDGET, POLISH)
 
 
 def _held_out(job: tuple[str, int, dict[str, float], int, str, int]) -> tuple[str, int, int, str, int, dict]:

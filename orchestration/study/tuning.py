@@ -30,9 +30,11 @@ result) is a copy of that output; tests/docs/test_fair_store.py re-runs a sample
 from __future__ import annotations
 
 import functools
+import hashlib
 import itertools
 import json
 import math
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterator
 
@@ -41,6 +43,7 @@ import numpy as np
 from fmu_controller.catalog import CORES
 from fmu_controller.saturation import LIMIT_HANDLINGS
 from orchestration.run.scenario import load_scenario
+from orchestration.run.search_space import Dimension
 from orchestration.study.points import KINDS, draw_points, run_point
 from orchestration.study.protocol import CONVERGED
 
@@ -179,6 +182,45 @@ def unconverged(data: dict[str, Any]) -> list[str]:
     """The searches of a store ("<controller> <handling> seed <seed>") that still improve by the rule."""
     return [f"{fmu} {h} seed {s}" for fmu, c in data["controllers"].items() for h, per in c["handlings"].items()
             for s, r in per["seeds"].items() if still_improving(r)]
+
+
+@dataclass(frozen=True)
+class Ours:
+    """One of our controllers under a limit handling, as a search tunes it (``optimize`` and ``polish`` take
+    any problem of this shape; a foreign controller's is ``orchestration.study.benchmark_problem``): its
+    ``name`` (the searches' study names start so), ``space``, ``initial`` design, ``running`` criterion and
+    ``digest`` of what its trials depend on besides the loop's code."""
+
+    fmu: str
+    handling: int
+
+    @property
+    def name(self) -> str:
+        return f"{self.fmu}/{LIMIT_HANDLINGS[self.handling]}"
+
+    @property
+    def space(self) -> dict[str, Dimension]:
+        return {name: Dimension(name, "float", low, high, True) for name, (low, high, _) in SEARCH_SPACES[self.fmu].items()}
+
+    def initial(self, seed: int) -> list[dict[str, float]]:
+        return initial_design(self.fmu, seed)
+
+    def running(self, design: dict[str, float]) -> Iterator[float]:
+        return running_criterion(self.fmu, parameters(self.fmu, design, self.handling))
+
+    def criterion(self, design: dict[str, float]) -> float:
+        return criterion(self.fmu, parameters(self.fmu, design, self.handling))
+
+    def digest(self, seed: int) -> str:
+        """Everything a search's trials depend on besides the code of the loop (which the first trial's check
+        covers)."""
+        import optuna  # the parser of ``sotc-cosim`` reads this module's constants: not at the top
+
+        text = json.dumps({"space": SEARCH_SPACES[self.fmu], "points": training_points(), "stop": STOP_TIME,
+                           "initial": initial_design(self.fmu, seed), "prune_after": PRUNE_AFTER,
+                           "prune_percentile": PRUNE_PERCENTILE, "optuna": optuna.__version__.split(".")[0]},
+                          sort_keys=True)
+        return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
 # --- the stored search --------------------------------------------------------------------------------

@@ -1,5 +1,5 @@
-"""The tuning searches on Dask, like a sweep's points: one task per search (controller, limit handling,
-seed; ``orchestration.study.polish.search``: its TPE phase, then its CMA-ES phase; the cores compiled where the installed wheel
+"""The tuning searches on Dask, like a sweep's points: one task per search (a problem and a seed: our controller
+under a limit handling, or a foreign controller's; ``orchestration.study.polish.search``: its TPE phase, then its CMA-ES phase; the cores compiled where the installed wheel
 compiled them, setup.py), all sharing one Optuna journal file, so they need a
 file system the workers share with the client (a local cluster's always do). The client follows the
 journal for progress, writes the store when the searches end or Ctrl-C stops them, and tells how to
@@ -11,7 +11,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from orchestration.outputs import atomic_write
-from orchestration.study import optimize, polish as local
+from orchestration.study import optimize, polish as local, tuning
 from orchestration.study.journal import Salvage, salvage
 from orchestration.sweep.cluster import follow, open_client, shutdown
 
@@ -80,9 +80,20 @@ def tune(out: Path, controllers, handlings, seeds, budget: int, polish: int, wor
     """Run every search until ``budget`` TPE and ``polish`` CMA-ES trials count, the longest (the SOTC's)
     first; write the store to ``out`` (also after Ctrl-C, with the trials finished)."""
     journal = journal_of(out)
+    jobs = [(tuning.Ours(fmu, h), s) for fmu in controllers for h in handlings for s in seeds]
+    outcome = searches(journal, jobs, budget, polish, workers, scheduler, listener)
+    outcome.store = local.store(journal, controllers, handlings, seeds, budget, polish)
+    atomic_write(out, json.dumps(outcome.store, indent=1) + "\n")
+    return outcome
+
+
+def searches(journal: Path, jobs: list[tuple], budget: int, polish: int, workers: int | None, scheduler: str | None,
+             listener=None) -> TuneOutcome:
+    """Run (or resume) the searches ``jobs`` (problem, seed; ``tuning.Ours`` or a foreign controller's problem)
+    in the journal at ``journal`` until ``budget`` TPE and ``polish`` CMA-ES trials count, in this order; the
+    outcome has no store (each command writes its own)."""
     repair(journal)
     salvaged = salvage(journal) if journal.is_file() else None
-    jobs = [(fmu, h, s) for fmu in controllers for h in handlings for s in seeds]
     reader = _Reader(journal)
     before = reader.counts(jobs, budget, polish)
     outcome = TuneOutcome(len(jobs), sum(before.values()), salvaged=salvaged)
@@ -91,8 +102,6 @@ def tune(out: Path, controllers, handlings, seeds, budget: int, polish: int, wor
     todo = [job for job in jobs if before[job] < budget + polish]
     if todo:
         outcome.interrupted = _run(journal, todo, budget, polish, workers, scheduler, reader, jobs, before, listener)
-    outcome.store = local.store(journal, controllers, handlings, seeds, budget, polish)
-    atomic_write(out, json.dumps(outcome.store, indent=1) + "\n")
     return outcome
 
 
@@ -115,9 +124,9 @@ def _run(journal, todo, budget, polish, workers, scheduler, reader, jobs, before
     cluster, futures, stopped = None, [], True  # anything but the end of every search stops the workers
     try:
         cluster = open_client(scheduler, workers)
-        futures = [cluster.client.submit(local.search, journal.resolve(), fmu, h, s, budget, polish, pure=False,
-                                         key=f"tune-{optimize.study_name(fmu, h, s)}-{cluster.scratch}")
-                   for fmu, h, s in todo]
+        futures = [cluster.client.submit(local.search, journal.resolve(), problem, seed, budget, polish, pure=False,
+                                         key=f"tune-{optimize.study_name(problem, seed)}-{cluster.scratch}")
+                   for problem, seed in todo]
         stopped = follow(futures, done, tick, POLL_S)
     finally:
         shutdown(cluster, futures, stopped)

@@ -53,8 +53,8 @@ def test_a_stored_cma_es_phase_starts_where_the_code_starts_it(tmp_path):
     assert r["criterion"][r["best"]] <= min(tpe)
     assert math.isclose(tuning.criterion("CtController", tuning.parameters("CtController", start, 2)), min(tpe), rel_tol=REL)
     journal = tmp_path / "t.journal"
-    assert polish.run_polish(journal, "CtController", 2, 0, r["polish_from"], 1, start) == 1
-    again = optuna.load_study(study_name=polish.study_name("CtController", 2, 0, r["polish_from"]),
+    assert polish.run_polish(journal, tuning.Ours("CtController", 2), 0, r["polish_from"], 1, start) == 1
+    again = optuna.load_study(study_name=polish.study_name(tuning.Ours("CtController", 2), 0, r["polish_from"]),
                               storage=optimize.storage(journal)).trials[0].value
     assert math.isclose(again, r["criterion"][r["polish_from"]], rel_tol=REL)
 

@@ -14,6 +14,7 @@ from orchestration.study import optimize, polish, tuning
 from orchestration.study.journal import JOURNAL, salvage
 
 FMU, HANDLING, SEED = "CtController", 2, 0
+PROBLEM = tuning.Ours(FMU, HANDLING)
 BUDGET = tuning.INITIAL_DESIGN + 3
 POLISH = 8
 
@@ -29,11 +30,11 @@ def cheap_criterion(monkeypatch):
 
 
 def _search(journal: Path, trials: int) -> int:
-    return polish.search(journal, FMU, HANDLING, SEED, BUDGET, trials)
+    return polish.search(journal, PROBLEM, SEED, BUDGET, trials)
 
 
 def _record(journal: Path) -> dict:
-    r = polish.record(optimize.storage(journal), FMU, HANDLING, SEED, BUDGET, POLISH)
+    r = polish.record(optimize.storage(journal), PROBLEM, SEED, BUDGET, POLISH)
     return {k: r[k] for k in ("criterion", "state", "best", "best_design", "trials")}
 
 
@@ -74,9 +75,9 @@ def _trial_of_study(name: str, number: int):
     # CMA-ES phase (from the same best, once they have) is kept
     (lambda: (lambda r: r["op_code"] == 7 and r["trial_id"] == 2), 2 + 4, BUDGET - 2),
     # the creation of the TPE phase's fourth trial: nothing after it can be placed (the 3 before are kept)
-    (lambda: _trial_of_study(optimize.study_name(FMU, HANDLING, SEED), 3), 3, 0),
+    (lambda: _trial_of_study(optimize.study_name(PROBLEM, SEED), 3), 3, 0),
     # the CMA-ES phase's second trial, written whole in one record: it is lost, the two after it run again
-    (lambda: _trial_of_study(polish.study_name(FMU, HANDLING, SEED, BUDGET), 1), BUDGET + 1, 2),
+    (lambda: _trial_of_study(polish.study_name(PROBLEM, SEED, BUDGET), 1), BUDGET + 1, 2),
 ])
 def test_a_damaged_line_is_kept_aside_and_the_search_resumes_to_the_trials_of_one_run(runs, damaged, kept, again):
     once, cut = runs
@@ -106,15 +107,15 @@ def test_searches_that_wrote_one_journal_at_once_keep_what_the_damage_cannot_tou
 
     alone = {seed: tmp_path / f"alone{seed}.journal" for seed in (0, 1)}
     for seed, journal in alone.items():
-        polish.search(journal, FMU, HANDLING, seed, BUDGET, POLISH)
+        polish.search(journal, PROBLEM, seed, BUDGET, POLISH)
     shared = tmp_path / "shared.journal"
-    threads = [threading.Thread(target=polish.search, args=(shared, FMU, HANDLING, seed, BUDGET, 4)) for seed in (0, 1)]
+    threads = [threading.Thread(target=polish.search, args=(shared, PROBLEM, seed, BUDGET, 4)) for seed in (0, 1)]
     for t in threads:
         t.start()
     for t in threads:
         t.join()
     storage = optimize.storage(shared)
-    study = storage.get_study_id_from_name(optimize.study_name(FMU, HANDLING, 0))
+    study = storage.get_study_id_from_name(optimize.study_name(PROBLEM, 0))
     third = storage.get_all_trials(study)[2]._trial_id  # of seed 0's TPE phase: a parameter of it is damaged
     line = _damage(shared, lambda r: r["op_code"] == 5 and r["trial_id"] == third)
     done = salvage(shared)
@@ -122,6 +123,6 @@ def test_searches_that_wrote_one_journal_at_once_keep_what_the_damage_cannot_tou
     # seed 0's TPE trials from the third on run again; whatever ran at that line in seed 1's search too
     assert BUDGET - 2 <= done.again and done.kept + done.again == 2 * (BUDGET + 4)
     for seed, journal in alone.items():
-        polish.search(shared, FMU, HANDLING, seed, BUDGET, POLISH)
-        assert polish.record(optimize.storage(shared), FMU, HANDLING, seed, BUDGET, POLISH)["criterion"] == \
-            polish.record(optimize.storage(journal), FMU, HANDLING, seed, BUDGET, POLISH)["criterion"]
+        polish.search(shared, PROBLEM, seed, BUDGET, POLISH)
+        assert polish.record(optimize.storage(shared), PROBLEM, seed, BUDGET, POLISH)["criterion"] == \
+            polish.record(optimize.storage(journal), PROBLEM, seed, BUDGET, POLISH)["criterion"]

@@ -31,26 +31,26 @@ def test_the_last_half_improvement_is_measured_on_the_best_so_far():
 
 def test_a_journal_of_another_protocol_is_refused(tmp_path):
     journal = tmp_path / "t.journal"
-    study = optuna.create_study(study_name=optimize.study_name("CtController", 2, 0), storage=optimize.storage(journal))
+    study = optuna.create_study(study_name=optimize.study_name(tuning.Ours("CtController", 2), 0), storage=optimize.storage(journal))
     study.set_user_attr("protocol", "another")
     with pytest.raises(optimize.JournalError, match="another tuning protocol"):
-        optimize.run_search(journal, "CtController", 2, 0, 1)
+        optimize.run_search(journal, tuning.Ours("CtController", 2), 0, 1)
 
 
 def test_a_journal_whose_first_trial_no_longer_reproduces_is_refused(tmp_path):
     journal = tmp_path / "t.journal"
     fmu = "CtController"
-    study = optuna.create_study(study_name=optimize.study_name(fmu, 2, 0), storage=optimize.storage(journal))
-    study.set_user_attr("protocol", optimize.protocol(fmu, 0))
+    study = optuna.create_study(study_name=optimize.study_name(tuning.Ours(fmu, 2), 0), storage=optimize.storage(journal))
+    study.set_user_attr("protocol", tuning.Ours(fmu, 2).digest(0))
     dist = {n: optuna.distributions.FloatDistribution(lo, hi, log=True) for n, (lo, hi, _) in tuning.SEARCH_SPACES[fmu].items()}
     study.add_trial(optuna.trial.create_trial(params=tuning.nominal_design(fmu), distributions=dist, value=0.5,
                                               intermediate_values={0: 0.123}))  # numbers of older code
     with pytest.raises(optimize.JournalError, match="no longer reproduces"):
-        optimize.run_search(journal, fmu, 2, 0, 2)
+        optimize.run_search(journal, tuning.Ours(fmu, 2), 0, 2)
 
 
 def _trials(journal, fmu, handling, seed):
-    study = optuna.load_study(study_name=optimize.study_name(fmu, handling, seed), storage=optimize.storage(journal))
+    study = optuna.load_study(study_name=optimize.study_name(tuning.Ours(fmu, handling), seed), storage=optimize.storage(journal))
     return [(t.params, t.intermediate_values, t.value, t.state) for t in optimize.finished_trials(study)]
 
 
@@ -59,9 +59,9 @@ def test_a_search_resumed_from_its_journal_gives_the_trials_of_one_run(tmp_path)
     and resume was refused as "no longer reproduces" (12 of the 36 searches)."""
     fmu, handling, seed = "CtController", 0, 0
     once, cut = tmp_path / "once.journal", tmp_path / "cut.journal"
-    assert optimize.run_search(once, fmu, handling, seed, 3) == 3
-    assert optimize.run_search(cut, fmu, handling, seed, 2) == 2
-    assert optimize.run_search(cut, fmu, handling, seed, 3) == 1  # resumed: one more trial
+    assert optimize.run_search(once, tuning.Ours(fmu, handling), seed, 3) == 3
+    assert optimize.run_search(cut, tuning.Ours(fmu, handling), seed, 2) == 2
+    assert optimize.run_search(cut, tuning.Ours(fmu, handling), seed, 3) == 1  # resumed: one more trial
     assert _trials(cut, fmu, handling, seed) == _trials(once, fmu, handling, seed)
 
 
@@ -79,10 +79,10 @@ def test_every_search_of_the_protocol_resumes_from_its_journal(fmu, handling, se
     journal, holding the first trial as a run reports it, is taken up again, not refused; the first number
     goes through Optuna's journal (JSON) and must come back as the same double."""
     journal = tmp_path / "t.journal"
-    study = optimize._open(journal, fmu, handling, seed)
+    study = optimize._open(journal, tuning.Ours(fmu, handling), seed)
     design = tuning.initial_design(fmu, seed)[0]
     dist = {n: optuna.distributions.FloatDistribution(lo, hi, log=True) for n, (lo, hi, _) in tuning.SEARCH_SPACES[fmu].items()}
     study.add_trial(optuna.trial.create_trial(params=design, distributions=dist, value=1.0,
                                               intermediate_values={0: _first_number(fmu, handling)}))
-    assert optimize.run_search(journal, fmu, handling, seed, 1) == 0  # resumed: nothing to run, nothing refused
+    assert optimize.run_search(journal, tuning.Ours(fmu, handling), seed, 1) == 0  # resumed: nothing to run, nothing refused
     assert _trials(journal, fmu, handling, seed)[0][1] == {0: _first_number(fmu, handling)}
