@@ -1,7 +1,7 @@
 """``sotc-cosim``: build the FMUs, run scenarios, and report.
 
 One module per group of subcommands (``run_commands``, ``batch_commands``, ``compliance_commands``,
-``optimum_commands``, ``tune_commands``, ``cache_commands``), each adding its parsers; ``options`` holds the argument types
+``optimum_commands``, ``tune_commands``, ``benchmark_commands``, ``cache_commands``), each adding its parsers; ``options`` holds the argument types
 and the options they share.
 
 This module imports only the standard library and light modules at its top: ``main`` defers SIGINT,
@@ -21,10 +21,11 @@ from orchestration.threads import one_blas_thread
 
 
 def _command_groups() -> tuple:
-    from orchestration.cli import (batch_commands, cache_commands, compliance_commands, optimum_commands, run_commands,
-                                   tune_commands)
+    from orchestration.cli import (batch_commands, benchmark_commands, cache_commands, compliance_commands,
+                                   optimum_commands, run_commands, tune_commands)
 
-    return run_commands, batch_commands, compliance_commands, optimum_commands, tune_commands, cache_commands
+    return (run_commands, batch_commands, compliance_commands, optimum_commands, tune_commands, benchmark_commands,
+            cache_commands)
 
 
 class _Parser(argparse.ArgumentParser):

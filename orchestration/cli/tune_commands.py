@@ -50,9 +50,11 @@ def handling(text: str) -> int:
     return names[text]
 
 
-class _Listener:
-    def __init__(self, journal: Path, workers: int | None, scheduler: str | None):
-        self.journal, self.workers, self.scheduler = journal, workers, scheduler
+class Listener:
+    """The searches' progress on the terminal, under ``label`` (the command's name)."""
+
+    def __init__(self, journal: Path, workers: int | None, scheduler: str | None, label: str = "tune"):
+        self.journal, self.workers, self.scheduler, self.label = journal, workers, scheduler, label
         self.progress = None
 
     def started(self, outcome, total: int) -> None:
@@ -63,14 +65,14 @@ class _Listener:
         from orchestration.sweep.cluster import where, worker_count
 
         if outcome.salvaged is not None:  # one line, before the searches resume without the damaged ones
-            print(f"tune: {outcome.salvaged}", file=sys.stderr, flush=True)
+            print(f"{self.label}: {outcome.salvaged}", file=sys.stderr, flush=True)
         compiled = fmu_controller.sotc.__file__.endswith(tuple(importlib.machinery.EXTENSION_SUFFIXES))
         cores = ("compiled" if compiled else "Python (an editable install, or SOTC_COSIM_COMPILE=0 at install: "
                  "slower, docs/performance.md)")
-        print(f"tune: {outcome.searches} searches, {total} trials, {outcome.trials_before} already in "
+        print(f"{self.label}: {outcome.searches} searches, {total} trials, {outcome.trials_before} already in "
               f"{self.journal}, the rest on {where(self.scheduler, self.workers)}; cores {cores}", flush=True)
         # one search is one task: no more run at once than there are searches
-        self.progress = Progress(total, "tune", min(worker_count(self.workers), outcome.searches),
+        self.progress = Progress(total, self.label, min(worker_count(self.workers), outcome.searches),
                                  skipped=outcome.trials_before)
 
     def trial(self, search: str) -> None:
@@ -103,7 +105,7 @@ def _searches_text(data: dict) -> list[str]:
 def _tune_once(args, controllers, handlings, seeds, budget, polish, out, journal):
     from orchestration.sweep.tuning_jobs import tune
 
-    listener = _Listener(journal, args.workers, args.scheduler)
+    listener = Listener(journal, args.workers, args.scheduler)
     try:
         return tune(out, controllers, handlings, seeds, budget, polish, args.workers, args.scheduler, listener)
     finally:

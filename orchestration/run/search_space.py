@@ -16,3 +16,21 @@ class Dimension:
     high: float | None = None
     log: bool = False
     choices: tuple[float, ...] = ()
+
+
+def dimensions(table: dict, md) -> dict[str, Dimension]:
+    """Placeholder until the [search] reading lands."""
+    types = {v.name: v.type for v in md.modelVariables}
+    out = {}
+    for name, spec in table.items():
+        if "choices" in spec:
+            out[name] = Dimension(name, "choice", choices=tuple(spec["choices"]))
+        else:
+            kind = "int" if types.get(name) in ("Integer", "Int32") else "float"
+            out[name] = Dimension(name, kind, float(spec["low"]), float(spec["high"]), bool(spec.get("log", False)))
+    return out
+
+
+def search_problems(md, table: dict, ports, parameters) -> list[str]:
+    """Placeholder until the [search] reading lands."""
+    return []

@@ -40,10 +40,11 @@ from fmu_controller.catalog import LABELS
 from fmu_controller.saturation import LIMIT_HANDLINGS
 from orchestration.outputs import atomic_write, save_figure
 from orchestration.study import points
+from orchestration.study.protocol import HELD_OUT_POINTS
 from orchestration.study.sotc_study import NO_LEARNING
 from orchestration.study.tuning import CONTROLLERS, HANDLINGS, nominal_parameters, stored as stored_tuning, tuned_parameters
 
-N_POINTS = 128  # per set and draw
+N_POINTS = HELD_OUT_POINTS  # per set and draw
 DRAWS = (7, 8, 9)  # generator seeds of the held-out draws (7: the one shipped before issue 52)
 EVAL_STOP_TIME = 20.0
 SETS = points.KINDS

@@ -87,10 +87,10 @@ def test_a_scratch_folder_of_a_killed_command_goes_at_the_next_start():
 
 
 def test_tune_with_one_search_counts_one_running(tmp_path, capsys):
-    from orchestration.cli.tune_commands import _Listener
+    from orchestration.cli.tune_commands import Listener
     from orchestration.sweep.tuning_jobs import TuneOutcome
 
-    listener = _Listener(tmp_path / "tuned.json", 2, None)
+    listener = Listener(tmp_path / "tuned.json", 2, None)
     listener.started(TuneOutcome(searches=1, trials_before=0), total=3)
     listener.trial("one")
     listener.close()
