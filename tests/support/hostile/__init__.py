@@ -40,9 +40,10 @@ def _description(fault: str, folder: Path) -> Path:
     return path
 
 
-def build(fault: str, folder: Path, monkeypatch: pytest.MonkeyPatch, sample: int = FAULT_SAMPLE) -> Path:
+def build(fault: str, folder: Path, monkeypatch: pytest.MonkeyPatch, sample: int = FAULT_SAMPLE,
+          kp_above: float | None = None) -> Path:
     """``<identifier>.fmu`` in ``folder``, built by the example's build.py with ``HOSTILE_FAULT`` set; it misbehaves
-    from the doStep of ``sample`` on (at T = 0.01 s)."""
+    from the doStep of ``sample`` on (at T = 0.01 s), where its gain Kp is above ``kp_above`` if given."""
     cc = compiler()
     if cc is None:
         pytest.skip("no C compiler ($CC, cc or gcc) to build the hostile controller FMUs")
@@ -51,6 +52,7 @@ def build(fault: str, folder: Path, monkeypatch: pytest.MonkeyPatch, sample: int
     spec.loader.exec_module(script)
     script.SOURCE, script.DESCRIPTION, script.IDENTIFIER = SOURCE, _description(fault, folder), identifier(fault)
     start = f" -DFAULT_FROM={sample - 0.5}e-2" if sample != FAULT_SAMPLE else ""  # between two samples
+    start += f" -DFAULT_KP_ABOVE={kp_above!r}" if kp_above is not None else ""
     monkeypatch.setenv("CC", f"{cc} -DHOSTILE_FAULT={FAULTS[fault]}{start}")  # build.py takes options in $CC
     return script.build(folder)
 

@@ -25,11 +25,15 @@
 #define FAULT_FROM 0.995 /* the step from t = 1.00 s (sample 100 at T = 0.01 s) on; -DFAULT_FROM=... moves it */
 #endif
 
+#ifndef FAULT_KP_ABOVE
+#define FAULT_KP_ABOVE -1.0 /* misbehave whatever the gain (Kp >= 0); -DFAULT_KP_ABOVE=... only above that Kp */
+#endif
+
 fmi2Status pd_do_step(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean noSetPrior);
 
 FMI2_Export fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean noSetPrior) {
     Instance *inst = c;
-    if (!inst || t < FAULT_FROM) return pd_do_step(c, t, h, noSetPrior);
+    if (!inst || t < FAULT_FROM || !(inst->r[KP] > FAULT_KP_ABOVE)) return pd_do_step(c, t, h, noSetPrior);
 #if HOSTILE_FAULT == 1
     volatile int *volatile nowhere = NULL; /* volatile: the compiler cannot know it is null, nor drop the store */
     *nowhere = 1;
