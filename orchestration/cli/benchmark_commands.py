@@ -50,18 +50,14 @@ def _problem(path: Path):
 
 
 class _Listener(Listener):
-    """The searches' progress (``Listener``), then the held-out runs'."""
+    """The searches' progress (``Listener``), and each seed's held-out runs and J / J* as they follow its search."""
 
-    def evaluating(self, total: int, done: int) -> None:
-        from orchestration.progress import Progress
-
-        self.close()
-        print(f"{self.label}: held-out runs and J / J*, {total} tasks, {done} already in {self.journal.parent}",
-              flush=True)
-        self.progress = Progress(total, f"{self.label} held out", skipped=done)
+    def evaluating(self, seed: int, tasks: int, kept: int) -> None:
+        print(f"{self.label}: seed {seed} searched: {tasks} tasks of held-out runs and J / J* to run, "
+              f"{kept} kept in {self.journal.parent}", flush=True)
 
     def evaluated(self, key: str) -> None:
-        self.progress.update(True, key)
+        print(f"{self.label}: held out: {key} done", flush=True)
 
 
 def _again(args, seeds: list[int]) -> str:

@@ -1,6 +1,7 @@
 """The benchmark on Dask: the searches of a foreign controller (``tuning_jobs.searches``, one task per seed, one
-journal), then each seed's tuned design on the held-out points (one task per seed, set and draw) and at the
-optimum's states (one task per seed). Every task holds the FMU loaded in its worker (``Foreign.host``).
+journal), each followed, as soon as it is done, by its seed's tuned design on the held-out points (one task per
+set and draw) and at the optimum's states (one task): with 5 seeds on 2 workers, the last search runs beside the
+others' evaluation instead of alone. Every task holds the FMU loaded in its worker (``Foreign.host``).
 
 Resume: the journal keeps the searches' trials; ``heldout.json`` beside the store keeps each finished task with
 the design and point count it ran, so a rerun runs only what is missing or whose design changed (a longer
@@ -8,6 +9,7 @@ search may find another best), and gives the same store."""
 from __future__ import annotations
 
 import json
+import uuid
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -15,8 +17,7 @@ from typing import Any
 from orchestration.outputs import atomic_write
 from orchestration.study import benchmark, optimize, polish
 from orchestration.study.benchmark_problem import Foreign
-from orchestration.sweep.cluster import follow, open_client, shutdown
-from orchestration.sweep.tuning_jobs import POLL_S, TuneOutcome, searches
+from orchestration.sweep.tuning_jobs import TuneOutcome, searches
 
 CACHE_NAME = "heldout.json"
 
@@ -28,11 +29,6 @@ class BenchmarkOutcome:
     interrupted: bool = False
 
 
-def _records(journal: Path, problem: Foreign, seeds, budget: int, polish_trials: int) -> dict[str, Any]:
-    storage = optimize.storage(journal)
-    return {str(s): polish.record(storage, problem, s, budget, polish_trials) for s in seeds}
-
-
 def _read_cache(path: Path) -> dict[str, Any]:
     try:
         data = json.loads(path.read_text())
@@ -41,70 +37,76 @@ def _read_cache(path: Path) -> dict[str, Any]:
     return data if isinstance(data, dict) else {}
 
 
-def _tasks(problem: Foreign, records: dict[str, Any], seeds, points: int) -> dict[str, tuple]:
-    """Every task after the searches: its key -> (function, its arguments, the design it runs)."""
-    out = {}
-    for s in seeds:
-        design = records[str(s)]["best_design"]
-        for _, which, d in benchmark.heldout_jobs([s]):
-            out[benchmark.key(s, which, d)] = (benchmark.heldout, (problem, design, which, d, points), design)
-        out[f"seed {s} / optimum"] = (benchmark.optimum_costs, (problem, design), design)
+def _tasks(problem: Foreign, seed: int, design: dict[str, float], points: int) -> dict[str, tuple]:
+    """The tasks after one seed's search: key -> (function, its arguments)."""
+    out = {benchmark.key(seed, which, d): (benchmark.heldout, (problem, design, which, d, points))
+           for _, which, d in benchmark.heldout_jobs([seed])}
+    out[f"seed {seed} / optimum"] = (benchmark.optimum_costs, (problem, design))
     return out
 
 
-def _evaluate(out: Path, tasks: dict[str, tuple], points: int, workers, scheduler, listener) -> tuple[dict, bool]:
-    """Run the tasks not in the cache (``CACHE_NAME``, rewritten as each one finishes); True if Ctrl-C
-    stopped them."""
-    cache_path = out / CACHE_NAME
-    cache = _read_cache(cache_path)
-    done = {k: v["result"] for k, v in cache.items()
-            if k in tasks and v.get("design") == tasks[k][2] and v.get("points") == points}
-    todo = [k for k in tasks if k not in done]
-    if listener is not None:
-        listener.evaluating(len(tasks), len(done))
-    if not todo:
-        return done, False
-    cluster, futures, stopped = None, [], True
-    keys = {}
+class _Evaluation:
+    """What follows each seed's search on the same cluster (``tuning_jobs.searches``' ``after``): its held-out runs
+    and J / J*, as soon as its search is done; each finished task kept in ``CACHE_NAME`` with the design and
+    point count it ran, so a rerun runs only what is missing or whose design changed."""
 
-    def finished(future) -> None:
-        k = keys[future.key]
-        done[k] = future.result()  # an error of ours (not the FMU's: its runs fail apart) stops the command
-        cache[k] = {"design": tasks[k][2], "points": points, "result": done[k]}
-        atomic_write(cache_path, json.dumps(cache) + "\n")
-        if listener is not None:
-            listener.evaluated(k)
+    def __init__(self, out: Path, problem: Foreign, settings: dict[str, Any], listener=None):
+        self.path, self.problem, self.listener = out / CACHE_NAME, problem, listener
+        self.journal = out / benchmark.JOURNAL_NAME
+        self.budget, self.polish, self.points = settings["budget"], settings["polish"], settings["points"]
+        self.cache = _read_cache(self.path)
+        self.records: dict[str, Any] = {}
+        self.results: dict[str, Any] = {}
+        self.keys: dict[str, str] = {}  # a future's key -> its task's
+        self.designs: dict[str, dict] = {}  # a task's key -> the design it runs
+        self.token = uuid.uuid4().hex[:12]
 
-    try:
-        cluster = open_client(scheduler, workers)
-        for k in todo:
-            function, args, _ = tasks[k]
-            future = cluster.client.submit(function, *args, pure=False, key=f"benchmark-{k}-{cluster.scratch}")
-            keys[future.key] = k
+    def start(self, client, jobs: list[tuple]) -> list:
+        return [f for _, seed in jobs for f in self._submit(client, seed)]
+
+    def finished(self, future, job, client) -> list:
+        if job is not None:  # a search: its design is known now
+            return self._submit(client, job[1])
+        k = self.keys[future.key]
+        self.results[k] = future.result()  # an error of ours (an FMU's runs fail apart) stops the command
+        self.cache[k] = {"design": self.designs[k], "points": self.points, "result": self.results[k]}
+        atomic_write(self.path, json.dumps(self.cache) + "\n")
+        if self.listener is not None:
+            self.listener.evaluated(k)
+        return []
+
+    def _submit(self, client, seed: int) -> list:
+        record = polish.record(optimize.storage(self.journal), self.problem, seed, self.budget, self.polish)
+        self.records[str(seed)] = record
+        futures, kept_now = [], 0
+        for k, (function, args) in _tasks(self.problem, seed, record["best_design"], self.points).items():
+            self.designs[k] = record["best_design"]
+            kept = self.cache.get(k, {})
+            if kept.get("design") == record["best_design"] and kept.get("points") == self.points:
+                self.results[k] = kept["result"]
+                kept_now += 1
+                continue
+            future = client.submit(function, *args, pure=False, key=f"benchmark-{k}-{self.token}")
+            self.keys[future.key] = k
             futures.append(future)
-        stopped = follow(futures, finished, None, POLL_S)
-    finally:
-        shutdown(cluster, futures, stopped)
-    return done, stopped
+        if self.listener is not None:
+            self.listener.evaluating(seed, len(futures), kept_now)
+        return futures
 
 
 def run(out: Path, problem: Foreign, settings: dict[str, Any], workers: int | None, scheduler: str | None,
         listener=None) -> BenchmarkOutcome:
-    """The whole benchmark into the folder ``out``: the searches, then the held-out runs and J / J*; the store
-    once everything is in (``benchmark.STORE_NAME``)."""
-    seeds, budget, polish_trials = settings["seeds"], settings["budget"], settings["polish"]
-    journal = out / benchmark.JOURNAL_NAME
-    tuning = searches(journal, [(problem, s) for s in seeds], budget, polish_trials, workers, scheduler, listener)
+    """The whole benchmark into the folder ``out``: the searches, each followed by its seed's held-out runs and
+    J / J* on the same cluster; the store once everything is in (``benchmark.STORE_NAME``)."""
+    seeds = settings["seeds"]
+    evaluation = _Evaluation(out, problem, settings, listener)
+    tuning = searches(out / benchmark.JOURNAL_NAME, [(problem, s) for s in seeds], settings["budget"],
+                      settings["polish"], workers, scheduler, listener, after=evaluation)
     outcome = BenchmarkOutcome(tuning, interrupted=tuning.interrupted)
     if outcome.interrupted:
         return outcome
-    records = _records(journal, problem, seeds, budget, polish_trials)
-    tasks = _tasks(problem, records, seeds, settings["points"])
-    results, outcome.interrupted = _evaluate(out, tasks, settings["points"], workers, scheduler, listener)
-    if outcome.interrupted:
-        return outcome
-    heldout = {k: v for k, v in results.items() if not k.endswith("optimum")}
-    optimum = {str(s): results[f"seed {s} / optimum"] for s in seeds}
-    outcome.store = benchmark.assemble(problem, settings, records, heldout, optimum)
+    heldout = {k: v for k, v in evaluation.results.items() if not k.endswith("optimum")}
+    optimum = {str(s): evaluation.results[f"seed {s} / optimum"] for s in seeds}
+    outcome.store = benchmark.assemble(problem, settings, evaluation.records, heldout, optimum)
     atomic_write(out / benchmark.STORE_NAME, json.dumps(outcome.store, indent=1) + "\n")
     return outcome

@@ -96,11 +96,12 @@ def _connect(scheduler: str | None, workers: int | None, scratch: str) -> tuple[
     return client, local
 
 
-def follow(futures: list, done: Callable[[Any], None], tick: Callable[[], None] | None = None,
+def follow(futures: list, done: Callable[[Any], list | None], tick: Callable[[], None] | None = None,
            poll_s: float = POLL_S) -> bool:
-    """Hand each future to ``done`` as it finishes (finished or failed), call ``tick`` after every
-    look; True if Ctrl-C stopped the following first (the CLI defers SIGINT to a flag,
-    ``orchestration.run.interrupt``; a library caller gets ``KeyboardInterrupt``)."""
+    """Hand each future to ``done`` as it finishes (finished or failed), and follow the futures it returns too
+    (work that could start only then); call ``tick`` after every look; True if Ctrl-C stopped the following
+    first (the CLI defers SIGINT to a flag, ``orchestration.run.interrupt``; a library caller gets
+    ``KeyboardInterrupt``)."""
     from distributed import as_completed
 
     pending = as_completed(futures)
@@ -110,7 +111,9 @@ def follow(futures: list, done: Callable[[Any], None], tick: Callable[[], None] 
                 return True
             ready = pending.next_batch(block=False)
             for future in ready:
-                done(future)
+                more = done(future)
+                if more:
+                    pending.update(more)
             if tick is not None:
                 tick()
             if not ready:

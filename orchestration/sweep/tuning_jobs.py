@@ -88,10 +88,13 @@ def tune(out: Path, controllers, handlings, seeds, budget: int, polish: int, wor
 
 
 def searches(journal: Path, jobs: list[tuple], budget: int, polish: int, workers: int | None, scheduler: str | None,
-             listener=None) -> TuneOutcome:
+             listener=None, after=None) -> TuneOutcome:
     """Run (or resume) the searches ``jobs`` (problem, seed; ``tuning.Ours`` or a foreign controller's problem)
     in the journal at ``journal`` until ``budget`` TPE and ``polish`` CMA-ES trials count, in this order; the
-    outcome has no store (each command writes its own)."""
+    outcome has no store (each command writes its own). ``after``: the work that follows each search on the same
+    cluster, started as soon as that search is done (its ``start(client, jobs)`` for the searches done before,
+    its ``finished(future, job, client)`` for every future that ends: ``job`` for a search, else None), so a
+    worker left without a search takes it up while the others still search."""
     repair(journal)
     salvaged = salvage(journal) if journal.is_file() else None
     reader = _Reader(journal)
@@ -100,18 +103,23 @@ def searches(journal: Path, jobs: list[tuple], budget: int, polish: int, workers
     if listener is not None:
         listener.started(outcome, (budget + polish) * len(jobs))
     todo = [job for job in jobs if before[job] < budget + polish]
-    if todo:
-        outcome.interrupted = _run(journal, todo, budget, polish, workers, scheduler, reader, jobs, before, listener)
+    if todo or after is not None:
+        outcome.interrupted = _run(journal, todo, budget, polish, workers, scheduler, reader, jobs, before, listener,
+                                   after)
     return outcome
 
 
-def _run(journal, todo, budget, polish, workers, scheduler, reader, jobs, before, listener) -> bool:
-    """Submit the searches and follow them; True if Ctrl-C stopped them."""
+def _run(journal, todo, budget, polish, workers, scheduler, reader, jobs, before, listener, after=None) -> bool:
+    """Submit the searches (and ``after``'s work) and follow them; True if Ctrl-C stopped them."""
     seen = dict(before)
+    cluster, futures, stopped, search_of = None, [], True, {}  # anything but the end of every search stops the workers
 
-    def done(future) -> None:
+    def done(future) -> list:
         if future.status == "error":
             future.result()  # its error, raised here (a journal this code cannot resume)
+        more = [] if after is None else after.finished(future, search_of.get(future.key), cluster.client)
+        futures.extend(more)
+        return more
 
     def tick() -> None:
         counts = reader.counts(jobs, budget, polish)
@@ -121,13 +129,16 @@ def _run(journal, todo, budget, polish, workers, scheduler, reader, jobs, before
                     listener.trial(optimize.study_name(*job))
         seen.update(counts)
 
-    cluster, futures, stopped = None, [], True  # anything but the end of every search stops the workers
     try:
         cluster = open_client(scheduler, workers)
-        futures = [cluster.client.submit(local.search, journal.resolve(), problem, seed, budget, polish, pure=False,
-                                         key=f"tune-{optimize.study_name(problem, seed)}-{cluster.scratch}")
-                   for problem, seed in todo]
-        stopped = follow(futures, done, tick, POLL_S)
+        for problem, seed in todo:
+            future = cluster.client.submit(local.search, journal.resolve(), problem, seed, budget, polish, pure=False,
+                                           key=f"tune-{optimize.study_name(problem, seed)}-{cluster.scratch}")
+            search_of[future.key] = (problem, seed)
+            futures.append(future)
+        if after is not None:
+            futures += after.start(cluster.client, [job for job in jobs if job not in todo])
+        stopped = follow(list(futures), done, tick, POLL_S) if futures else False
     finally:
         shutdown(cluster, futures, stopped)
     return stopped

@@ -17,7 +17,7 @@ from orchestration.cli import main
 from orchestration.run.master import run
 from orchestration.run.scenario import load_scenario
 from orchestration.run.summary import summarize
-from orchestration.study import polish, tuning
+from orchestration.study import optimize, polish, tuning
 from orchestration.sweep import benchmark_jobs
 
 SMALL = ["--budget", "4", "--polish", "2", "--seeds", "0", "--points", "2", "--workers", "1"]
@@ -93,7 +93,7 @@ def test_a_search_cut_short_and_taken_further_equals_one_run_at_once(benchmarked
     problem = _problem(file)
     assert polish.search(tmp_path / "j.journal", problem, 0, 2, 0) == 2  # in process: the Dask path is the fixture's
     assert polish.search(tmp_path / "j.journal", problem, 0, 4, 2) == 4
-    again = benchmark_jobs._records(tmp_path / "j.journal", problem, [0], 4, 2)["0"]
+    again = polish.record(optimize.storage(tmp_path / "j.journal"), problem, 0, 4, 2)
     stored = json.loads((out / "benchmark.json").read_text())["seeds_results"]["0"]["search"]
     assert again["criterion"] == stored["criterion"] and again["best_design"] == stored["best_design"]
 
@@ -103,7 +103,7 @@ def test_trials_of_a_controller_that_crashes_fail_with_their_reason_and_the_sear
     file = _controller_file(tmp_path, fmu, ports=None)  # the hostile FMUs carry the contract's own names
     problem = _problem(file)
     assert polish.search(tmp_path / "j.journal", problem, 0, tuning.INITIAL_DESIGN, 0) == tuning.INITIAL_DESIGN
-    record = benchmark_jobs._records(tmp_path / "j.journal", problem, [0], tuning.INITIAL_DESIGN, 0)["0"]
+    record = polish.record(optimize.storage(tmp_path / "j.journal"), problem, 0, tuning.INITIAL_DESIGN, 0)
     crashed = {int(i) for i in record.get("failures", {})}
     states = record["state"]
     assert len(states) == tuning.INITIAL_DESIGN  # every trial ran: a crash failed its trial only
