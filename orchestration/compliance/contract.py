@@ -20,7 +20,7 @@ from pathlib import Path
 
 from fmu_controller.ports import CONTRACT_NAMES, INPUT_UNITS, MEASUREMENT_PORTS, REFERENCE_PORTS, TORQUE_PORTS, TORQUE_UNIT
 from orchestration.exit_codes import UsageError
-from orchestration.run.parameter_check import SETTABLE_TYPES, WHOLE_TYPES
+from orchestration.run.parameter_check import settable_problem, value_problems
 from orchestration.run.ported import ELEMENT, element, port_map
 
 INPUTS = MEASUREMENT_PORTS + REFERENCE_PORTS
@@ -147,21 +147,12 @@ def _parameter_problems(name: str, value: float, variable) -> list[str]:
     where = f"parameters.{name} = {value:g}"
     if variable is None:
         return [f"{where}: the FMU has no variable '{name}'"]
-    if variable.causality != "parameter" or variable.variability not in ("fixed", "tunable"):
-        return [f"{where}: causality '{variable.causality}', variability '{variable.variability}': not a parameter "
-                "a host may set (a fixed or tunable parameter)"]
-    if variable.type not in SETTABLE_TYPES:  # what the master's runs can set
-        return [f"{where}: type {variable.type}: a run sets parameters of type {', '.join(SETTABLE_TYPES)} only"]
+    problem = settable_problem(variable)
+    if problem:
+        return [f"{where}: {problem}"]
     if not math.isfinite(value):  # no FMU is asked to take one (TOML writes nan and inf; 1e400 reads as inf)
         return [f"{where}: not a finite number"]
-    found = []
-    if variable.type in WHOLE_TYPES and value != int(value):
-        found.append(f"{where}: {name} is an integer ({variable.type})")
-    low, high = (float(b) if b not in (None, "") else None for b in (variable.min, variable.max))
-    if (low is not None and value < low) or (high is not None and value > high):
-        found.append(f"{where}: outside [{'-inf' if low is None else f'{low:g}'}, {'inf' if high is None else f'{high:g}'}]"
-                     f", the range its modelDescription declares")
-    return found
+    return [f"{where}: {p}" for p in value_problems(variable, value)]
 
 
 def interface_problems(path: Path, md) -> list[str]:
