@@ -13,40 +13,36 @@ from orchestration.paths import OUTPUTS, check_output_folder
 from orchestration.run import interrupt
 from orchestration.run.scenario import ScenarioError
 
-NO_SEARCH = "search: nothing to tune; the benchmark needs a [search] table with at least one parameter"
-
 
 def _problem(path: Path):
     """The controller file at ``path`` as the benchmark's problem, checked against the contract and its search
     space against the FMU first (``ScenarioError``: one line naming the file and the key)."""
     from orchestration.compliance import contract
-    from orchestration.run import search_space
     from orchestration.run.scenario import controller_instance
+    from orchestration.run.search_space import NOTHING_SEARCHED, dimensions
     from orchestration.study.benchmark_problem import Foreign, file_digest
     from orchestration.toml_files import read_toml
 
     what = str(path)
     if not path.name.endswith(".toml"):
         raise ScenarioError(f"{what}: a controller file (.toml: fmu, ports, parameters, [search]; docs/benchmark.md)")
-    inst = controller_instance(path, what)
+    inst = controller_instance(path, what)  # its schema, [search]'s shape included
+    table = read_toml(path, what, ScenarioError).get("search", {})
     try:
-        found = contract.check(inst.file, inst.ports or None, inst.parameters)
+        found = contract.check(inst.file, inst.ports or None, inst.parameters, table)
     except contract.ContractError as exc:
         raise ScenarioError(f"{what}: fmu: {exc}") from None
-    table = read_toml(path, what, ScenarioError).get("search", {})
+    if found.problems:
+        others = len(found.problems) - 1
+        more = f" (and {others} more: sotc-cosim check-controller names them)" if others else ""
+        raise ScenarioError(f"{what}: {found.problems[0]}{more}")
+    if not table:
+        raise ScenarioError(f"{what}: {NOTHING_SEARCHED}")
     md = contract.model_description(inst.file)
-    problems = found.problems + search_space.search_problems(md, table, inst.ports or None, inst.parameters)
-    if problems:
-        more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
-        raise ScenarioError(f"{what}: {problems[0]}{more}")
-    dims = search_space.dimensions(table, md)
-    if not dims:
-        raise ScenarioError(f"{what}: {NO_SEARCH}")
-    starts = {v.name: v.start for v in md.modelVariables if v.name in dims}
-    start = tuple((k, float(v)) for k, v in starts.items() if v is not None)
-    ports = tuple(sorted(found.ports.items()))
-    return Foreign(str(inst.file), file_digest(inst.file), path.stem, ports, tuple(sorted(inst.parameters.items())),
-                   tuple(dims.values()), start)
+    dims = dimensions(md, table)
+    start = tuple((v.name, float(v.start)) for v in md.modelVariables if v.name in dims and v.start is not None)
+    return Foreign(str(inst.file), file_digest(inst.file), path.stem, tuple(sorted(found.ports.items())),
+                   tuple(sorted(inst.parameters.items())), tuple(dims.values()), start)
 
 
 class _Listener(Listener):

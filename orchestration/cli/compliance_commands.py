@@ -75,8 +75,8 @@ def _cmd_check_controller(args: argparse.Namespace) -> int:
     from orchestration.compliance.contract import check, read_ports, report
     from orchestration.compliance.validate import fmpy_problems
 
-    ports, parameters = read_ports(args.ports) if args.ports is not None else (None, None)
-    result = check(args.fmu, ports, parameters)
+    ports, parameters, search = read_ports(args.ports) if args.ports is not None else (None, None, None)
+    result = check(args.fmu, ports, parameters, search)
     result.problems += [f"fmpy: {p}" for p in fmpy_problems(args.fmu)]
     print(report(result))
     if result.problems:
@@ -111,7 +111,8 @@ def add_commands(sub) -> None:
                        "then a 1 s run against our arm")
     p.add_argument("fmu", type=Path, metavar="FMU", help="the controller's .fmu file (FMI 2.0 or 3.0 Co-Simulation)")
     p.add_argument("--ports", type=Path, metavar="TOML", help="a file with ports = { contract name = \"FMU variable\" "
-                   "} and, if set, parameters = { name = value } (default: the FMU's variables of the contract's names)")
+                   "} and, if set, parameters = { name = value } and a [search] table, checked against the FMU (default: the FMU's "
+                   "variables of the contract's names)")
     p.add_argument("--no-run", action="store_true", help="check the interface only: no 1 s run against our arm "
                    "(which runs the FMU in a process of its own and builds our arm where missing)")
     add_fmu_dir(p)

@@ -20,8 +20,10 @@ from pathlib import Path
 
 from fmu_controller.ports import CONTRACT_NAMES, INPUT_UNITS, MEASUREMENT_PORTS, REFERENCE_PORTS, TORQUE_PORTS, TORQUE_UNIT
 from orchestration.exit_codes import UsageError
-from orchestration.run.parameter_check import SETTABLE_TYPES, WHOLE_TYPES
+from orchestration.run.parameter_check import settable_problem, value_problems
 from orchestration.run.ported import ELEMENT, element, port_map
+from orchestration.run.scenario import SEARCH_SCHEMA, check_schema
+from orchestration.run.search_space import search_problems
 
 INPUTS = MEASUREMENT_PORTS + REFERENCE_PORTS
 UNITS = {**INPUT_UNITS, **dict.fromkeys(TORQUE_PORTS, TORQUE_UNIT)}
@@ -35,27 +37,31 @@ class ContractError(UsageError):
 
 @dataclass
 class Check:
-    """What ``check`` found: the map used (contract name -> FMU variable), the parameters to set, the FMU's
-    inputs the map leaves at their start values, and the problems (each one line naming the key)."""
+    """What ``check`` found: the map used (contract name -> FMU variable), the parameters to set, the search space
+    (a controller file's ``[search]``), the FMU's inputs the map leaves at their start values, and the problems (each
+    one line naming the key)."""
 
     fmu: Path
     ports: dict[str, str]
     parameters: dict[str, float] = field(default_factory=dict)
+    search: dict[str, dict] = field(default_factory=dict)
     unfed: list[str] = field(default_factory=list)
     problems: list[str] = field(default_factory=list)
 
 
-def read_ports(path: Path) -> tuple[dict[str, str] | None, dict[str, float]]:
+def read_ports(path: Path) -> tuple[dict[str, str] | None, dict[str, float], dict[str, dict]]:
     """The ``ports`` table of a TOML file (contract name -> the FMU's variable name; None without one: the FMU's
-    variables of the contract's names) and its ``parameters`` table, if any (the FMU's parameter -> a number to
-    set it to); one of the two at least. A controller file (``fmu``, ``search`` besides) is read so too."""
+    variables of the contract's names), its ``parameters`` table, if any (the FMU's parameter -> a number to
+    set it to), and its ``[search]`` table, if any (a controller file's search space, its shape checked by
+    ``SEARCH_SCHEMA``); one of the three at least. A controller file (``fmu`` besides) is read so too."""
     from orchestration.toml_files import read_toml
 
     raw = read_toml(path, str(path), ContractError)
     unknown = sorted(set(raw) - {"ports", "parameters", "fmu", "search"})  # a controller file's keys are read too
-    if unknown or not {"ports", "parameters"} & set(raw):
+    if unknown or not {"ports", "parameters", "search"} & set(raw):
         raise ContractError(f"{path}: a table ports = {{ contract name = \"FMU variable\", ... }} and/or parameters = "
-                            f"{{ name = value, ... }}" + (f"; unknown keys {unknown}" if unknown else ""))
+                            f"{{ name = value, ... }} and/or [search]" + (f"; unknown keys {unknown}" if unknown else ""))
+    check_schema(raw, {"type": "object", "properties": {"search": SEARCH_SCHEMA}}, str(path), ContractError)
     ports, parameters = raw.get("ports", {}), raw.get("parameters", {})
     if not isinstance(ports, dict):
         raise ContractError(f"{path}: ports: a table {{ contract name = \"FMU variable\", ... }}")
@@ -69,7 +75,8 @@ def read_ports(path: Path) -> tuple[dict[str, str] | None, dict[str, float]]:
     for key, value in parameters.items():
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
             raise ContractError(f"{path}: parameters.{key}: a finite number")
-    return dict(ports) or None, {k: float(v) for k, v in parameters.items()}  # no map: the contract's own names
+    # no map: the contract's own names
+    return dict(ports) or None, {k: float(v) for k, v in parameters.items()}, raw.get("search", {})
 
 
 def model_description(path: Path):
@@ -147,21 +154,12 @@ def _parameter_problems(name: str, value: float, variable) -> list[str]:
     where = f"parameters.{name} = {value:g}"
     if variable is None:
         return [f"{where}: the FMU has no variable '{name}'"]
-    if variable.causality != "parameter" or variable.variability not in ("fixed", "tunable"):
-        return [f"{where}: causality '{variable.causality}', variability '{variable.variability}': not a parameter "
-                "a host may set (a fixed or tunable parameter)"]
-    if variable.type not in SETTABLE_TYPES:  # what the master's runs can set
-        return [f"{where}: type {variable.type}: a run sets parameters of type {', '.join(SETTABLE_TYPES)} only"]
+    problem = settable_problem(variable)
+    if problem:
+        return [f"{where}: {problem}"]
     if not math.isfinite(value):  # no FMU is asked to take one (TOML writes nan and inf; 1e400 reads as inf)
         return [f"{where}: not a finite number"]
-    found = []
-    if variable.type in WHOLE_TYPES and value != int(value):
-        found.append(f"{where}: {name} is an integer ({variable.type})")
-    low, high = (float(b) if b not in (None, "") else None for b in (variable.min, variable.max))
-    if (low is not None and value < low) or (high is not None and value > high):
-        found.append(f"{where}: outside [{'-inf' if low is None else f'{low:g}'}, {'inf' if high is None else f'{high:g}'}]"
-                     f", the range its modelDescription declares")
-    return found
+    return [f"{where}: {p}" for p in value_problems(variable, value)]
 
 
 def interface_problems(path: Path, md) -> list[str]:
@@ -176,26 +174,28 @@ def interface_problems(path: Path, md) -> list[str]:
     return found
 
 
-def check(path: Path, ports: dict[str, str] | None = None, parameters: dict[str, float] | None = None) -> Check:
-    """``path`` against the contract through ``ports`` (None: the contract's own names, those the FMU has), and
-    ``parameters`` (name -> value) against its parameters."""
+def check(path: Path, ports: dict[str, str] | None = None, parameters: dict[str, float] | None = None,
+          search: dict[str, dict] | None = None) -> Check:
+    """``path`` against the contract through ``ports`` (None: the contract's own names, those the FMU has),
+    ``parameters`` (name -> value) against its parameters, and a schema-valid ``search`` table (``search_space``)."""
     md = model_description(path)
     variables = {v.name: v for v in md.modelVariables}
-    ports = port_map(variables, ports)
-    result = Check(path, dict(ports))
+    mapped = port_map(variables, ports)
+    result = Check(path, dict(mapped))
     result.problems += interface_problems(path, md)
     for key in TORQUE_PORTS:
-        if key not in ports:
+        if key not in mapped:
             result.problems.append(f"ports.{key}: missing; the contract needs both torques {' and '.join(TORQUE_PORTS)}")
-    for key, name in ports.items():
+    for key, name in mapped.items():
         result.problems += _variable_problems(key, element(variables, name), name)
-    for name in sorted({n for n in ports.values() if list(ports.values()).count(n) > 1}):
-        keys = [k for k, n in ports.items() if n == name]
+    for name in sorted({n for n in mapped.values() if list(mapped.values()).count(n) > 1}):
+        keys = [k for k, n in mapped.items() if n == name]
         result.problems.append(f"ports.{keys[1]} = '{name}': {name} is mapped to {' and '.join(keys)}; one variable each")
     for name, value in (parameters or {}).items():
         result.problems += _parameter_problems(name, value, variables.get(name))
-    result.parameters = dict(parameters or {})
-    fed = {ELEMENT.sub(r"\1", n) for n in ports.values()}
+    result.parameters, result.search = dict(parameters or {}), dict(search or {})
+    result.problems += search_problems(md, result.search, ports, parameters)
+    fed = {ELEMENT.sub(r"\1", n) for n in mapped.values()}
     result.unfed = [v.name for v in md.modelVariables if v.causality == "input" and v.name not in fed]
     return result
 
@@ -203,7 +203,8 @@ def check(path: Path, ports: dict[str, str] | None = None, parameters: dict[str,
 def report(result: Check) -> str:
     """The map, the inputs left at their start values, and a line per problem."""
     lines = [f"{result.fmu}:", *(f"  {k:9s} -> {v}" for k, v in result.ports.items()),
-             *(f"  parameter {k} = {v:g}" for k, v in result.parameters.items())]
+             *(f"  parameter {k} = {v:g}" for k, v in result.parameters.items()),
+             *(f"  search {k} {_searched(e)}" for k, e in result.search.items())]
     if result.unfed:
         lines.append(f"  inputs no contract name feeds (left at their start values): {', '.join(result.unfed)}")
     lines += [f"  problem: {p}" for p in result.problems]
@@ -211,6 +212,13 @@ def report(result: Check) -> str:
                  f"  does not meet the controller contract ({len(result.problems)} "
                  f"problem{'s' if len(result.problems) > 1 else ''})")
     return "\n".join(lines)
+
+
+def _searched(entry: dict) -> str:
+    """A ``[search]`` entry as the report says it: ``in [1, 1000], log scale`` or ``among 30, 60``."""
+    if "choices" in entry:
+        return f"among {', '.join(f'{c:g}' for c in entry['choices'])}"
+    return f"in [{entry['low']:g}, {entry['high']:g}]" + (", log scale" if entry.get("log", False) else "")
 
 
 def check_scenario(scenario) -> None:

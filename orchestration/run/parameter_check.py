@@ -35,6 +35,36 @@ def model_description(fmu: Path):
 
 SETTABLE_TYPES = ("Real", "Integer", "Float64", "Int32")  # the parameter types the master sets (FMI 2.0, 3.0)
 WHOLE_TYPES = ("Integer", "Int32")
+SETTABLE_VARIABILITIES = ("fixed", "tunable")  # a parameter's, set before initialization (FMI 2.0 section 2.2.7)
+
+
+def settable_problem(variable) -> str | None:
+    """Why a host may not set ``variable`` before a run, or None: the one rule of a controller file's ``parameters``
+    and of its ``[search]`` (orchestration/run/search_space.py), so that what the check lets through a run can set."""
+    if variable.causality != "parameter" or variable.variability not in SETTABLE_VARIABILITIES:
+        return (f"causality '{variable.causality}', variability '{variable.variability}': not a parameter a host may "
+                "set (a fixed or tunable parameter)")
+    if variable.type not in SETTABLE_TYPES:  # what the master's runs can set
+        return f"type {variable.type}: a run sets parameters of type {', '.join(SETTABLE_TYPES)} only"
+    return None
+
+
+def declared_range(variable) -> tuple[float, float]:
+    """The [min, max] its modelDescription declares, -inf or inf where it declares none."""
+    low, high = (float(b) if b not in (None, "") else None for b in (variable.min, variable.max))
+    return -math.inf if low is None else low, math.inf if high is None else high
+
+
+def value_problems(variable, value: float) -> list[str]:
+    """Why a settable parameter cannot take the finite ``value``: not whole for an integer, outside the range its
+    modelDescription declares (one line each, without the key: the caller names it)."""
+    found = []
+    if variable.type in WHOLE_TYPES and value != int(value):
+        found.append(f"{variable.name} is an integer ({variable.type})")
+    low, high = declared_range(variable)
+    if not low <= value <= high:
+        found.append(f"outside [{low:g}, {high:g}], the range its modelDescription declares")
+    return found
 
 
 def parameter_problem(md, name: str, value: float, check_range: bool = True) -> str | None:
@@ -53,8 +83,7 @@ def parameter_problem(md, name: str, value: float, check_range: bool = True) -> 
         return f"'{name}' must be a whole number, got {value!r}"
     if not check_range:
         return None
-    low = float(var.min) if var.min is not None else -math.inf
-    high = float(var.max) if var.max is not None else math.inf
+    low, high = declared_range(var)
     if not low <= float(value) <= high:
         return f"'{name}' = {value!r} is outside its valid range [{var.min}, {var.max}]"
     return None

@@ -31,11 +31,18 @@ the actuator (``orchestration.run.ported``). A path is only taken from a scenari
 names built FMUs by model.
 
 A controller file (docs/benchmark.md) holds such a controller on its own, for a scenario's ``controller`` key and
-a sweep's controller axis (and issue 49's tuning, which reads its ``[search]`` table; taken and not read here)::
+a sweep's controller axis, and the search space issue 49's tuning explores (``[search]``)::
 
     fmu = "vendor/MyController.fmu"   # relative to this file
     ports = { phi1 = "q1", tau1 = "u1", tau2 = "u2" }
-    parameters = { Kp = 60.0, Kd = 15.0 }
+    parameters = { umax = 4.0 }
+    [search]
+    Kp = { low = 1.0, high = 1000.0, log = true }
+    Kd = { choices = [5.0, 10.0, 20.0] }
+
+A scenario and a sweep run the fixed ``parameters`` and leave ``[search]`` to the tuning, but its shape is checked
+here as the rest of the file is (``SEARCH_SCHEMA``), so a file a sweep took is not refused later by the tuning for
+its form; what it asks of the FMU is checked by ``search_space``.
 """
 from __future__ import annotations
 
@@ -66,13 +73,24 @@ _TIME = {"type": "number", "exclusiveMinimum": 0}
 PORTS_SCHEMA = {"type": "object", "propertyNames": {"enum": list(CONTRACT_NAMES)},
                 "additionalProperties": {"type": "string", "minLength": 1}}
 CONTROLLER_FILE = ".toml"  # a controller named so is a controller file (``FMU_FILE``: an FMU file alone)
-_PARAMETERS = {"type": "object", "propertyNames": _NAME, "additionalProperties": {"type": "number", "format": "finite"}}
+_FINITE = {"type": "number", "format": "finite"}
+_PARAMETERS = {"type": "object", "propertyNames": _NAME, "additionalProperties": _FINITE}
+# a controller file's search space (orchestration/run/search_space.py checks it against the FMU): per parameter a
+# range, or with ``choices`` a list of values; ``if`` picks the form so that a message names that form's keys
+SEARCH_SCHEMA = {"type": "object", "propertyNames": _NAME, "additionalProperties": {
+    "type": "object",
+    "if": {"required": ["choices"]},
+    "then": {"additionalProperties": False, "properties": {
+        "choices": {"type": "array", "items": _FINITE, "minItems": 2, "uniqueItems": True}}},
+    "else": {"additionalProperties": False, "required": ["low", "high"],
+             "properties": {"low": _FINITE, "high": _FINITE, "log": {"type": "boolean"}}},
+}}
 CONTROLLER_FILE_SCHEMA: dict[str, Any] = {
     "type": "object",
     "additionalProperties": False,
     "required": ["fmu"],
     "properties": {"fmu": {"type": "string", "pattern": r"^.+\.fmu$"}, "ports": PORTS_SCHEMA, "parameters": _PARAMETERS,
-                   "search": {"type": "object"}},
+                   "search": SEARCH_SCHEMA},
 }
 # one scenario file as written (``extends`` resolved later, so nothing is required here but shapes)
 SCENARIO_SCHEMA: dict[str, Any] = {
@@ -286,6 +304,10 @@ def _schema_message(found) -> str:
         return f"{value!r} must be a number > 0"
     if rule == "format":
         return f"{value!r} is not finite"
+    if rule == "minItems":
+        return f"{value!r}: at least {found.validator_value} value{'s' if found.validator_value > 1 else ''}"
+    if rule == "uniqueItems":
+        return f"{value!r}: each value once"
     if rule == "type" and isinstance(found.validator_value, str):
         return f"{value!r} is not {_KINDS.get(found.validator_value, found.validator_value)}"
     if rule == "additionalProperties":

@@ -133,7 +133,11 @@ def test_a_trial_measures_what_sotc_cosim_run_gives_bit_for_bit(benchmarked, exa
 
 
 @pytest.mark.parametrize("search, said", [
-    ("", "search: nothing to tune"),
+    ("", "search: no parameter to tune"),
+    ('[search]\nKp = { low = 10.0, high = 1.0 }\n', "search.Kp: low = 10, high = 1: an empty or reversed range"),
+    ('[search]\nu1 = { low = 1.0, high = 2.0 }\n', "search.u1: a port (ports.tau1 = 'u1')"),
+    ('[search]\nKp = { low = 1.0, high = inf }\n', "search.Kp.high: inf is not finite"),
+    ('[search]\numax = { low = 1.0, high = 8.0 }\n', "search.umax: also fixed in parameters"),
 ])
 def test_a_controller_file_the_benchmark_cannot_take_is_one_line_and_exit_2(example, tmp_path, capsys, search, said):
     file = _controller_file(tmp_path, example, search=search)

@@ -76,6 +76,22 @@ def test_the_parameters_to_set_are_checked_against_the_fmus(example, tmp_path):
     assert _check(example, tmp_path, _with_parameters("{ Kp = 30.0, umax = 3 }")).returncode == 0
 
 
+def test_a_controller_files_search_is_checked_against_the_fmu(example, tmp_path):
+    """A controller file given as --ports: its [search] said back, and each value the FMU cannot take a problem
+    naming its key (tests/orchestration/test_search_space.py has every kind)."""
+    search = "[search]\nKp = { low = 1.0, high = 1000.0, log = true }\nKd = { choices = [5.0, 20.0] }\n"
+    done = _check(example, tmp_path, _with_parameters("{ umax = 4.0 }") + search)
+    assert done.returncode == 0, done.stdout
+    assert "  search Kp in [1, 1000], log scale\n  search Kd among 5, 20\n" in done.stdout
+    done = _check(example, tmp_path, _with_parameters("{ umax = 4.0 }") + search.replace("5.0", "-5.0") + "u1 = "
+                  "{ low = 0.0, high = 1.0 }\n")
+    problems = [line.removeprefix("  problem: ") for line in done.stdout.splitlines() if "problem:" in line]
+    assert done.returncode == 1 and problems == [
+        "search.Kd.choices[0] = -5: outside [0, inf], the range its modelDescription declares",
+        "search.u1: a port (ports.tau1 = 'u1'): a search tunes parameters, not what the controller reads or writes"], \
+        done.stdout
+
+
 def test_a_parameter_of_a_type_a_run_cannot_set_is_a_problem(example, tmp_path):
     """The check holds a parameter to what the master's runs set (parameter_check.SETTABLE_TYPES): a Boolean Kp
     passed the check and then refused every run."""
@@ -117,8 +133,10 @@ def test_a_binary_for_another_platform_only_is_named(example, tmp_path):
     ('ports = { tau1 = "u1" }\nparameters = { Kp = "a" }\n', "parameters.Kp: a finite number"),
     ('ports = { tau1 = "u1" }\nparameters = { Kp = nan }\n', "parameters.Kp: a finite number"),
     ('ports = { tau1 = "u1" }\nparameters = 3\n', "parameters: a table"),
+    ('ports = { tau1 = "u1" }\n[search]\nKp = { low = 1.0, high = inf }\n', "ports.toml: search.Kp.high: inf is not finite"),
+    ('ports = { tau1 = "u1" }\n[search]\nKp = { choices = [1.0] }\n', "ports.toml: search.Kp.choices: [1.0]: at least 2"),
 ], ids=["not a contract name", "not a name", "no ports table", "an unknown key", "not TOML", "a parameter not a number", "nan",
-        "parameters not a table"])
+        "parameters not a table", "a search bound not finite", "a search of one choice"])
 def test_a_bad_port_map_is_one_line_and_exit_2(example, tmp_path, ports, said):
     done = _check(example, tmp_path, ports)
     assert done.returncode == 2 and done.stdout == "", done.stdout

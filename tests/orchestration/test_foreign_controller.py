@@ -263,7 +263,7 @@ def test_compare_overlays_it_beside_ours_with_its_own_outputs_under_its_entity(e
 
 def _controller_file(folder: Path, body: str | None = None) -> None:
     """``folder/pd.toml``: the example with its map and gains, as docs/benchmark.md writes a controller file (with
-    the [search] table issue 49 reads, which a sweep takes and does not read)."""
+    the [search] table issue 49 tunes, which a sweep checks the shape of and does not run: its Kp is fixed too)."""
     ports = "ports = { " + ", ".join(f'{k} = "{v}"' for k, v in PORTS.items()) + " }\n"
     text = f'fmu = "vendor/{FMU_NAME}"\n{ports}parameters = {GAINS}\n[search]\nKp = {{ low = 1.0, high = 100.0 }}\n'
     (folder / "pd.toml").write_text(text if body is None else body)
@@ -314,11 +314,13 @@ def test_a_controller_axis_mixes_ours_and_a_controller_file(example, tmp_path, f
     ("pd.toml", "ports = { tau1 = \"u1\" }\n", "pd.toml: the file: 'fmu' is a required property"),
     ("pd.toml", 'fmu = "vendor/PdController.fmu"\nparameters = { Kp = nan }\n', "pd.toml: parameters.Kp: nan is not finite"),
     ("pd.toml", 'fmu = "vendor/PdController.fmu"\nports = { tau3 = "u1" }\n', "pd.toml: ports: 'tau3' is not one of"),
+    ("pd.toml", 'fmu = "vendor/PdController.fmu"\n[search]\nKp = { low = 1.0, high = 2.0, step = 1.0 }\n',
+     "pd.toml: search.Kp: unknown keys ['step']"),
     ("nope.toml", None, "axis 'controller': nope.toml: no such file"),
     ("pd.toml", 'fmu = "vendor/Nope.fmu"\n', "axis 'controller': pd.toml: fmu: {dir}/vendor/Nope.fmu: no such file"),
     ("pd.toml", None, "axis 'controller': pd.toml: parameters.Kd = -1: outside [0, inf]"),
     (f"vendor/{FMU_NAME}", None, f"axis 'controller': vendor/{FMU_NAME}: ports.tau1 = 'tau1': the FMU has no variable"),
-], ids=["unknown key", "no fmu", "nan", "not a contract name", "no such file", "no such fmu", "its parameter's range",
+], ids=["unknown key", "no fmu", "nan", "not a contract name", "a search's unknown key", "no such file", "no such fmu", "its parameter's range",
         "an fmu without the contract's names"])
 def test_a_bad_controller_file_in_a_sweep_is_one_line_and_exit_2(example, tmp_path, fmu_dir, monkeypatch, capsys,
                                                                  value, body, said):
@@ -346,7 +348,8 @@ def test_a_shipped_sweep_and_controller_settings_take_no_controller_file(tmp_pat
 
 
 def test_a_scenario_names_a_controller_file_in_place_of_fmu_and_ports(example, tmp_path, fmu_paths):
-    """Its parameters over the file's; a problem of the file's FMU names the scenario's key and the file's key."""
+    """Its parameters over the file's (its [search] not run); a problem of the file's FMU, or of its shape, names the
+    scenario's key and the file's key."""
     _vendor(tmp_path, example)
     _controller_file(tmp_path)
     (tmp_path / "scn.toml").write_text('extends = "paper"\nstop_time = 0.2\n[instances.controller]\n'
@@ -364,6 +367,10 @@ def test_a_scenario_names_a_controller_file_in_place_of_fmu_and_ports(example, t
     with pytest.raises(ValueError, match=r"scn.toml': instances.controller.controller = 'pd.toml': ports.tau2 = 'y2': "
                                          "the FMU has no variable 'y2'"):
         check_scenario(load_scenario(str(tmp_path / "scn.toml")))
+    _controller_file(tmp_path, f'fmu = "vendor/{FMU_NAME}"\n[search]\nKp = {{ low = nan, high = 1.0 }}\n')
+    with pytest.raises(ValueError, match=r"scn.toml': instances.controller.controller = 'pd.toml': search.Kp.low: nan is "
+                                         "not finite"):
+        load_scenario(str(tmp_path / "scn.toml"))
     (tmp_path / "both.toml").write_text('extends = "paper"\n[instances.controller]\ncontroller = "pd.toml"\n'
                                         f'fmu = "vendor/{FMU_NAME}"\n')
     with pytest.raises(ValueError, match="instances.controller.controller: a controller file is for instances.controller "
