@@ -75,15 +75,16 @@ class Shipped:
         return subprocess.run([str(self.python), "-I", "-c", prefix + code, *args], cwd=cwd,
                               env=self.env(**(env or {})), capture_output=True, text=True, timeout=timeout)
 
-    def interrupt(self, args: list[str], cwd: Path, ready, timeout: float = 300) -> subprocess.CompletedProcess:
-        """Start the CLI, wait until ``ready()`` is true (polled), send SIGINT, and wait for it."""
+    def interrupt(self, args: list[str], cwd: Path, ready, timeout: float = 300,
+                  sig: int = signal.SIGINT) -> subprocess.CompletedProcess:
+        """Start the CLI, wait until ``ready()`` is true (polled), send ``sig`` (SIGINT), and wait for it."""
         proc = subprocess.Popen([str(self.script), *args], cwd=cwd, env=self.env(), stdout=subprocess.PIPE,
                                 stderr=subprocess.PIPE, text=True)
         deadline = time.monotonic() + timeout
         while not ready() and proc.poll() is None and time.monotonic() < deadline:
             time.sleep(0.02)
         if proc.poll() is None:
-            proc.send_signal(signal.SIGINT)
+            proc.send_signal(sig)
         out, err = proc.communicate(timeout=timeout)
         return subprocess.CompletedProcess(proc.args, proc.returncode, out, err)
 
