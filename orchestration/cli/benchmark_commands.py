@@ -58,7 +58,8 @@ class _Listener(Listener):
 
 def _again(args, seeds: list[int]) -> str:
     again = ["sotc-cosim", "benchmark", str(args.controller), "--budget", str(args.budget), "--polish", str(args.polish),
-             "--seeds", *map(str, seeds), "--points", str(args.points), "--out", str(args.out)]
+             "--seeds", *map(str, seeds), "--points", str(args.points), "--out", str(args.out), "--fmu-dir",
+             str(args.fmu_dir)]
     again += ["--workers", str(args.workers)] if args.workers else []
     again += ["--scheduler", args.scheduler] if args.scheduler else []
     return " ".join(again)
@@ -82,7 +83,16 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
     from orchestration.study.protocol import SEEDS
     from orchestration.sweep.benchmark_jobs import run
 
+    from orchestration.study.benchmark_reference import load as reference
+
     problem = _problem(args.controller)
+    stored = reference()["seeds"]
+    if any(s not in stored for s in args.seeds or SEEDS):
+        raise ScenarioError(f"--seeds: each seed's design is judged against ours tuned by the same seed; choose from "
+                            f"{' '.join(map(str, stored))}")
+    if all(d.kind == "choice" for d in problem.dims) and args.polish:
+        print("benchmark: every searched parameter is a choice: CMA-ES has nothing to move, so --polish 0")
+        args.polish = 0
     args.out = args.out or OUTPUTS / "benchmark" / args.controller.stem
     check_output_folder(args.out, "--out")
     seeds = list(dict.fromkeys(args.seeds or SEEDS))

@@ -3,6 +3,7 @@
 (``heldout.png``)."""
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 from fmu_controller.catalog import LABELS
@@ -27,11 +28,17 @@ def _pyplot():
 def criterion_plot(store: dict, path: Path) -> Path:
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(8, 4.5))
+    curves = 0
     for seed, per in store["seeds_results"].items():
-        curve = best_so_far(per["search"]["criterion"])
+        curve = [c if math.isfinite(c) else math.nan for c in best_so_far(per["search"]["criterion"])]
+        if math.isnan(curve[-1]):  # none of its trials ran to the end: no curve
+            ax.plot([], [], label=f"seed {seed}: no trial ran to the end")
+            continue
         ax.plot(range(1, len(curve) + 1), curve, label=f"seed {seed}")
+        curves += 1
     ax.axvline(store["budget"] + 0.5, color="black", lw=0.8, ls=":")  # trials are numbered from 1
-    ax.set_yscale("log")
+    if curves:
+        ax.set_yscale("log")
     ax.set_xlabel("trial")
     ax.set_ylabel("best so far: geometric mean of MSE_1 + MSE_2 [rad^2]")
     ax.legend(fontsize=8)

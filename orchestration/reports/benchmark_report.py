@@ -11,18 +11,20 @@
 """
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 from fmu_controller.catalog import LABELS
 from orchestration.markdown import number, table
-from orchestration.reports.fair_tables import NOT_TUNED_FOR, _agreed, _cell, _every, _family_text, _seeds_cell
+from orchestration.reports.fair_tables import NOT_TUNED_FOR, _agreed, _cell, _every, _seeds_cell
 from orchestration.study import fair
 from orchestration.study.benchmark_reference import load as reference
 from orchestration.study.protocol import BUDGET, POLISH, SEEDS
-from orchestration.study.statistics import geometric_intervals, geometric_interval, paired_verdicts
+from orchestration.study.statistics import PairedVerdict, geometric_interval, geometric_intervals, level, paired_verdicts
 from orchestration.study.tuning import CONTROLLERS, CONVERGED, improvement, still_improving, tpe_improvement
 
 OURS = tuple(LABELS[f] for f in CONTROLLERS)  # SOTC first: the one the benchmark is about
+FAILED_ON = "not stated: A failed on"
 
 
 def _measure(values: list, draw_index: int | None, n: int) -> list:
@@ -62,14 +64,21 @@ def protocol_text(store: dict) -> str:
     if store["points"] < fair.N_POINTS:
         off.append(f"the first {store['points']} of the {fair.N_POINTS} held-out points of each draw")
     c = store["controller"]
+    fixed = ", ".join(f"{k} = {v:g}" for k, v in c["fixed"].items()) or "nothing"
     head = [f"Controller file `{c['file']}`: `{c['fmu']}` (SHA-256 {c['fmu_sha256'][:16]}...), searched over "
-            f"{', '.join(d['name'] for d in c['search'])}; fixed {c['fixed'] or 'nothing'}.",
+            f"{', '.join(d['name'] for d in c['search'])}; fixed: {fixed}.",
             f"Seeds {', '.join(map(str, store['seeds']))}; {store['budget']} TPE then {store['polish']} CMA-ES trials per "
             f"seed, the training points and criterion of `sotc-cosim tune`; held out on {len(store['draws'])} draws of "
-            f"{store['points']} points per set, {store['stop_time']:g} s each; torques bounded by the actuator (radial "
-            "projection onto 4 N.m), ours under accel."]
+            f"{store['points']} point{'s' if store['points'] > 1 else ''} per set, {store['stop_time']:g} s each; torques "
+            "bounded by the actuator (radial projection onto 4 N.m), ours under accel. Measures: mse = MSE_1 + MSE_2 over "
+            "the run (eq. (50), rad^2, what the tuning judged); tail = max |e| over its last half (rad)."]
     if off:
         head.append(f"**Not the protocol, not converged by its budget**: {'; '.join(off)}. Its verdicts are a quick look.")
+    still = [seed for seed, per in store["seeds_results"].items() if still_improving(per["search"])]
+    if still:
+        head.append(f"**Not converged by the rule**: seed{'s' if len(still) > 1 else ''} {', '.join(still)} still "
+                    f"improve{'s' if len(still) == 1 else ''} by {100 * CONVERGED:g} % or more over the last half of the "
+                    "CMA-ES phase: a larger --polish resumes them, and a verdict can still turn.")
     return "\n".join(head)
 
 
@@ -79,7 +88,8 @@ def design_table(store: dict) -> str:
         r = per["search"]
         crit = r["criterion"]
         trials = f"{len(crit)} ({r['state'].count('pruned')} pruned, {r['state'].count('failed')} failed)"
-        design = ", ".join(f"{k} {number(v, '.4g')}" for k, v in r["best_design"].items())
+        design = (", ".join(f"{k} {number(v, '.4g')}" for k, v in r["best_design"].items())
+                  if crit[r["best"]] is not None else "none: no trial ran to the end")
         cma = f"{100 * improvement(r):.2f} %" if "polish_from" in r else "none"
         rows.append([seed, number(crit[0], ".4g"), number(crit[r["best"]], ".4g"), design, trials,
                      f"{100 * tpe_improvement(r):.2f} %", cma, _converged(r, store)])
@@ -134,20 +144,37 @@ def _verdicts(store: dict, ref: dict) -> tuple[dict, int]:
     asked = [(g, key, k, s) for g, per in wanted.items() for key, (k, s) in per.items()]
     said = iter(paired_verdicts([(_measure(store["seeds_results"][s]["heldout"][g[0]][g[2]], k, n),
                                   _ours(ref, g[1], s, g[0], g[2], k, n)) for g, _, k, s in asked], m))
-    return {g: {key: next(said) for key in per} for g, per in wanted.items()}, m
+    return {g: {key: _unless_failed(next(said)) for key in per} for g, per in wanted.items()}, m
+
+
+def _unless_failed(v: PairedVerdict) -> PairedVerdict:
+    """No verdict where this controller failed a run: the pairs keep the points where both ran, so a controller that
+    fails its hardest points would be judged on its easy ones only."""
+    if not v.failed_a:
+        return v
+    return replace(v, verdict=f"{FAILED_ON} {v.failed_a} of {v.failed_a + v.ratio.n} points")
 
 
 def verdict_table(store: dict, ref: dict) -> str:
     verdicts, m = _verdicts(store, ref)
     draws = store["draws"]
-    head = (f"Family: on each draw, the README's {ref['family']} verdicts and these {m - ref['family']}, {_family_text(m)}. "
-            "A is this controller, each seed against the same seed of B; A / B is the geometric mean of the per-point "
+    head = (f"Family: on each draw, these {m - ref['family']} verdicts are corrected as members of one family with the "
+            f"README's {ref['family']} (m = {m}): each interval here at {100 * level(m):.5g} % (Bonferroni); the README's "
+            f"own intervals stay at its family's level, {100 * level(ref['family']):.5g} %. Where this controller failed a "
+            "run, no verdict is stated (the pairs would keep only the points where it ran). A is this controller, each seed against the same seed of B; A / B is the geometric mean of the per-point "
             "ratio. A verdict holds only where every draw and every seed gives it, clear of the marginal band (a "
             "corrected bound within 1 % of 1).")
     rows = [[which, f"vs {label} tuned", NOT_TUNED_FOR.get(name, name),
-             *(_seeds_cell({k: v for k, v in per.items() if k[0] == d}) for d in draws), _every(per)]
+             *(_seeds_cell({k: v for k, v in per.items() if k[0] == d}) for d in draws), _overall(per)]
             for (which, label, name), per in verdicts.items()]
     return head + "\n\n" + table(["set", "A vs B", "measure", *(f"draw {d}" for d in draws), "every draw and seed"], rows)
+
+
+def _overall(per: dict) -> str:
+    """What every draw and seed gives (``fair_tables._every``), or that nothing is stated where A failed a run."""
+    if any(v.verdict.startswith(FAILED_ON) for v in per.values()):
+        return "not stated: A failed runs"
+    return _every(per)
 
 
 def headline(store: dict, ref: dict) -> str:
@@ -156,11 +183,19 @@ def headline(store: dict, ref: dict) -> str:
     held = []
     for (which, label, name), per in verdicts.items():
         said = _agreed(per)
-        if name in NOT_TUNED_FOR or said in (None, "not distinguishable"):
+        if name in NOT_TUNED_FOR or said in (None, "not distinguishable") or said.startswith(FAILED_ON):
             continue
         ratios = [v.ratio.value for v in per.values()]
         held.append(f"- {said} than the tuned {label} on the {which} set (A / B {number(min(ratios), '.3g')} to "
                     f"{number(max(ratios), '.3g')} over {len(store['draws'])} draws x {len(store['seeds'])} seeds)")
+    failed = sum(1 for per in store["seeds_results"].values() for which in fair.SETS
+                 for v in per["heldout"][which]["mse"] if v is None)
+    if failed:
+        held.append(f"- this controller failed {failed} held-out run{'s' if failed > 1 else ''}: no verdict is stated "
+                    "where it failed (\"Failures\" below)")
+    still = [seed for seed, per in store["seeds_results"].items() if still_improving(per["search"])]
+    if still:
+        held.append(f"- not converged by the rule: seed{'s' if len(still) > 1 else ''} {', '.join(still)}")
     return "\n".join(held) or "- no MSE verdict against a tuned controller of ours holds on every draw and seed"
 
 

@@ -19,6 +19,7 @@ import atexit
 import hashlib
 import json
 import math
+import threading
 from dataclasses import dataclass
 from typing import Any, Iterator
 
@@ -32,8 +33,10 @@ from orchestration.study import tuning
 from orchestration.study.foreign_host import ForeignHost
 from orchestration.study.pure_loop import Perturbation
 
-_HOSTS: dict[tuple, ForeignHost] = {}  # per process (a Dask worker): one child per FMU, its FMU loaded once
-_FAILURES: dict[Any, str] = {}  # per problem: why its last failed run failed
+# per process (a Dask worker) and thread: one child per FMU, its FMU loaded once (a worker of an existing cluster may
+# run tasks on several threads: each gets its own child, whose pipe carries one run at a time)
+_HOSTS: dict[tuple, ForeignHost] = {}
+_FAILURES: dict[tuple, str] = {}  # per problem and thread: why its last failed run failed
 LHS_STREAM = len(tuning.CONTROLLERS)  # the Latin hypercube's generator: [seed, this], apart from our four's
 
 
@@ -72,8 +75,19 @@ class Foreign:
 
     @property
     def failure(self) -> str | None:
-        """Why the last failed run of this problem in this process failed."""
-        return _FAILURES.get(self)
+        """Why the last failed run of this problem in this thread failed."""
+        return _FAILURES.get((self, threading.get_ident()))
+
+    def _failed(self, reason: str) -> None:
+        _FAILURES[self, threading.get_ident()] = reason
+
+    @property
+    def identity(self) -> str:
+        """What its runs depend on besides a design and a point: the FMU's bytes, the map, the fixed parameters and
+        the search space (a stored result of another identity is another controller's)."""
+        text = json.dumps({"fmu": self.fmu_digest, "ports": self.ports, "fixed": self.fixed,
+                           "space": [d.__dict__ for d in self.dims]}, sort_keys=True)
+        return hashlib.sha256(text.encode()).hexdigest()[:16]
 
     def parameters(self, design: dict[str, float]) -> dict[str, float]:
         """The FMU parameters of a design point: the fixed ones, then the design's."""
@@ -102,7 +116,7 @@ class Foreign:
 
     def host(self) -> ForeignHost:
         """This process's host of the FMU (started at the first run, restarted by itself after a crash)."""
-        key = (self.fmu, self.fmu_digest, self.ports, self.answer_s)
+        key = (self.fmu, self.fmu_digest, self.ports, self.answer_s, threading.get_ident())
         if key not in _HOSTS:
             _HOSTS[key] = ForeignHost(self.fmu, dict(self.ports) if self.ports is not None else None,
                                       answer_s=self.answer_s)
@@ -116,12 +130,14 @@ class Foreign:
                               arm=ArmParameters(**point["plant"]) if "plant" in point else None,
                               perturbation=Perturbation(**point.get("perturbation", {})), late_from=stop_time / 2)
         if run.failed:
-            _FAILURES[self] = run.error
+            self._failed(run.error)
             return {"mse": None, "tail": None, "cuts": None, "error": run.error}
         m = run.metrics
         mse, tail = m["mse1"] + m["mse2"], max(m["max_late_e1"], m["max_late_e2"])
-        finite = lambda v: v if math.isfinite(v) else None  # noqa: E731
-        return {"mse": finite(mse), "tail": finite(tail), "cuts": run.cuts, "error": None}
+        if not (math.isfinite(mse) and math.isfinite(tail)):  # the loop refuses a torque that is not finite: rare
+            self._failed(f"the run ended with MSE {mse!r}, max |e| {tail!r}: not finite")
+            return {"mse": None, "tail": None, "cuts": run.cuts, "error": self.failure}
+        return {"mse": mse, "tail": tail, "cuts": run.cuts, "error": None}
 
     def running(self, design: dict[str, float]) -> Iterator[float]:
         """``tuning.running_criterion`` of this FMU: after each training point, the geometric mean of
@@ -131,7 +147,7 @@ class Foreign:
             mse = self.measure(design, point, tuning.STOP_TIME)["mse"]
             if mse is None or mse <= 0.0:
                 if mse is not None:
-                    _FAILURES[self] = f"MSE {mse!r} at training point {k}: no criterion"
+                    self._failed(f"MSE {mse!r} at training point {k}: no criterion")
                 yield math.inf
                 return
             logs += math.log(mse)
@@ -148,8 +164,7 @@ class Foreign:
         parameters, the space, the training points and the protocol's numbers."""
         import optuna
 
-        text = json.dumps({"fmu": self.fmu_digest, "ports": self.ports, "fixed": self.fixed,
-                           "space": [d.__dict__ for d in self.dims], "points": tuning.training_points(),
+        text = json.dumps({"identity": self.identity, "points": tuning.training_points(),
                            "stop": tuning.STOP_TIME, "initial": self.initial(seed), "prune_after": tuning.PRUNE_AFTER,
                            "prune_percentile": tuning.PRUNE_PERCENTILE, "optuna": optuna.__version__.split(".")[0]},
                           sort_keys=True)

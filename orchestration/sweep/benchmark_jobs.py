@@ -29,6 +29,24 @@ class BenchmarkOutcome:
     interrupted: bool = False
 
 
+def check_journal(journal: Path, problem: Foreign, seeds) -> None:
+    """A journal that holds a search of another controller under this one's name (another FMU, map, fixed
+    parameters or search, or another protocol) is refused before anything runs: a complete search is never
+    reopened, so its numbers would pass for this controller's."""
+    if not journal.is_file():
+        return
+    try:
+        studies = {s.study_name: s for s in optimize.storage(journal).get_all_studies()}
+    except (ValueError, KeyError):  # damaged lines: the searches set them aside first (journal.salvage), then check
+        return
+    for seed in seeds:
+        study = studies.get(optimize.study_name(problem, seed))
+        if study is not None and study.user_attrs.get("protocol") != problem.digest(seed):
+            raise optimize.JournalError(
+                f"{journal.parent}: holds the benchmark of another controller file, FMU, map, fixed parameters or "
+                f"search (seed {seed}), or of another protocol; give another --out (or remove that folder)")
+
+
 def _read_cache(path: Path) -> dict[str, Any]:
     try:
         data = json.loads(path.read_text())
@@ -69,7 +87,8 @@ class _Evaluation:
             return self._submit(client, job[1])
         k = self.keys[future.key]
         self.results[k] = future.result()  # an error of ours (an FMU's runs fail apart) stops the command
-        self.cache[k] = {"design": self.designs[k], "points": self.points, "result": self.results[k]}
+        self.cache[k] = {"design": self.designs[k], "points": self.points, "controller": self.problem.identity,
+                         "result": self.results[k]}
         atomic_write(self.path, json.dumps(self.cache) + "\n")
         if self.listener is not None:
             self.listener.evaluated(k)
@@ -82,7 +101,8 @@ class _Evaluation:
         for k, (function, args) in _tasks(self.problem, seed, record["best_design"], self.points).items():
             self.designs[k] = record["best_design"]
             kept = self.cache.get(k, {})
-            if kept.get("design") == record["best_design"] and kept.get("points") == self.points:
+            if (kept.get("design"), kept.get("points"), kept.get("controller")) == (record["best_design"], self.points,
+                                                                                   self.problem.identity):
                 self.results[k] = kept["result"]
                 kept_now += 1
                 continue
@@ -99,6 +119,7 @@ def run(out: Path, problem: Foreign, settings: dict[str, Any], workers: int | No
     """The whole benchmark into the folder ``out``: the searches, each followed by its seed's held-out runs and
     J / J* on the same cluster; the store once everything is in (``benchmark.STORE_NAME``)."""
     seeds = settings["seeds"]
+    check_journal(out / benchmark.JOURNAL_NAME, problem, seeds)
     evaluation = _Evaluation(out, problem, settings, listener)
     tuning = searches(out / benchmark.JOURNAL_NAME, [(problem, s) for s in seeds], settings["budget"],
                       settings["polish"], workers, scheduler, listener, after=evaluation)

@@ -59,7 +59,7 @@ def test_the_report_plots_recording_and_store_are_written(benchmarked):
     for section in ("## Tuned designs", "## Held-out figures", "## Paired verdicts", "## Against the optimum",
                     "## Samples the bound cut", "## Failures"):
         assert section in report
-    assert "the README's 72 verdicts and these 16" in report  # 2 sets x 4 of ours x 2 measures x 1 seed
+    assert "these 16 verdicts are corrected as members of one family with the README's 72 (m = 88)" in report
     store = json.loads((out / "benchmark.json").read_text())
     seed = store["seeds_results"]["0"]
     assert seed["search"]["trials"] == 6 and len(seed["search"]["criterion"]) == 6
@@ -80,6 +80,36 @@ def test_a_rerun_resumes_to_the_same_store(benchmarked, example):
     outcome = benchmark_jobs.run(out, problem, settings, 1, None)
     assert outcome.tuning.trials_before == 6 and not outcome.interrupted
     assert (out / "benchmark.json").read_text() == before
+
+
+def test_a_folder_that_holds_another_controllers_benchmark_is_refused(benchmarked, fmu_dir, capsys):
+    """A complete search is never reopened: a changed controller file (here its fixed bound) would otherwise be
+    reported with the numbers of the file benchmarked before into the same folder."""
+    out, file = benchmarked
+    changed = file.with_name("changed")
+    changed.mkdir(exist_ok=True)
+    other = changed / file.name
+    other.write_text(file.read_text().replace("umax = 4.0", "umax = 2.0"))
+    before = {p.name: p.stat().st_mtime_ns for p in out.iterdir()}
+    assert main(["benchmark", str(other), *SMALL, "--out", str(out), "--fmu-dir", str(fmu_dir)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "holds the benchmark of another controller file" in err[0]
+    assert {p.name: p.stat().st_mtime_ns for p in out.iterdir()} == before
+
+
+def test_no_verdict_is_stated_where_the_controller_failed_a_run(benchmarked):
+    """A failed run of A drops out of its pairs: its verdict would judge A on the points where it ran only."""
+    from orchestration.reports import benchmark_report
+
+    out, _ = benchmarked
+    store = json.loads((out / "benchmark.json").read_text())
+    store["seeds_results"]["0"]["heldout"]["perturbed"]["mse"][0] = None  # draw 7's first point failed
+    verdicts, _ = benchmark_report._verdicts(store, benchmark_report.reference())
+    for (which, _, name), per in verdicts.items():
+        for (draw, _), v in per.items():
+            failed = which == "perturbed" and name == "mse" and draw == store["draws"][0]
+            assert v.verdict.startswith(benchmark_report.FAILED_ON) == failed
+    assert "failed 1 held-out run" in benchmark_report.headline(store, benchmark_report.reference())
 
 
 def _problem(file: Path):
@@ -147,8 +177,10 @@ def test_a_controller_file_the_benchmark_cannot_take_is_one_line_and_exit_2(exam
     assert not (tmp_path / "out").exists()
 
 
-def test_an_fmu_or_a_missing_file_is_one_line_and_exit_2(example, tmp_path, capsys):
-    for given, said in ((example, "a controller file (.toml"), (tmp_path / "none.toml", "no such file")):
-        assert main(["benchmark", str(given), "--out", str(tmp_path / "out")]) == 2
+def test_an_fmu_a_missing_file_or_a_seed_of_ours_not_stored_is_one_line_and_exit_2(example, tmp_path, capsys):
+    file = _controller_file(tmp_path, example)
+    for args, said in (([str(example)], "a controller file (.toml"), ([str(tmp_path / "none.toml")], "no such file"),
+                       ([str(file), "--seeds", "7"], "--seeds: each seed's design is judged against ours")):
+        assert main(["benchmark", *args, "--out", str(tmp_path / "out")]) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and said in err[0]
