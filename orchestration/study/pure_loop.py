@@ -68,11 +68,12 @@ class Perturbation:
         return disturbance_torque(t, self.step1, self.step2, self.step_time, self.sin1, self.sin2, self.omega)
 
     def measure(self, state: tuple[float, float, float, float], noise: NoiseSequence, k: int) -> tuple[float, ...]:
+        """y_m(t_k) = y + std * (the draws of sample k), component by component."""
         if not self.noisy:
             return state
-        draw = noise.at(k)
-        std = (self.std_phi, self.std_phi, self.std_dphi, self.std_dphi)
-        return tuple(x + s * float(n) for x, s, n in zip(state, std, draw))
+        n1, n2, n3, n4 = noise.row(k)
+        a, v = self.std_phi, self.std_dphi
+        return state[0] + a * n1, state[1] + a * n2, state[2] + v * n3, state[3] + v * n4
 
 
 NO_PERTURBATION = Perturbation()
