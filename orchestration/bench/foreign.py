@@ -37,6 +37,7 @@ import time
 from datetime import datetime, timezone
 from pathlib import Path
 
+from orchestration.bench.trial import compiled_cores
 from orchestration.fmu_build import compiled
 from orchestration.fmu_build.build import PACKAGE_ROOT
 from orchestration.scratch import owner_prefix
@@ -69,23 +70,15 @@ def foreign_row(repeats: int, stop_time: float | None = None) -> dict:
             return {**stamp, "skipped": f"examples/pd_controller did not build: {why}"}
         env = dict(os.environ)
         if compiled.requested() and compiled.unavailable() is None:
-            cores = compiled_cores_for_child(Path(tmp) / "cores")
+            # the host's child (orchestration.run.child) puts the package's folder first on its path unless it is
+            # there already: with both on PYTHONPATH, the compiled cores first, both children import them
+            cores = compiled_cores(Path(tmp) / "cores")
             env["PYTHONPATH"] = os.pathsep.join(p for p in (str(cores), str(PACKAGE_ROOT), env.get("PYTHONPATH")) if p)
         proc = subprocess.run([sys.executable, "-c", CHILD, str(Path(tmp) / FMU_NAME), str(repeats),
                                repr(stop_time or STOP_TIME)], cwd=tmp, env=env, capture_output=True, text=True)
     if proc.returncode != 0:
         raise RuntimeError(f"the foreign trial failed: {proc.stderr.strip()[-500:]}")
     return {**stamp, **json.loads(proc.stdout.strip().splitlines()[-1])}
-
-
-def compiled_cores_for_child(dest: Path) -> Path:
-    """The cores compiled into ``dest`` as the tuning trial's row compiles them (``trial.compiled_cores``). The
-    child's own child (``ForeignHost``, started by ``orchestration.run.child``) puts the package's folder first on
-    its path unless it is there already: with both on ``PYTHONPATH``, this folder first, both children import
-    these cores."""
-    from orchestration.bench.trial import compiled_cores
-
-    return compiled_cores(dest)
 
 
 def _trial(loop, points: list[dict], stop_time: float) -> list[dict]:
