@@ -7,8 +7,9 @@ Per step k (t_k = k T from the step count), what the master does for ``paper`` w
 controller (``orchestration.run.master``: read the plant and the reference, set the controller's inputs,
 read it, set the plant's input, doStep all), in ``pure_loop``'s arithmetic:
 
-1. the reference r(t_k) (``CircleTrajectory.sample``) and the measurement y_m(t_k) (``Perturbation.measure``:
-   the state, plus the noise of draw k under a perturbation);
+1. the reference r(t_k) (``CircleTrajectory.sample``, whose samples are the same for every run of one
+   trajectory and length: taken once for them) and the measurement y_m(t_k) (``Perturbation.measure``: the
+   state, plus the noise of draw k under a perturbation);
 2. the FMU's mapped inputs set from them with one fmi2SetReal / fmi3SetFloat64 (the master's ``_Inputs``);
 3. its outputs read with one fmi2GetReal / fmi3GetFloat64 and the actuator applied as ``ported.Ported`` applies
    it (its port map; the torques projected onto ||tau|| <= rho by ``saturate_norm``; the cut flags,
@@ -106,6 +107,7 @@ class ForeignLoop:
         self.samples = _Samples()
         self.reinstantiated = 0
         self.ported: Ported | None = None
+        self._reference: tuple = (None, [], np.empty((0, len(REFERENCE_SIGNALS))))
         self._open()
 
     def _open(self) -> None:
@@ -169,21 +171,32 @@ class ForeignLoop:
         ported.initialized = True
         arm = arm if arm is not None else ArmParameters()
         trajectory = trajectory if trajectory is not None else CircleTrajectory()
-        records = (np.empty((n + 1, 4)), np.empty((n + 1, len(REFERENCE_SIGNALS))), np.empty((n + 1, ACTED)),
+        records = (np.empty((n + 1, 4)), np.empty((n + 1, ACTED)),
                    np.empty((n + 1, ported.n_own)) if samples else None)
+        refs = self._references(trajectory, step, n)
         self._loop(n, step, (float(phi0[0]), float(phi0[1]), float(dphi0[0]), float(dphi0[1])),
-                   (arm, trajectory, substeps, perturbation), records)
-        return self._result(n, step, *records)
+                   (arm, refs[0], substeps, perturbation), records)
+        return self._result(n, step, records[0], refs[1].copy(), *records[1:])
+
+    def _references(self, trajectory: CircleTrajectory, step: float, n: int) -> tuple[list, np.ndarray]:
+        """The reference's samples r(t_0) .. r(t_N) (``CircleTrajectory.sample``'s tuples, and as an array): the
+        same for every run of one trajectory, step and length, as a trial's runs all are, so sampled once for them
+        (the last ones kept) instead of at every step of every run."""
+        key = (trajectory, step, n)
+        if self._reference[0] != key:
+            samples = [trajectory.sample(k * step) for k in range(n + 1)]
+            self._reference = (key, samples, np.array(samples, dtype=float))
+        return self._reference[1:]
 
     def _loop(self, n: int, step: float, state: tuple, model: tuple, records: tuple) -> None:
         """The hot loop: the FMU's raw calls with their arguments built once (``_open``), its torques read from
         its buffer as Python floats, each record one slice of a preallocated array written through a ctypes view
         of it (a numpy row from a tuple costs several times as much), the clock marked as ``clock.marks`` says
         (one item each); no allocation of ours per step, only the cores' tuples."""
-        arm, trajectory, substeps, perturbation = model
-        ys, refs, acts = (np.ctypeslib.as_ctypes(a.reshape(-1)) for a in records[:3])
-        own, width = records[3], len(REFERENCE_SIGNALS)
-        sample, measure, noisy = trajectory.sample, perturbation.measure, perturbation.noisy
+        arm, references, substeps, perturbation = model
+        ys, acts = (np.ctypeslib.as_ctypes(a.reshape(-1)) for a in records[:2])
+        own = records[2]
+        measure, noisy = perturbation.measure, perturbation.noisy
         disturbance, disturbs, noise = perturbation.disturbance, perturbation.disturbs, NoiseSequence(perturbation.seed)
         marks, at_sample, at_call, (on_set, on_get, on_step) = self.clock.marks((SET, GET, STEP))
         set_call, set_args, get_call, get_args, step_call, component, names = self.calls
@@ -193,9 +206,8 @@ class ForeignLoop:
         for k in range(n + 1):
             t = k * step
             marks[at_sample] = k
-            ref = sample(t)
             src[0:4] = measure(state, noise, k) if noisy else state
-            src[4:] = ref
+            src[4:] = references[k]
             if set_call is not None:
                 marks[at_call] = on_set
                 status = set_call(*set_args)
@@ -209,7 +221,6 @@ class ForeignLoop:
             j = ACTED * k
             acts[j:j + ACTED] = acted
             ys[j:j + 4] = state
-            refs[width * k:width * k + width] = ref
             if own is not None:
                 own[k] = own_view
             if k == n:

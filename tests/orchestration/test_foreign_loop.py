@@ -12,6 +12,7 @@ from fmpy.fmi1 import FMICallException
 from support.example_controller import PORTS, built_fmu
 
 from fmu_plant.dynamics import ArmParameters
+from fmu_plant.trajectory import CircleTrajectory
 from orchestration.run.master import run
 from orchestration.run.scenario import load_scenario
 from orchestration.study.foreign_loop import ForeignLoop
@@ -101,6 +102,22 @@ def test_a_run_without_samples_has_the_same_metrics_and_cuts_bit_for_bit(example
             for late_from in (50.0, 1.0):
                 assert metrics(lean, late_from) == metrics(full, late_from)
     assert cuts[0] > 0 and cuts[1] == 0 and loop.reinstantiated == 0
+
+
+def test_the_reference_is_taken_once_per_trajectory_step_and_length(example):
+    """The loop keeps the reference's samples of its last trajectory, step and length for the runs that share them:
+    each run still gets its own trajectory's samples, in arrays of its own."""
+    other = CircleTrajectory(radius=0.4)
+    with ForeignLoop(example, PORTS) as loop:
+        first = loop.run(GAINS[1], stop_time=0.5)
+        first.ref[0, 0] = 99.0  # a run's arrays are its own: the next run's reference is not touched
+        runs = [(loop.run(GAINS[1], stop_time=0.5), CircleTrajectory()),
+                (loop.run(GAINS[1], stop_time=0.5, trajectory=other), other),
+                (loop.run(GAINS[1], stop_time=0.3, step=0.005), CircleTrajectory()),
+                (loop.run(GAINS[1], stop_time=0.5), CircleTrajectory())]
+    for run, trajectory in runs:
+        assert np.array_equal(run.ref, [trajectory.sample(t) for t in run.t])
+    assert not np.array_equal(runs[0][0].y, runs[1][0].y)
 
 
 def test_a_failed_reset_instantiates_the_fmu_again(example, monkeypatch):
