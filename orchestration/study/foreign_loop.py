@@ -201,7 +201,7 @@ class ForeignLoop:
         marks, at_sample, at_call, (on_set, on_get, on_step) = self.clock.marks((SET, GET, STEP))
         set_call, set_args, get_call, get_args, step_call, component, names = self.calls
         src, out, own_view = self.samples.out_buf, self.ported.inner.out_buf, self.ported.inner.out_view
-        (i1, i2), bound = self.ported.torque_index, self.bound
+        (i1, i2), bound, warning = self.ported.torque_index, self.bound, fmi2Warning
         d1 = d2 = 0.0
         for k in range(n + 1):
             t = k * step
@@ -211,11 +211,11 @@ class ForeignLoop:
             if set_call is not None:
                 marks[at_call] = on_set
                 status = set_call(*set_args)
-                if status > fmi2Warning:
+                if status > warning:
                     raise FMICallException(function=names[0], status=status)
             marks[at_call] = on_get
             status = get_call(*get_args)
-            if status > fmi2Warning:
+            if status > warning:
                 raise FMICallException(function=names[1], status=status)
             acted = saturate_norm(out[i1], out[i2], bound)
             j = ACTED * k
@@ -230,7 +230,7 @@ class ForeignLoop:
             state = integrate(state, acted[0] + d1, acted[1] + d2, step, substeps, arm)
             marks[at_call] = on_step
             status = step_call(component, t, step, fmi2True)
-            if status > fmi2Warning:
+            if status > warning:
                 raise FMICallException(function=names[2], status=status)
 
     def _result(self, n: int, step: float, ys: np.ndarray, refs: np.ndarray, acts: np.ndarray,
