@@ -12,13 +12,14 @@ and no samples kept, as a trial reads them.
 
 The measurement runs in a child interpreter whose cores are compiled where they can be (``trial.compiled_cores``,
 as the tuning trial's row runs them; ``PYTHONPATH`` puts them first for the host's own child as well), and
-alternates ``repeats`` times:
+measures ``repeats`` times, point by point in turn (a shared machine's speed changes within a second):
 
 - the trial in-process (``ForeignLoop``): its wall time per step, set-up, resets and metrics included;
 - the same trial through ``ForeignHost`` (its metrics checked against the in-process ones);
 - fmpy's fmi2DoStep function on the in-process instance, alone in a Python loop of as many calls as a run has
-  steps (from the trial's last time on): the FMU's own doStep per call, the ctypes call made as the loop makes
-  it (``FMU._functions['fmi2DoStep']``, fmpy's declared argument types; the loop's iteration included).
+  steps after each point (from the run's last time on): the FMU's own doStep per call, the ctypes call made as
+  the loop makes it (``FMU._functions['fmi2DoStep']``, fmpy's declared argument types; the loop's iteration
+  included).
 
 Reported (median, min and max of the repeats): the trial per step, the doStep per call, their difference (the
 trial's cost beyond the FMU's own doStep; target <= 10 us with compiled cores), hosted over in-process (target
@@ -81,23 +82,28 @@ def foreign_row(repeats: int, stop_time: float | None = None) -> dict:
     return {**stamp, **json.loads(proc.stdout.strip().splitlines()[-1])}
 
 
-def _trial(loop, points: list[dict], stop_time: float) -> list[dict]:
+def _in_process(loop, point: dict, stop_time: float) -> dict:
+    """One run of a trial in this process: ``pure_loop.metrics`` of it, no samples kept."""
     from orchestration.study.pure_loop import metrics
 
-    return [metrics(loop.run(PARAMETERS, stop_time=stop_time, samples=False, **p)) for p in points]
+    return metrics(loop.run(PARAMETERS, stop_time=stop_time, samples=False, **point))
 
 
-def _hosted(host, points: list[dict], stop_time: float) -> list[dict]:
-    runs = [host.run(PARAMETERS, stop_time=stop_time, **p) for p in points]
-    failed = [r.error for r in runs if r.failed]
-    if failed:
-        raise RuntimeError(f"a hosted run failed: {failed[0]}")
-    return [r.metrics for r in runs]
+def _hosted(host, point: dict, stop_time: float) -> dict:
+    """The same run through the host: its metrics, computed in the child."""
+    run = host.run(PARAMETERS, stop_time=stop_time, **point)
+    if run.failed:
+        raise RuntimeError(f"a hosted run failed: {run.error}")
+    return run.metrics
 
 
 def measure(fmu: str, repeats: int, stop_time: float) -> dict:
-    """In the child: the figures of ``repeats`` alternated trials (runs of ``stop_time``), in-process and hosted,
-    and doStep loops."""
+    """In the child: ``repeats`` trials each way (runs of ``stop_time``) and the doStep loops, interleaved point by
+    point (in-process and hosted in turn, first one then the other, then a run's steps of doStep), so that the
+    three figures share the machine's moments: a shared machine's speed changes within a second. This process and
+    the host's child run on one CPU (``_one_cpu``), so that hosted against in-process compares the isolation, not
+    two CPUs; that ratio is the median over every point of every trial of its hosted run against its in-process
+    run, measured back to back."""
     import fmu_controller.saturation
     from fmpy.fmi2 import fmi2True
 
@@ -112,34 +118,48 @@ def measure(fmu: str, repeats: int, stop_time: float) -> dict:
     n = steps(stop_time, STEP_SIZE)
     cores = "Python" if fmu_controller.saturation.__file__.endswith(".py") else "compiled"
     walls: dict[str, list[float]] = {"trial": [], "hosted": [], "do_step": []}
+    ratios = []
+    cpu = _one_cpu()
     with ForeignLoop(fmu, PORTS) as loop, ForeignHost(fmu, PORTS) as host:
-        if _trial(loop, points, stop_time) != _hosted(host, points, stop_time):  # and both warm
+        ways = {"trial": lambda p: _in_process(loop, p, stop_time), "hosted": lambda p: _hosted(host, p, stop_time)}
+        if [ways["trial"](p) for p in points] != [ways["hosted"](p) for p in points]:  # and both warm
             raise RuntimeError("the hosted trial's metrics differ from the in-process trial's")
         if _cores_of(host.proc.pid) not in (cores, None):
             raise RuntimeError(f"the host's child did not import the cores this process did ({cores})")
-        inner = loop.ported.inner
-        do_step, component = inner.raw_step, inner.fmu.component
+        do_step, component = loop.ported.inner.raw_step, loop.ported.inner.fmu.component
         for _ in range(repeats):
-            started = time.perf_counter()
-            _trial(loop, points, stop_time)
-            walls["trial"].append(time.perf_counter() - started)
-            started = time.perf_counter()
-            _hosted(host, points, stop_time)
-            walls["hosted"].append(time.perf_counter() - started)
-            started = time.perf_counter()
-            for k in range(n, 2 * n):
-                do_step(component, k * STEP_SIZE, STEP_SIZE, fmi2True)
-            walls["do_step"].append(time.perf_counter() - started)
-        runs, reinstantiated, restarts = 1 + repeats, loop.reinstantiated, host.restarts
-    per_step = 1e6 / (len(points) * n)
-    figures = {"trial": _stats([w * per_step for w in walls["trial"]]),
-               "hosted": _stats([w * per_step for w in walls["hosted"]]),
-               "do_step": _stats([w * 1e6 / n for w in walls["do_step"]])}
+            spent = dict.fromkeys(walls, 0.0)
+            for i, point in enumerate(points):
+                pair = {}
+                for way in ("trial", "hosted")[::1 if i % 2 == 0 else -1]:
+                    started = time.perf_counter()
+                    ways[way](point)
+                    pair[way] = time.perf_counter() - started
+                    spent[way] += pair[way]
+                ratios.append(pair["hosted"] / pair["trial"])
+                started = time.perf_counter()  # on the instance the run left in step mode (the next run resets it)
+                for k in range(n, 2 * n):
+                    do_step(component, k * STEP_SIZE, STEP_SIZE, fmi2True)
+                spent["do_step"] += time.perf_counter() - started
+            for way, seconds in spent.items():
+                walls[way].append(seconds * 1e6 / (len(points) * n))
+        trials, reinstantiated, restarts = 1 + repeats, loop.reinstantiated, host.restarts
+    figures = {way: _stats(us) for way, us in walls.items()}
     return {"benchmark": "foreign", "cores": cores, "repeats": repeats,
             "points": len(points), "stop_time": stop_time, "steps_per_run": n, "parameters": PARAMETERS,
             "us_per_step": figures, "beyond_us_per_step": figures["trial"]["median"] - figures["do_step"]["median"],
-            "hosted_over_in_process": figures["hosted"]["median"] / figures["trial"]["median"],
-            "trials_per_load": runs, "reinstantiated": reinstantiated, "host_restarts": restarts}
+            "hosted_over_in_process": statistics.median(ratios), "cpu": cpu,
+            "trials_per_load": trials, "reinstantiated": reinstantiated, "host_restarts": restarts}
+
+
+def _one_cpu() -> int | None:
+    """This process, and the children it starts from now on, kept to the first CPU it may run on (Linux); which,
+    or None where the platform cannot say."""
+    if not hasattr(os, "sched_setaffinity"):
+        return None
+    cpu = min(os.sched_getaffinity(0))
+    os.sched_setaffinity(0, {cpu})
+    return cpu
 
 
 def _cores_of(pid: int) -> str | None:
@@ -163,12 +183,14 @@ def line(row: dict) -> str:
         return f"{what}): not measured ({when}): {row['skipped']}."
     f = row["us_per_step"]
     span = lambda k: f"{f[k]['median']:.2f} us ({f[k]['min']:.2f}-{f[k]['max']:.2f})"  # noqa: E731
+    on_cpu = "" if row.get("cpu") is None else f", both processes on CPU {row['cpu']}"
     return (f"{what}; a trial: the {row['points']} training points of {row['stop_time']:g} s back to back, cores "
-            f"{row['cores']}, {row['repeats']} trials each way alternated, median (min-max); {when}): in-process "
-            f"{span('trial')} per step (set-up, resets and metrics included), of which the FMU's own doStep "
+            f"{row['cores']}, {row['repeats']} trials each way, point by point in turn, median (min-max); {when}): "
+            f"in-process {span('trial')} per step (set-up, resets and metrics included), of which the FMU's own doStep "
             f"{span('do_step')} per call (fmpy's fmi2DoStep function alone in a loop on the same instance: what is "
             f"subtracted), so {row['beyond_us_per_step']:.2f} us per step beyond it; through ForeignHost (a child "
-            f"process) {span('hosted')} per step, {row['hosted_over_in_process']:.2f}x in-process. The FMU was "
+            f"process{on_cpu}) {span('hosted')} per step, {row['hosted_over_in_process']:.2f}x in-process (the "
+            f"median of each run's against its in-process twin's). The FMU was "
             f"loaded once for {row['trials_per_load']} trials ({row['trials_per_load'] * row['points']} runs), "
             f"reset between runs, instantiated again {row['reinstantiated']} times; the host's child was restarted "
             f"{row['host_restarts']} times.")

@@ -130,6 +130,7 @@ def test_the_c_controller_row_runs_alone_with_its_fields_and_targets(tmp_path, m
         assert 0 < f["min"] <= f["median"] <= f["max"], figure
     assert row["beyond_us_per_step"] == row["us_per_step"]["trial"]["median"] - row["us_per_step"]["do_step"]["median"]
     assert row["hosted_over_in_process"] > 0 and row["reinstantiated"] == 0 == row["host_restarts"]
+    assert "cpu" in row  # both processes kept to one CPU where the platform can (Linux), else None
     assert row["trials_per_load"] == 2  # the warm trial and one repeat, on one load of the FMU
     printed = capsys.readouterr().out
     assert foreign.line(row) in printed and "| the C controller FMU loaded once, reset between runs | yes |" in printed
