@@ -57,10 +57,20 @@ class NoiseSequence:
         self.seed = int(seed)
         self._block_index = -1
         self._block = np.empty((0, 4))
+        self._rows: list[list[float]] | None = None  # the block as Python floats, made by the first ``row``
 
     def at(self, k: int) -> np.ndarray:
         b, i = divmod(int(k), NOISE_BLOCK)
         if b != self._block_index:
             self._block = np.random.default_rng([self.seed, b]).standard_normal((NOISE_BLOCK, 4))
-            self._block_index = b
+            self._block_index, self._rows = b, None
         return self._block[i]
+
+    def row(self, k: int) -> list[float]:
+        """``at(k)`` as Python floats (the same doubles): a loop in Python that reads every sample's draws pays a
+        list lookup, not a numpy row and four numpy scalars (several times the arithmetic it feeds)."""
+        i = int(k) % NOISE_BLOCK
+        if self._rows is None or int(k) // NOISE_BLOCK != self._block_index:
+            self.at(k)
+            self._rows = self._block.tolist()
+        return self._rows[i]

@@ -1,5 +1,6 @@
 """``sotc-cosim bench``: run the named benchmarks, print their reports, compare with an earlier
-JSON and store this one. The measurements themselves live in ``design`` and ``speed``."""
+JSON and store this one. The measurements themselves live in ``design``, ``speed`` and the modules
+``speed`` gathers (``foreign``: the one row also run alone, being short)."""
 from __future__ import annotations
 
 import argparse
@@ -12,7 +13,10 @@ from orchestration.bench.design import (
     bench_recording_blocks,
     bench_sweep,
 )
+from orchestration.bench.foreign import foreign_row, line
 from orchestration.bench.speed import bench_speed, compare, format_markdown
+from orchestration.bench.targets import foreign_targets
+from orchestration.markdown import table
 from orchestration.exit_codes import UsageError
 
 
@@ -26,6 +30,16 @@ def _speed(args) -> tuple[str, dict]:
     return format_markdown(data), data
 
 
+def _foreign(args) -> tuple[str, dict]:
+    """The speed bench's row of the benchmark's loop with a C controller FMU alone, with its targets: seconds
+    where the whole speed bench takes minutes (``--update-docs`` stores it into the stored measurement)."""
+    row = foreign_row(args.repeats, args.stop_time)
+    judged = foreign_targets(row)
+    text = line(row) + ("\n\n" + table(["target", "met"], [[k, "yes" if ok else "**no**"] for k, ok in judged.items()])
+                        if judged else "")
+    return text, row
+
+
 def _text_only(bench):
     def run(args) -> tuple[str, dict]:
         text = bench(args.fmu_dir)
@@ -36,6 +50,7 @@ def _text_only(bench):
 # name -> benchmark taking the parsed ``sotc-cosim bench`` arguments, returning (report, JSON data)
 BENCHMARKS = {
     "speed": _speed,
+    "foreign": _foreign,
     "integrator": _text_only(lambda fmu_dir: bench_integrator()),  # the plant core alone: no FMU
     "recording": _text_only(bench_recording),
     "recording-blocks": _text_only(bench_recording_blocks),
@@ -51,8 +66,9 @@ def run_benchmarks(args: argparse.Namespace) -> dict[str, dict]:
     unknown = [n for n in names if n not in BENCHMARKS]
     if unknown:
         raise BenchError(f"no benchmark {unknown}; known: {', '.join(BENCHMARKS)}")
-    if args.update_docs and "speed" not in names:
-        raise BenchError("--update-docs writes the speed benchmark's tables: run it (sotc-cosim bench speed)")
+    if args.update_docs and not {"speed", "foreign"} & set(names):
+        raise BenchError("--update-docs writes the speed benchmark's tables: run it (sotc-cosim bench speed), or "
+                         "its row foreign alone (sotc-cosim bench foreign)")
     old = None
     if args.compare is not None:
         try:

@@ -17,6 +17,8 @@ cost scales, measured side by side in one invocation (never in a test).
 4. Long runs, each ``sotc-cosim run paper --stop-time S`` with recording in a fresh child process:
    wall time per simulated second against the same child run of 100 s, the peak RSS of the child
    (``ru_maxrss``: interpreter and libraries included) and the size of the recording.
+5. Whole processes (``process``), one tuning trial (``trial``) and a trial of the benchmark's loop with a C
+   controller FMU (``foreign``), each measured by its module.
 """
 from __future__ import annotations
 
@@ -35,7 +37,8 @@ from pathlib import Path
 from orchestration.bench.instruments import Timer, hosted_cores, patched, wrapper_cost
 from orchestration.bench.process import process_walls
 from orchestration.bench.targets import MASTER, PLUMBING, check_targets
-from orchestration.bench.trial import trial_costs
+from orchestration.bench import foreign
+from orchestration.bench.trial import trial_costs, trial_line
 from orchestration.fmu_build import compiled
 from orchestration.markdown import table
 from orchestration.progress import stage
@@ -312,12 +315,14 @@ def _bench_speed(fmu_dir: Path, repeats: int, long: tuple[float, ...], record_ev
     stage("bench speed", "the plumbing's floor, then whole processes")
     data["plumbing_floor"] = plumbing_floor(scenario, paths)
     data["process"] = process_walls(next(iter((fast if isinstance(fast, dict) else paths).values())).parent, repeats)
-    if stop_time is None:  # a shortened bench (a smoke test) leaves out the trials of 8 x 20 s
+    if stop_time is None:  # a shortened bench (a smoke test) leaves out the trials of 8 x 20 s (ours, a C FMU's)
         stage("bench speed", "a tuning trial's cost")
         trials = trial_costs(repeats)  # the compiled cores' trial is the one a tuning runs, when there is one
         data["trial"] = trials.pop("compiled", trials["default"])
         if trials["default"] is not data["trial"]:
             data["trial_default"] = trials["default"]
+        stage("bench speed", "a trial of the benchmark's loop with a C controller FMU")
+        data["foreign"] = foreign.foreign_row(repeats)
     if long:
         stage("bench speed", f"long runs of {', '.join(f'{s:g}' for s in long)} s, each in its own process")
     data["long"] = long_runs(fmu_dir, long, record_every) if long else []
@@ -438,10 +443,12 @@ def format_markdown(data: dict) -> str:
     if "process" in data:
         lines += ["", _process_line(data["process"], meth["repeats"])]
     if "trial" in data:
-        lines += ["", _trial_line(data["trial"])]
+        lines += ["", trial_line(data["trial"])]
     if "trial_default" in data:
-        lines += ["", _trial_line(data["trial_default"], "The same trial with the cores the interpreter imports by "
-                                                         "itself (in a source checkout the .py")]
+        lines += ["", trial_line(data["trial_default"], "The same trial with the cores the interpreter imports by "
+                                                        "itself (in a source checkout the .py")]
+    if "foreign" in data:
+        lines += ["", foreign.line(data["foreign"])]
     if data["long"]:
         lines += ["", table(["single run, recorded (child process)", "wall time", "ms per simulated s",
                              "vs linear from 100 s", "peak RSS", "recording"], _long_rows(data))]
@@ -459,23 +466,13 @@ def _process_line(p: dict, repeats: int) -> str:
     return f"Whole processes (fresh interpreters, median (min-max)): {'; '.join(parts)}."
 
 
-def _trial_line(t: dict, what: str = "One tuning trial (the nominal SOTC design on the 8 training points of 20 s, "
-                                      "pure loop") -> str:
-    line = f"{what}, cores {t['cores']}, fresh interpreter): {t['median']:.2f} s ({t['min']:.2f}-{t['max']:.2f})"
-    if "before" in t:
-        b = t["before"]
-        line += (f"; before the typed cores {b['median']:.2f} s (cores {b['cores']}, {b.get('date', '?')}): "
-                 f"before / now = {t['cheaper']:.2f}")
-    return line + "."
-
-
 def _figures(data: dict) -> dict[str, float]:
     out = {f"{k} median s": v["median"] for k, v in data["runs"].items()}
     out.update({k: v for k, v in data["ratios"].items()})
     out.update({f"{k} us/step": v for k, v in data["split"]["us_per_step"].items()})
     out.update({f"{r['stop_time']:g} s run wall s": r["wall_s"] for r in data["long"]})
     out.update({f"{r['stop_time']:g} s run peak RSS MB": r["peak_rss_mb"] for r in data["long"]})
-    return out
+    return out | foreign.figures(data.get("foreign", {}))
 
 
 def compare(old: dict, new: dict) -> str:

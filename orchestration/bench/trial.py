@@ -88,6 +88,17 @@ def trial_cost(repeats: int, cwd: Path | None = None) -> dict:
     return out
 
 
+def trial_line(t: dict, what: str = "One tuning trial (the nominal SOTC design on the 8 training points of 20 s, "
+                                     "pure loop") -> str:
+    """A ``trial_cost`` as the speed bench prints it (``what``: which trial)."""
+    line = f"{what}, cores {t['cores']}, fresh interpreter): {t['median']:.2f} s ({t['min']:.2f}-{t['max']:.2f})"
+    if "before" in t:
+        b = t["before"]
+        line += (f"; before the typed cores {b['median']:.2f} s (cores {b['cores']}, {b.get('date', '?')}): "
+                 f"before / now = {t['cheaper']:.2f}")
+    return line + "."
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--store-before", action="store_true", help=f"store this measurement as {BEFORE.name}")

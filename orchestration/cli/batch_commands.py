@@ -97,7 +97,7 @@ def _sweep_into(args: argparse.Namespace, sweep, out: Path) -> int:
 def _cmd_bench(args: argparse.Namespace) -> int:
     from orchestration.bench.command import run_benchmarks
     from orchestration.fmu_build.build import PACKAGE_ROOT
-    from orchestration.reports.docgen import SPEED_BLOCKS, store_speed_measurement
+    from orchestration.reports.docgen import SPEED_BLOCKS, store_speed_measurement, store_speed_row
 
     missing = [f for f in SPEED_BLOCKS.values() if not (PACKAGE_ROOT / f).is_file()]
     if args.update_docs and missing:
@@ -105,7 +105,11 @@ def _cmd_bench(args: argparse.Namespace) -> int:
                             f"not found next to {PACKAGE_ROOT / 'orchestration'}")
     results = run_benchmarks(args)
     if args.update_docs:
-        for path in store_speed_measurement(results["speed"], PACKAGE_ROOT):
+        if "speed" not in results and "skipped" in results["foreign"]:  # a measured row is not replaced by none
+            raise ScenarioError(f"--update-docs: the row foreign was not measured: {results['foreign']['skipped']}")
+        written = (store_speed_measurement(results["speed"], PACKAGE_ROOT) if "speed" in results
+                   else store_speed_row("foreign", results["foreign"], PACKAGE_ROOT))
+        for path in written:
             print(f"wrote {path}")
     return exit_codes.OK
 
@@ -130,7 +134,8 @@ def add_commands(sub) -> None:
 
     p = sub.add_parser("bench", help="measure speed and scaling (default), or the measurements behind design choices")
     p.add_argument("names", nargs="*", metavar="NAME",
-                   help="benchmarks to run: speed (default), integrator, recording, recording-blocks, sweep")
+                   help="benchmarks to run: speed (default), foreign (speed's row of a C controller FMU in the "
+                        "benchmark's loop, alone), integrator, recording, recording-blocks, sweep")
     p.add_argument("--repeats", type=positive_int, default=3, help="alternated runs of each variant, instrumented runs of the cost split and whole-process runs "
                         "(default 3)")
     p.add_argument("--long", type=stop_times, default=[1000.0, 10000.0], metavar="S[,S...]",
@@ -141,6 +146,7 @@ def add_commands(sub) -> None:
     p.add_argument("--compare", type=Path, metavar="OLD.json", help="print the change against an earlier --json")
     add_stop_time(p, "shorten the side-by-side runs of speed (default: the scenario's 100 s)")
     p.add_argument("--update-docs", action="store_true",
-                   help="write docs/performance.json and the generated tables of docs/performance.md")
+                   help="write docs/performance.json and the generated tables of docs/performance.md (with foreign "
+                        "alone: its row, the rest of the stored measurement kept)")
     add_fmu_dir(p)
     p.set_defaults(func=_cmd_bench)

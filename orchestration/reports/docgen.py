@@ -28,6 +28,7 @@ from orchestration.outputs import atomic_write
 from orchestration.bench.speed import DOC_BLOCKS as SPEED_BLOCKS
 from orchestration.bench.speed import MEASUREMENT as SPEED_MEASUREMENT
 from orchestration.bench.speed import stored_block
+from orchestration.bench.targets import check_targets
 from orchestration.bench import exchange
 from orchestration.markdown import block_pattern, number, replace_block, stable, stable_pair, table
 from orchestration.reports import (fair_tables, heldout_tables, ladder_tables, numerics_tables, optimum_tables, parting_tables,
@@ -408,6 +409,15 @@ def store_speed_measurement(data: dict, root: Path) -> list[Path]:
     for name in SPEED_BLOCKS:
         write(name, root)
     return [root / SPEED_MEASUREMENT, *(root / f for f in SPEED_BLOCKS.values())]
+
+
+def store_speed_row(name: str, row: dict, root: Path) -> list[Path]:
+    """Store one row of the speed bench measured alone (``sotc-cosim bench foreign``) into the stored measurement,
+    its other figures kept (the row carries its own date), the targets judged again; regenerate its blocks."""
+    data = json.loads((root / SPEED_MEASUREMENT).read_text())
+    data[name] = row
+    data["targets"] = check_targets(data)
+    return store_speed_measurement(data, root)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -86,6 +86,11 @@ class SharedClock(master._Clock):
     def call(self, value: tuple[str, str]) -> None:
         self.header[CALL] = self.codes[value]
 
+    def marks(self, calls) -> tuple:
+        """``master._Clock.marks``: the header's own memory (a memoryview: a mark is one item written, a third of
+        an array's), the call codes."""
+        return memoryview(self.header), SAMPLE, CALL, tuple(self.codes[c] for c in calls)
+
 
 def calls(instances) -> list[tuple[str, str]]:
     """(instance, kind) for each call code from 1 on."""

@@ -61,7 +61,9 @@ class Instance3:
             (int(status), (message or b"").decode(errors="replace"))))
         self.instantiated = True
         self.initialized = False
-        self._get = self.fmu._functions["fmi3GetFloat64"]
+        # as ``Instance2``'s: the raw ctypes get and its arguments looked up once (``foreign_loop`` calls them)
+        self.raw_get = self.fmu._functions["fmi3GetFloat64"]
+        self.get_args = (self.fmu.component, self.out_vr, len(self.out_vr), self.out_buf, self.n_out)
         self._set = self.fmu._functions["fmi3SetFloat64"]
 
     INTERFACE = "coSimulation"  # the modelDescription element this instance uses
@@ -71,8 +73,8 @@ class Instance3:
                         modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=name)
         fmu.instantiate(loggingOn=True, logMessage=log)
         self._step = fmu._functions["fmi3DoStep"]
-        self._flags = [fmi3Boolean() for _ in range(3)]
-        self._reached = fmi3Float64()
+        # where fmi3DoStep writes eventHandlingNeeded, terminateSimulation, earlyReturn and lastSuccessfulTime
+        self._step_refs = tuple(ctypes.byref(x) for x in (fmi3Boolean(), fmi3Boolean(), fmi3Boolean(), fmi3Float64()))
         return fmu
 
     def initialize(self, stop_time: float) -> None:
@@ -80,8 +82,7 @@ class Instance3:
         self.fmu.exitInitializationMode()
 
     def read_outputs(self) -> None:
-        _checked(self._get(self.fmu.component, self.out_vr, len(self.out_vr), self.out_buf, self.n_out),
-                 "fmi3GetFloat64")
+        _checked(self.raw_get(*self.get_args), "fmi3GetFloat64")
 
     def raw_set(self, component, slots, n: int, buf) -> None:
         """``fmi2SetReal``'s call of ``master._Inputs``: the input slots ``slots`` (``vars``) get ``buf``;
@@ -106,9 +107,12 @@ class Instance3:
         return vrs, values, np.ctypeslib.as_array(values), where
 
     def do_step(self, t: float, h: float) -> None:
-        event, terminate, early = self._flags
-        _checked(self._step(self.fmu.component, t, h, fmi3Boolean(True), ctypes.byref(event), ctypes.byref(terminate),
-                            ctypes.byref(early), ctypes.byref(self._reached)), "fmi3DoStep")
+        _checked(self.raw_step(self.fmu.component, t, h, True), "fmi3DoStep")
+
+    def raw_step(self, component, t: float, h: float, no_set_state_prior: bool) -> int:
+        """fmi3DoStep in the shape of ``Instance2.raw_step`` (fmi2DoStep's four arguments; its status returned):
+        the flags it writes back go into the instance's own (``foreign_loop`` calls either alike)."""
+        return self._step(component, t, h, no_set_state_prior, *self._step_refs)
 
     def parameter_values(self) -> dict[str, float]:
         return parameter_values(self.md, {"Float64": self.fmu.getFloat64, "Int32": self.fmu.getInt32})

@@ -97,6 +97,12 @@ class _Clock:
     sample = -1
     call = ("", "")
 
+    def marks(self, calls: Sequence[tuple[str, str]]) -> tuple:
+        """For a loop that marks every call and cannot afford a property per mark (``foreign_loop``): (store,
+        sample key, call key, each of ``calls`` as stored), so that ``store[sample_key] = k`` is ``sample = k``
+        and ``store[call_key] = stored[i]`` is ``call = calls[i]``; here the instance's own attributes."""
+        return vars(self), "sample", "call", tuple(calls)
+
 
 class _LogSink:
     """Turns one instance's (status, message) log entries into the run's LogRecords."""

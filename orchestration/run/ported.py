@@ -38,6 +38,13 @@ OWN_SUFFIX = "_fmu"  # appended to an output of the FMU named like one the actua
 CUT_MARGIN = 1e-9
 
 
+def cut_flag(moved, norm, cut_above):
+    """``torque_cut`` of a sample: 1.0 where the actuator moved the FMU's torques (``saturate_norm``'s flag) from a
+    norm beyond ``cut_above`` (the bound and ``CUT_MARGIN``), else 0.0. The one rule for a sample (bool, float) and
+    for a run's columns at once (numpy arrays: ``foreign_loop`` flags a whole run after it ran)."""
+    return 1.0 * (moved & (norm > cut_above))
+
+
 def element(variables: dict, name: str):
     """The variable ``name`` names: a variable of that name (FMI 2.0 tools name scalars ``u[1]`` too), or else
     ``array[i]`` (from 1) of an FMI 3.0 array of fixed size; None: no such variable or element."""
@@ -121,4 +128,4 @@ class Ported:
         out[:n] = self.inner.out_view
         i1, i2 = self.torque_index
         t1, t2, norm, moved = saturate_norm(float(out[i1]), float(out[i2]), self.bound)
-        out[n], out[n + 1], out[n + 2] = t1, t2, 1.0 if moved and norm > self.cut_above else 0.0
+        out[n], out[n + 1], out[n + 2] = t1, t2, cut_flag(moved, norm, self.cut_above)

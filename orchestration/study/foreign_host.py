@@ -82,7 +82,7 @@ def _child_main() -> None:
 
 def _answer(loop: ForeignLoop, parameters: dict, arguments: dict, samples: bool, late_from: float) -> tuple:
     try:
-        result = loop.run(parameters, **arguments)
+        result = loop.run(parameters, samples=samples, **arguments)  # without samples, a trial's records only
     except Exception as exc:  # FMICallException, IntegrationError: this run fails, the loop resets at the next
         k = loop.clock.sample
         return "failed", master._describe_failure(exc, k, arguments["step"], max(k, 0), loop.logs), list(loop.logs)
@@ -145,7 +145,7 @@ class ForeignHost:
             raise ValueError(f"{self.fmu_file}: the host was closed")
         arguments = _RUN.bind(None, parameters, **loop)
         arguments.apply_defaults()
-        arguments = {k: v for k, v in arguments.arguments.items() if k not in ("self", "parameters")}
+        arguments = {k: v for k, v in arguments.arguments.items() if k not in ("self", "parameters", "samples")}
         steps(arguments["stop_time"], arguments["step"])
         self.runs += 1
         if self.proc is None:

@@ -7,15 +7,20 @@ Per step k (t_k = k T from the step count), what the master does for ``paper`` w
 controller (``orchestration.run.master``: read the plant and the reference, set the controller's inputs,
 read it, set the plant's input, doStep all), in ``pure_loop``'s arithmetic:
 
-1. the reference r(t_k) (``CircleTrajectory.sample``) and the measurement y_m(t_k) (``Perturbation.measure``:
-   the state, plus the noise of draw k under a perturbation);
+1. the reference r(t_k) (``CircleTrajectory.sample``, whose samples are the same for every run of one
+   trajectory and length: taken once for them) and the measurement y_m(t_k) (``Perturbation.measure``: the
+   state, plus the noise of draw k under a perturbation);
 2. the FMU's mapped inputs set from them with one fmi2SetReal / fmi3SetFloat64 (the master's ``_Inputs``);
-3. its outputs read and the actuator applied (``ported.Ported``: the port map, the torques projected onto
-   ||tau|| <= rho, the cut flagged); sample k recorded;
+3. its outputs read with one fmi2GetReal / fmi3GetFloat64 and the actuator applied as ``ported.Ported`` applies
+   it (its port map; the torques projected onto ||tau|| <= rho by ``saturate_norm``; the cut flags,
+   ``ported.cut_flag``, set for the whole run at its end); sample k recorded;
 4. (k < N) the plant integrated over [t_k, t_k + T) with the torque the arm got plus the disturbance held
    (``dynamics.integrate``), and the FMU's doStep(t_k, T).
 
-So a run equals ``sotc-cosim run`` of the scenario with the FMU as its controller bit for bit
+The loop makes the FMU's calls itself, through the instance's raw ctypes functions, rather than through the
+master's per-call wrappers (``Ported.read_outputs``, ``do_step``): a C controller's own calls cost about 1 us,
+and the wrappers' lookups, numpy copies and numpy scalars cost more than that (``sotc-cosim bench``,
+docs/benchmark.md). So a run equals ``sotc-cosim run`` of the scenario with the FMU as its controller bit for bit
 (tests/orchestration/test_foreign_loop.py). Between runs the FMU is reset (fmi2Reset / fmi3Reset), set to
 the run's parameters and initialized; an FMU whose reset fails is freed and instantiated again.
 """
@@ -28,33 +33,31 @@ from types import SimpleNamespace
 
 import numpy as np
 from fmpy.fmi1 import FMICallException
+from fmpy.fmi2 import fmi2OK, fmi2True, fmi2Warning
 
 from fmu_controller.ports import MEASUREMENT_PORTS, TORQUE_PORTS
+from fmu_controller.saturation import saturate_norm
 from fmu_plant.dynamics import ArmParameters, integrate
 from fmu_plant.paper_setting import INITIAL_ANGLES, INITIAL_VELOCITIES, STEP_SIZE, SUBSTEPS, TORQUE_LIMIT
 from fmu_plant.perturbation import NoiseSequence
 from fmu_plant.trajectory import REFERENCE_SIGNALS, CircleTrajectory
-from orchestration.run import master
+from orchestration.run import child, master
 from orchestration.run.metrics import TORQUE_CUT
-from orchestration.run.ported import Ported
+from orchestration.run.ported import Ported, cut_flag
 from orchestration.study.pure_loop import NO_PERTURBATION, LoopResult, Perturbation, steps
 
-UNDISTURBED = (0.0, 0.0)
 NAME = "controller"  # the instance's name, as in a scenario (its log records carry it)
 SET, GET, STEP = ((NAME, kind) for kind in ("set", "get", "step"))  # the call under way, as the master's clock has it
+ACTED = 4  # per sample, what ``saturate_norm`` returned: the torques the arm gets, the norm, whether it moved them
 
 
 @dataclass
 class ForeignResult(LoopResult):
     """``pure_loop.LoopResult`` of one run (``outputs``: ``tau1 tau2``, what the arm got, then the FMU's own
-    outputs, then ``torque_cut``), and the samples whose torques the actuator cut."""
+    outputs, then ``torque_cut``; without ``samples``, ``tau1 tau2 torque_cut``), and the samples whose torques
+    the actuator cut."""
 
     cuts: int = 0
-
-
-def _undisturbed(t: float) -> tuple[float, float]:
-    """``Perturbation.disturbance`` where it does not disturb: the same (0.0, 0.0), without its sine."""
-    return UNDISTURBED
 
 
 class _Samples:
@@ -67,6 +70,27 @@ class _Samples:
     def __init__(self):
         self.out_buf = (ctypes.c_double * len(self.output_names))()
         self.out_view = np.ctypeslib.as_array(self.out_buf)
+
+
+def _converted(function, args: tuple) -> tuple:
+    """An FMI function of fmpy's (a ctypes function with its argument types declared) for a call whose ``args``
+    never change: the same C function without the declared types, and ``args`` converted once as those types
+    convert them (``from_param``), which ctypes would otherwise do at every call, argument by argument (half of
+    what a C controller's set or get costs). Anything else (``Instance3.raw_set``, a Python function) as it is."""
+    if getattr(function, "argtypes", None) is None:
+        return function, args
+    bare = type(function)(ctypes.cast(function, ctypes.c_void_p).value)
+    bare.restype = function.restype
+    return bare, tuple(kind.from_param(a) for kind, a in zip(function.argtypes, args, strict=True))
+
+
+def _pushed(push):
+    """``master._Inputs.push`` (inputs gathered from several places of the sources' buffer) in the shape of a raw
+    set call: it raises on a bad status itself, so what reaches the loop is OK."""
+    def call() -> int:
+        push()
+        return fmi2OK
+    return call
 
 
 class ForeignLoop:
@@ -83,10 +107,13 @@ class ForeignLoop:
         self.samples = _Samples()
         self.reinstantiated = 0
         self.ported: Ported | None = None
+        self._reference: tuple = (None, [], np.empty((0, len(REFERENCE_SIGNALS))))
         self._open()
 
     def _open(self) -> None:
-        """Instantiate the FMU as the master does (``master._instance``, ``Ported``) and plan its inputs."""
+        """Instantiate the FMU as the master does (``master._instance``, ``Ported``) and plan its calls: each the
+        instance's raw ctypes function (``Instance2``'s; ``Instance3``'s in the same shape) with the arguments
+        that do not change built once, and its name for a bad status (``child.call_name``)."""
         inner = master._instance(SimpleNamespace(name=NAME, interface="CoSimulation"), self.fmu_file, self.logs,
                                  self.clock)
         try:
@@ -95,9 +122,17 @@ class ForeignLoop:
             master._free({NAME: inner})
             raise
         pairs = [(n, n) for n in self.samples.output_names if n in ported.inputs]
-        self.push = master._Inputs(ported, [master._Link(self.samples, ported, pairs)]).push if pairs else None
-        n = len(ported.inner.output_names)
-        self.tau = (n, n + 1)  # where the torques the arm gets are in the ported outputs, the cut after them
+        inputs = master._Inputs(ported, [master._Link(self.samples, ported, pairs)]) if pairs else None
+        if inputs is None:
+            sets = None, ()
+        elif inputs.parts:  # gathered from several places of the samples: the master's own push
+            sets = _pushed(inputs.push), ()
+        else:  # read where the samples are, no copy
+            sets = inputs.raw_set, inputs.set_args
+        # doStep stays fmpy's function as it is: the bench subtracts its cost per call, made the same way
+        self.calls = (*_converted(*sets), *_converted(inner.raw_get, inner.get_args), inner.raw_step,
+                      inner.fmu.component,
+                      tuple(child.call_name(kind, inner.md.fmiVersion) for kind in ("set", "get", "step")))
         self.fresh = True
 
     def _restart(self) -> None:
@@ -115,11 +150,14 @@ class ForeignLoop:
     def run(self, parameters: dict[str, float] | None = None, stop_time: float = 100.0, step: float = STEP_SIZE,
             arm: ArmParameters | None = None, trajectory: CircleTrajectory | None = None,
             phi0: tuple[float, float] = INITIAL_ANGLES, dphi0: tuple[float, float] = INITIAL_VELOCITIES,
-            substeps: int = SUBSTEPS, perturbation: Perturbation = NO_PERTURBATION) -> ForeignResult:
+            substeps: int = SUBSTEPS, perturbation: Perturbation = NO_PERTURBATION,
+            samples: bool = True) -> ForeignResult:
         """One closed-loop run (module docstring) with the FMU's ``parameters`` set, from section 4's initial
         state by default (``pure_loop.simulate``'s arguments). A refusal of the FMU raises ``FMICallException``
         and one of the arm ``IntegrationError``, as ``pure_loop.simulate`` raises; the next run resets the FMU.
-        ``logs`` holds this run's log records of the FMU (its sample stamped, -1 while it is set up)."""
+        ``logs`` holds this run's log records of the FMU (its sample stamped, -1 while it is set up).
+        ``samples=False`` (a trial's run: ``pure_loop.metrics`` and the cuts are all it reads) leaves out the
+        FMU's own outputs, the one record whose size the FMU decides; every other sample is the same."""
         if self.ported is None:
             raise ValueError(f"{self.fmu_file}: the loop was closed")
         n = steps(stop_time, step)
@@ -133,49 +171,80 @@ class ForeignLoop:
         ported.initialized = True
         arm = arm if arm is not None else ArmParameters()
         trajectory = trajectory if trajectory is not None else CircleTrajectory()
-        ys, refs = np.empty((n + 1, 4)), np.empty((n + 1, len(REFERENCE_SIGNALS)))
-        outs = np.empty((n + 1, len(ported.output_names)))
+        records = (np.empty((n + 1, 4)), np.empty((n + 1, ACTED)),
+                   np.empty((n + 1, ported.n_own)) if samples else None)
+        refs = self._references(trajectory, step, n)
         self._loop(n, step, (float(phi0[0]), float(phi0[1]), float(dphi0[0]), float(dphi0[1])),
-                   (arm, trajectory, substeps, perturbation), (ys, refs, outs))
-        return self._result(n, step, ys, refs, outs)
+                   (arm, refs[0], substeps, perturbation), records)
+        return self._result(n, step, records[0], refs[1].copy(), *records[1:])
+
+    def _references(self, trajectory: CircleTrajectory, step: float, n: int) -> tuple[list, np.ndarray]:
+        """The reference's samples r(t_0) .. r(t_N) (``CircleTrajectory.sample``'s tuples, and as an array): the
+        same for every run of one trajectory, step and length, as a trial's runs all are, so sampled once for them
+        (the last ones kept) instead of at every step of every run."""
+        key = (trajectory, step, n)
+        if self._reference[0] != key:
+            samples = [trajectory.sample(k * step) for k in range(n + 1)]
+            self._reference = (key, samples, np.array(samples, dtype=float))
+        return self._reference[1:]
 
     def _loop(self, n: int, step: float, state: tuple, model: tuple, records: tuple) -> None:
-        """The hot loop: everything looked up once, no per-step allocation of ours beyond the cores' tuples."""
-        arm, trajectory, substeps, perturbation = model
-        ys, refs, outs = records
-        sample, measure = trajectory.sample, perturbation.measure
-        disturbance = perturbation.disturbance if perturbation.disturbs else _undisturbed
-        noise = NoiseSequence(perturbation.seed)
-        ported, push, src, clock = self.ported, self.push, self.samples.out_buf, self.clock
-        read, do_step, out, view = ported.read_outputs, ported.do_step, ported.out_buf, ported.out_view
-        i1, i2 = self.tau
+        """The hot loop: the FMU's raw calls with their arguments built once (``_open``), its torques read from
+        its buffer as Python floats, each record one slice of a preallocated array written through a ctypes view
+        of it (a numpy row from a tuple costs several times as much), the clock marked as ``clock.marks`` says
+        (one item each); no allocation of ours per step, only the cores' tuples."""
+        arm, references, substeps, perturbation = model
+        ys, acts = (np.ctypeslib.as_ctypes(a.reshape(-1)) for a in records[:2])
+        own = records[2]
+        measure, noisy = perturbation.measure, perturbation.noisy
+        disturbance, disturbs, noise = perturbation.disturbance, perturbation.disturbs, NoiseSequence(perturbation.seed)
+        marks, at_sample, at_call, (on_set, on_get, on_step) = self.clock.marks((SET, GET, STEP))
+        set_call, set_args, get_call, get_args, step_call, component, names = self.calls
+        src, out, own_view = self.samples.out_buf, self.ported.inner.out_buf, self.ported.inner.out_view
+        (i1, i2), bound, warning = self.ported.torque_index, self.bound, fmi2Warning
+        d1 = d2 = 0.0
         for k in range(n + 1):
             t = k * step
-            clock.sample = k
-            ref = sample(t)
-            src[0:4] = measure(state, noise, k)
-            src[4:] = ref
-            if push is not None:
-                clock.call = SET
-                push()
-            clock.call = GET
-            read()
-            ys[k] = state
-            refs[k] = ref
-            outs[k] = view
+            marks[at_sample] = k
+            src[0:4] = measure(state, noise, k) if noisy else state
+            src[4:] = references[k]
+            if set_call is not None:
+                marks[at_call] = on_set
+                status = set_call(*set_args)
+                if status > warning:
+                    raise FMICallException(function=names[0], status=status)
+            marks[at_call] = on_get
+            status = get_call(*get_args)
+            if status > warning:
+                raise FMICallException(function=names[1], status=status)
+            acted = saturate_norm(out[i1], out[i2], bound)
+            j = ACTED * k
+            acts[j:j + ACTED] = acted
+            ys[j:j + 4] = state
+            if own is not None:
+                own[k] = own_view
             if k == n:
                 return
-            d1, d2 = disturbance(t)
-            state = integrate(state, out[i1] + d1, out[i2] + d2, step, substeps, arm)
-            clock.call = STEP
-            do_step(t, step)
+            if disturbs:
+                d1, d2 = disturbance(t)
+            state = integrate(state, acted[0] + d1, acted[1] + d2, step, substeps, arm)
+            marks[at_call] = on_step
+            status = step_call(component, t, step, fmi2True)
+            if status > warning:
+                raise FMICallException(function=names[2], status=status)
 
-    def _result(self, n: int, step: float, ys: np.ndarray, refs: np.ndarray, outs: np.ndarray) -> ForeignResult:
-        names = self.ported.output_names
-        order = [names.index(k) for k in TORQUE_PORTS] + [i for i, k in enumerate(names) if k not in TORQUE_PORTS]
-        cuts = int(np.count_nonzero(outs[:, names.index(TORQUE_CUT)]))
-        return ForeignResult(np.arange(n + 1, dtype=float) * step, ys, refs, outs[:, order],
-                             tuple(names[i] for i in order), cuts=cuts)
+    def _result(self, n: int, step: float, ys: np.ndarray, refs: np.ndarray, acts: np.ndarray,
+                own: np.ndarray | None) -> ForeignResult:
+        """The records as the master's columns: the torques the arm got, the FMU's own outputs (with samples),
+        the cut flags (``ported.cut_flag`` on the whole run)."""
+        ported = self.ported
+        flags = cut_flag(acts[:, 3] != 0.0, acts[:, 2], ported.cut_above)
+        columns, names = [acts[:, :2]], list(TORQUE_PORTS)
+        if own is not None:
+            columns.append(own)
+            names += ported.output_names[:ported.n_own]
+        return ForeignResult(np.arange(n + 1, dtype=float) * step, ys, refs, np.column_stack([*columns, flags]),
+                             (*names, TORQUE_CUT), cuts=int(np.count_nonzero(flags)))
 
     def close(self) -> None:
         """Free the FMU (terminated first if it was initialized), as the master frees its instances."""

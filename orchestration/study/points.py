@@ -43,14 +43,19 @@ def draw_points(seed: int, which: str, n: int, first_noise_seed: int) -> list[di
     return points
 
 
+def loop_arguments(point: dict[str, Any]) -> dict[str, Any]:
+    """A point as the arguments of a run from it (``pure_loop.simulate``'s, which ``ForeignLoop.run`` shares):
+    its initial state, arm and perturbation."""
+    return {"phi0": tuple(point["phi0"]), "dphi0": tuple(point.get("dphi0", INITIAL_VELOCITIES)),
+            "arm": ArmParameters(**point["plant"]) if "plant" in point else None,
+            "perturbation": Perturbation(**point.get("perturbation", {}))}
+
+
 def run_point(fmu: str, params: dict[str, float], point: dict[str, Any], stop_time: float) -> dict[str, float | None]:
     """The measures of one pure-loop run at a point: ``mse`` = MSE_1 + MSE_2 (eq. (50)), ``tail`` =
     max_i max |e_i| over the last half, ``max_tau_norm`` (None for a run that failed)."""
     try:
-        res = simulate(CORES[fmu](**params), stop_time=stop_time, phi0=tuple(point["phi0"]),
-                       dphi0=tuple(point.get("dphi0", INITIAL_VELOCITIES)),
-                       arm=ArmParameters(**point["plant"]) if "plant" in point else None,
-                       perturbation=Perturbation(**point.get("perturbation", {})))
+        res = simulate(CORES[fmu](**params), stop_time=stop_time, **loop_arguments(point))
     except (IntegrationError, ArithmeticError, ValueError):
         return {"mse": None, "tail": None, "max_tau_norm": None}
     m = tracking_metrics(res.t, res.error, res.tau)

@@ -59,15 +59,21 @@ class Perturbation:
         """False where ``disturbance`` is (0.0, 0.0) at every t: no amplitude other than +0.0."""
         return any(a != 0.0 or math.copysign(1.0, a) < 0.0 for a in (self.step1, self.step2, self.sin1, self.sin2))
 
+    @property
+    def noisy(self) -> bool:
+        """False where ``measure`` returns the state itself (no noise): a loop may skip the call then."""
+        return self.std_phi != 0.0 or self.std_dphi != 0.0
+
     def disturbance(self, t: float) -> tuple[float, float]:
         return disturbance_torque(t, self.step1, self.step2, self.step_time, self.sin1, self.sin2, self.omega)
 
     def measure(self, state: tuple[float, float, float, float], noise: NoiseSequence, k: int) -> tuple[float, ...]:
-        if self.std_phi == 0.0 and self.std_dphi == 0.0:
+        """y_m(t_k) = y + std * (the draws of sample k), component by component."""
+        if not self.noisy:
             return state
-        draw = noise.at(k)
-        std = (self.std_phi, self.std_phi, self.std_dphi, self.std_dphi)
-        return tuple(x + s * float(n) for x, s, n in zip(state, std, draw))
+        n1, n2, n3, n4 = noise.row(k)
+        a, v = self.std_phi, self.std_dphi
+        return state[0] + a * n1, state[1] + a * n2, state[2] + v * n3, state[3] + v * n4
 
 
 NO_PERTURBATION = Perturbation()

@@ -28,6 +28,14 @@ def test_noise_depends_on_seed_and_sample_only():
         NoiseSequence(-1)
 
 
+def test_a_row_of_draws_is_at_as_python_floats_in_any_order_of_samples():
+    noise, twin = NoiseSequence(7), NoiseSequence(7)
+    for k in (3, NOISE_BLOCK + 1, 2, 2 * NOISE_BLOCK, NOISE_BLOCK - 1, 0):  # blocks left and loaded again
+        row = noise.row(k)
+        assert all(type(x) is float for x in row) and np.array_equal(np.array(row), twin.at(k))
+        noise.at(k + NOISE_BLOCK)  # another block loaded through at: the next row is made again
+
+
 def test_zero_perturbation_is_the_paper_loop_and_the_fmus_apply_their_formulas(fmu_paths):
     paper = run(load_scenario("paper").with_stop_time(1.0), fmu_paths)
     base = load_scenario("paper-perturbed").with_stop_time(1.0)

@@ -9,8 +9,11 @@ import math
 import time
 
 import pytest
+from support import REPO
 
-from orchestration.bench.speed import SET_UP, child_run, compare
+from orchestration.bench import foreign
+from orchestration.bench.speed import MEASUREMENT, SET_UP, child_run, compare, format_markdown
+from orchestration.bench.targets import check_targets, foreign_targets
 from orchestration.cli import main
 
 
@@ -107,3 +110,43 @@ def test_a_long_run_is_measured_in_a_child_process(fmu_dir, tmp_path):
     assert r["peak_rss_mb"] > 10 and r["rrd_mb"] > 0 and 0.0 < r["wall_s"] < around
     assert r["wall_per_sim_s_ms"] == 1e3 * r["wall_s"] / 2.0
     assert not (tmp_path / "x.rrd").exists()  # the recording is measured, then removed
+
+
+def test_the_c_controller_row_runs_alone_with_its_fields_and_targets(tmp_path, monkeypatch, capsys):
+    """``bench foreign``: one trial of the benchmark's loop with examples/pd_controller, in-process and hosted,
+    its runs shortened (--stop-time) and its cores as the interpreter imports them (SOTC_COSIM_COMPILE=0), so no
+    compile; what it prints and stores, not how fast (the 10 us target is judged on compiled cores only)."""
+    from support.example_controller import skip_without_compiler
+
+    skip_without_compiler()
+    monkeypatch.setenv("SOTC_COSIM_COMPILE", "0")
+    out = tmp_path / "f.json"
+    assert main(["bench", "foreign", "--repeats", "1", "--stop-time", "0.5", "--json", str(out)]) == 0
+    row = json.loads(out.read_text())["foreign"]
+    assert row["benchmark"] == "foreign" and row["cores"] == "Python" and row["repeats"] == 1
+    assert row["points"] == 8 and row["stop_time"] == 0.5 and row["steps_per_run"] == 50
+    for figure in ("trial", "hosted", "do_step"):
+        f = row["us_per_step"][figure]
+        assert 0 < f["min"] <= f["median"] <= f["max"], figure
+    assert row["beyond_us_per_step"] == row["us_per_step"]["trial"]["median"] - row["us_per_step"]["do_step"]["median"]
+    assert row["hosted_over_in_process"] > 0 and row["reinstantiated"] == 0 == row["host_restarts"]
+    assert "cpu" in row  # both processes kept to one CPU where the platform can (Linux), else None
+    assert row["trials_per_load"] == 2  # the warm trial and one repeat, on one load of the FMU
+    printed = capsys.readouterr().out
+    assert foreign.line(row) in printed and "| the C controller FMU loaded once, reset between runs | yes |" in printed
+    assert "10 us" not in printed.split(foreign.line(row))[1]  # not judged: the cores were not compiled
+    # the row in the speed bench's report and targets, in the stored measurement as --update-docs stores it
+    data = dict(json.loads((REPO / MEASUREMENT).read_text()), foreign=row)
+    assert foreign.line(row) in format_markdown(dict(data, targets=check_targets(data)))
+    assert "the same trial through ForeignHost (a child process) <= 1.2x in-process" in check_targets(data)
+
+
+def test_without_the_example_the_row_says_why_in_one_line(monkeypatch, tmp_path, capsys):
+    monkeypatch.setattr(foreign, "BUILD", tmp_path / "nowhere" / "build.py")
+    row = foreign.foreign_row(1)
+    assert set(row) == {"date", "load_average_at_start", "skipped"} and "source checkout" in row["skipped"]
+    assert "\n" not in foreign.line(row) and "not measured" in foreign.line(row)
+    assert foreign_targets(row) == {} and foreign.figures(row) == {}
+    # --update-docs does not replace a measured row by none
+    assert main(["bench", "foreign", "--update-docs"]) == 2
+    assert "the row foreign was not measured" in capsys.readouterr().err

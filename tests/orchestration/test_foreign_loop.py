@@ -12,6 +12,7 @@ from fmpy.fmi1 import FMICallException
 from support.example_controller import PORTS, built_fmu
 
 from fmu_plant.dynamics import ArmParameters
+from fmu_plant.trajectory import CircleTrajectory
 from orchestration.run.master import run
 from orchestration.run.scenario import load_scenario
 from orchestration.study.foreign_loop import ForeignLoop
@@ -31,10 +32,11 @@ def example(tmp_path_factory) -> Path:
     return built_fmu(tmp_path_factory.mktemp("pd"))
 
 
-def _master_run(fmu: Path, parameters: dict, folder: Path, fmu_paths, extends: str = "paper", overrides=None):
+def _master_run(fmu: Path, parameters: dict, folder: Path, fmu_paths, extends: str = "paper", overrides=None,
+                ports: dict = PORTS):
     """`sotc-cosim run`'s master on ``extends`` with the example as its controller (docs/benchmark.md)."""
     text = (f'extends = "{extends}"\nname = "mine"\nstop_time = {STOP}\n[instances.controller]\nfmu = "{fmu}"\n'
-            "ports = { " + ", ".join(f'{k} = "{v}"' for k, v in PORTS.items()) + " }\n"
+            "ports = { " + ", ".join(f'{k} = "{v}"' for k, v in ports.items()) + " }\n"
             "parameters = { " + ", ".join(f"{k} = {v!r}" for k, v in parameters.items()) + " }\n")
     (folder / "mine.toml").write_text(text)
     result = run(load_scenario(str(folder / "mine.toml")).with_parameters(overrides or {}), fmu_paths)
@@ -68,6 +70,54 @@ def test_runs_of_one_loaded_fmu_equal_the_master_bit_for_bit(example, tmp_path, 
     overrides = {**{f"plant.{k}": v for k, v in PLANT.items()}, **{f"noise.{k}": v for k, v in NOISE.items()},
                  **{f"disturbance.{k}": v for k, v in DISTURBANCE.items()}, "plant.phi1_0": -1.0, "plant.phi2_0": 1.5}
     _assert_equal(perturbed, _master_run(example, GAINS[1], tmp_path, fmu_paths, "paper-perturbed", overrides))
+
+
+def test_inputs_gathered_from_several_places_of_the_samples_equal_the_master(example, tmp_path, fmu_paths):
+    """Without the measured velocities mapped, the FMU's inputs are no single run of the samples' buffer: the loop
+    sets them through the master's own ``_Inputs.push``, which gathers them (its dq1 dq2 keep their start values)."""
+    ports = {k: v for k, v in PORTS.items() if k not in ("dphi1", "dphi2")}
+    with ForeignLoop(example, ports) as loop:
+        assert loop.calls[1] == ()  # the gathering push takes no arguments: the raw set would
+        mine = loop.run(GAINS[1], stop_time=STOP)
+    _assert_equal(mine, _master_run(example, GAINS[1], tmp_path, fmu_paths, ports=ports))
+
+
+def test_a_run_without_samples_has_the_same_metrics_and_cuts_bit_for_bit(example):
+    """A trial's run (``samples=False``) keeps no record of the FMU's own outputs; what ``pure_loop.metrics`` and the
+    cut count read is the full run's, sample for sample: a run where the actuator cuts, one where it does not, and
+    a perturbed point (noise: the measurement is not the state)."""
+    points = [(GAINS[0], {}), (GAINS[1], {}),
+              (GAINS[1], {"arm": ArmParameters(**PLANT), "perturbation": Perturbation(**DISTURBANCE, **NOISE)})]
+    cuts = []
+    with ForeignLoop(example, PORTS) as loop:
+        for parameters, point in points:
+            full = loop.run(parameters, stop_time=STOP, **point)
+            cuts.append(full.cuts)
+            lean = loop.run(parameters, stop_time=STOP, samples=False, **point)
+            assert lean.names == ("tau1", "tau2", "torque_cut") and lean.cuts == full.cuts
+            assert np.array_equal(lean.t, full.t) and np.array_equal(lean.y, full.y)
+            assert np.array_equal(lean.ref, full.ref)
+            for name in lean.names:
+                assert np.array_equal(lean.out(name), full.out(name)), name
+            for late_from in (50.0, 1.0):
+                assert metrics(lean, late_from) == metrics(full, late_from)
+    assert cuts[0] > 0 and cuts[1] == 0 and loop.reinstantiated == 0
+
+
+def test_the_reference_is_taken_once_per_trajectory_step_and_length(example):
+    """The loop keeps the reference's samples of its last trajectory, step and length for the runs that share them:
+    each run still gets its own trajectory's samples, in arrays of its own."""
+    other = CircleTrajectory(radius=0.4)
+    with ForeignLoop(example, PORTS) as loop:
+        first = loop.run(GAINS[1], stop_time=0.5)
+        first.ref[0, 0] = 99.0  # a run's arrays are its own: the next run's reference is not touched
+        runs = [(loop.run(GAINS[1], stop_time=0.5), CircleTrajectory()),
+                (loop.run(GAINS[1], stop_time=0.5, trajectory=other), other),
+                (loop.run(GAINS[1], stop_time=0.3, step=0.005), CircleTrajectory()),
+                (loop.run(GAINS[1], stop_time=0.5), CircleTrajectory())]
+    for run, trajectory in runs:
+        assert np.array_equal(run.ref, [trajectory.sample(t) for t in run.t])
+    assert not np.array_equal(runs[0][0].y, runs[1][0].y)
 
 
 def test_a_failed_reset_instantiates_the_fmu_again(example, monkeypatch):
