@@ -43,8 +43,8 @@ from orchestration.fmu_build import compiled
 from orchestration.fmu_build.build import PACKAGE_ROOT
 from orchestration.scratch import owner_prefix
 
-BUILD = PACKAGE_ROOT / "examples" / "pd_controller" / "build.py"
-FMU_NAME = "PdController.fmu"  # what BUILD writes
+EXAMPLE_BUILD = Path("examples") / "pd_controller" / "build.py"  # in a source checkout
+FMU_NAME = "PdController.fmu"  # what EXAMPLE_BUILD writes
 # the example's variables for each contract name it reads or writes (examples/README.md, docs/benchmark.md)
 PORTS = {"phi1": "q1", "phi2": "q2", "dphi1": "dq1", "dphi2": "dq2", "phi1_d": "q1_ref", "phi2_d": "q2_ref",
          "dphi1_d": "dq1_ref", "dphi2_d": "dq2_ref", "tau1": "u1", "tau2": "u2"}
@@ -52,6 +52,13 @@ PARAMETERS = {"Kp": 60.0, "Kd": 15.0}  # the example's own gains, set as a trial
 CHILD = ("import json, sys\n"
          "from orchestration.bench.foreign import measure\n"
          "print(json.dumps(measure(sys.argv[1], int(sys.argv[2]), float(sys.argv[3]))))\n")
+
+
+def example_build() -> Path | None:
+    """The example's build script: in the checkout the package is imported from, else in the working folder (an
+    installed package run from its source checkout, as CI runs the suite); None in neither."""
+    found = [root / EXAMPLE_BUILD for root in (PACKAGE_ROOT, Path.cwd()) if (root / EXAMPLE_BUILD).is_file()]
+    return found[0] if found else None
 
 
 def foreign_row(repeats: int, stop_time: float | None = None) -> dict:
@@ -62,10 +69,12 @@ def foreign_row(repeats: int, stop_time: float | None = None) -> dict:
 
     stamp = {"date": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
              "load_average_at_start": os.getloadavg()[0]}
-    if not BUILD.is_file():
-        return {**stamp, "skipped": f"needs the source checkout's examples/pd_controller (not found at {BUILD.parent})"}
+    build = example_build()
+    if build is None:
+        return {**stamp, "skipped": f"needs the source checkout's {EXAMPLE_BUILD.parent} (not beside the package, "
+                                    f"{PACKAGE_ROOT}, nor in the working folder)"}
     with tempfile.TemporaryDirectory(prefix=owner_prefix("sotc_bench_foreign_")) as tmp:
-        built = subprocess.run([sys.executable, str(BUILD), "--out", tmp], capture_output=True, text=True)
+        built = subprocess.run([sys.executable, str(build), "--out", tmp], capture_output=True, text=True)
         if built.returncode != 0:
             why = (built.stderr.strip().splitlines() or [f"exit {built.returncode}"])[-1]
             return {**stamp, "skipped": f"examples/pd_controller did not build: {why}"}
